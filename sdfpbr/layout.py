@@ -1,0 +1,288 @@
+"""Chart layout: put the rendered sphere grid into a labeled canvas.
+
+The renderer hands over an RGBA uint8 image of the render area plus the projected
+sphere positions (:class:`Cell`).  :func:`compose_chart` pastes that image unchanged
+into a larger canvas whose margins hold every piece of text:
+
+* top: the title, the column axis title and one label per column, each label
+  centred on the mean ``cx`` of its column's spheres;
+* left: the row axis title (rotated 90°) and one label per row, right-aligned
+  and centred on the mean ``cy`` of its row's spheres;
+* bottom: a footer line (tone mapper, exposure, environment ...).
+
+Text is set in Pillow's built-in scalable font (``ImageFont.load_default(size=...)``),
+sized from the render height; margins are sized from measured text extents.
+The embedded font covers little beyond ASCII, so characters it cannot draw are
+replaced by ASCII spellings ("α" -> "alpha", "²" -> "^2", "é" -> "e").
+"""
+
+from __future__ import annotations
+
+import math
+import unicodedata
+from dataclasses import dataclass
+from decimal import ROUND_HALF_UP, Decimal
+from typing import Sequence
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+__all__ = ["Cell", "compose_chart", "render_area_offset", "label_text"]
+
+DEFAULT_COLUMN_AXIS_TITLE = "roughness r (α = r²)"
+DEFAULT_ROW_AXIS_TITLE = "metallic"
+
+_BACKGROUND = (24, 24, 24, 255)
+_TRANSPARENT = (0, 0, 0, 0)
+_OUTLINE = (16, 16, 16, 255)  # drawn around text only in transparent mode
+_TITLE_COLOR = (240, 240, 240, 255)
+_LABEL_COLOR = (225, 225, 225, 255)
+_AXIS_COLOR = (175, 175, 175, 255)
+_FOOTER_COLOR = (150, 150, 150, 255)
+_ROW_LABEL_RESERVE = "0.00"  # widest plain value label; reserved even when the labels are not known
+_ASCII_FALLBACK = {"²": "^2", "³": "^3", "–": "-", "—": "-", "−": "-", "×": "x",
+                   "→": "->", "≈": "~", "µ": "u", "…": "..."}
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One sphere as projected in the render image (pixels, origin top-left)."""
+
+    row: int
+    col: int
+    cx: float
+    cy: float
+    radius_px: float
+
+
+def label_text(value: float) -> str:
+    """Axis label for a value: at most two decimals (half up), no trailing zeros."""
+    if not math.isfinite(value):
+        return str(value)
+    text = str(Decimal(repr(float(value))).quantize(Decimal("0.01"), rounding=ROUND_HALF_UP))
+    text = text.rstrip("0").rstrip(".") if "." in text else text
+    return "0" if text == "-0" else text
+
+
+@dataclass(frozen=True)
+class _Style:
+    size: int  # font size in pixels
+    color: tuple[int, int, int, int]
+    font: ImageFont.FreeTypeFont
+    stroke: int  # outline width; reserved in the layout, drawn only in transparent mode
+
+
+def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
+    return _Style(size, color, ImageFont.load_default(size=size), max(1, round(size / 16)))
+
+
+def _styles(render_height: int) -> dict[str, _Style]:
+    """Font sizes scale with the render height: 1024 px -> 22 px labels, 30 px title."""
+    scale = render_height / 1024
+    label = max(11, round(22 * scale))
+    return {
+        "title": _style(max(14, round(30 * scale)), _TITLE_COLOR),
+        "label": _style(label, _LABEL_COLOR),
+        "axis": _style(label, _AXIS_COLOR),
+        "footer": _style(max(11, round(17 * scale)), _FOOTER_COLOR),
+    }
+
+
+def _drawable(text: str, font: ImageFont.FreeTypeFont) -> str:
+    """Replace characters the font has no glyph for by ASCII spellings."""
+    missing = font.getmask("\U0010fffd")
+    missing_key = (missing.size, bytes(missing))
+
+    def has_glyph(ch: str) -> bool:
+        if ch.isspace():
+            return True
+        mask = font.getmask(ch)
+        return (mask.size, bytes(mask)) != missing_key
+
+    def fallback(ch: str) -> str:
+        if ch in _ASCII_FALLBACK:
+            return _ASCII_FALLBACK[ch]
+        name = unicodedata.name(ch, "")
+        if name.startswith("GREEK") and " LETTER " in name:
+            word = name.split()[-1].lower()
+            return word.capitalize() if "CAPITAL" in name else word
+        base = "".join(c for c in unicodedata.normalize("NFKD", ch) if not unicodedata.combining(c))
+        return base if base and base != ch and all(has_glyph(c) for c in base) else "?"
+
+    return "".join(ch if has_glyph(ch) else fallback(ch) for ch in text)
+
+
+def _ink(style: _Style, text: str) -> tuple[int, int, int, int]:
+    """Ink box (left, top, right, bottom) of text drawn at origin (0, baseline), outline included."""
+    return style.font.getbbox(text, anchor="ls", stroke_width=style.stroke)
+
+
+def _width(style: _Style, text: str) -> int:
+    left, _, right, _ = _ink(style, text)
+    return right - left
+
+
+def _line_height(style: _Style) -> int:
+    ascent, descent = style.font.getmetrics()
+    return ascent + descent + 2 * style.stroke
+
+
+def _baseline(style: _Style, line_top: float) -> float:
+    return line_top + style.stroke + style.font.getmetrics()[0]
+
+
+@dataclass(frozen=True)
+class _Layout:
+    styles: dict[str, _Style]
+    title: str
+    footer: str
+    column_axis_title: str
+    row_axis_title: str
+    pad: int
+    gap: int
+    x0: int  # render area origin inside the chart
+    y0: int
+    width: int  # chart size
+    height: int
+    title_top: int
+    axis_top: int
+    labels_top: int
+    footer_top: int
+
+
+def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Sequence[str],
+            column_axis_title: str, row_axis_title: str) -> _Layout:
+    rh, rw = int(render_shape[0]), int(render_shape[1])
+    styles = _styles(rh)
+    text = {"title": title, "footer": footer, "col": column_axis_title, "row": row_axis_title}
+    font_of = {"title": "title", "footer": "footer", "col": "axis", "row": "axis"}
+    text = {k: _drawable(v, styles[font_of[k]].font) for k, v in text.items()}
+    label, axis = styles["label"], styles["axis"]
+    pad, gap = label.size, max(4, label.size // 2)
+
+    # Top margin: title, column axis title, column labels.
+    y = pad
+    title_top = y
+    if text["title"]:
+        y += _line_height(styles["title"]) + gap
+    axis_top = y
+    if text["col"]:
+        y += _line_height(axis) + max(2, gap // 3)
+    labels_top = y
+    top = y + _line_height(label) + max(2, gap // 2)
+
+    # Left margin: rotated row axis title, right-aligned row labels.
+    labels = [_drawable(t, label.font) for t in row_labels]
+    label_w = max(_width(label, t) for t in [_ROW_LABEL_RESERVE, *labels])
+    left = pad + (_line_height(axis) + gap if text["row"] else 0) + label_w + gap
+    bottom = (gap + _line_height(styles["footer"]) if text["footer"] else 0) + pad
+    right = pad
+
+    # Grow the margins so that centred text (on the render area) never clips.
+    for key in ("title", "col", "footer"):
+        half = _width(styles[font_of[key]], text[key]) / 2 + pad - rw / 2
+        left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
+    half = _width(axis, text["row"]) / 2 + pad - rh / 2
+    top, bottom = max(top, math.ceil(half)), max(bottom, math.ceil(half))
+
+    return _Layout(styles, text["title"], text["footer"], text["col"], text["row"], pad, gap,
+                   x0=left, y0=top, width=left + rw + right, height=top + rh + bottom,
+                   title_top=title_top, axis_top=axis_top, labels_top=labels_top,
+                   footer_top=top + rh + gap)
+
+
+def _row_labels(row_values: Sequence[float], row_names: Sequence[str] | None) -> list[str]:
+    if row_names is not None and len(row_names) != len(row_values):
+        raise ValueError(f"{len(row_names)} row names for {len(row_values)} rows")
+    names = row_names if row_names is not None else [""] * len(row_values)
+    return [f"{label_text(v)} · {n}" if n else label_text(v) for v, n in zip(row_values, names)]
+
+
+def render_area_offset(render_shape: Sequence[int], n_rows: int, n_cols: int, title: str, footer: str,
+                       *, row_values: Sequence[float] | None = None, row_names: Sequence[str] | None = None,
+                       column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
+                       row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> tuple[int, int]:
+    """(x, y) of the render image's top-left corner inside the chart built by compose_chart.
+
+    The left margin always reserves room for a value label as wide as "0.00", so for plain
+    value labels the result does not depend on the values.  When compose_chart gets
+    ``row_names`` (or unusually wide values) pass the same ``row_values``/``row_names`` here,
+    and likewise any non-default axis titles.  ``n_rows``/``n_cols`` are accepted for symmetry.
+    """
+    labels = _row_labels(row_values, row_names) if row_values is not None else []
+    layout = _layout(render_shape, title, footer, labels, column_axis_title, row_axis_title)
+    return layout.x0, layout.y0
+
+
+def _mean_centres(cells: Sequence[Cell], count: int, attr: str, key: str, extent: int) -> list[float]:
+    """Mean cx (or cy) per column (or row); evenly spaced fallback for an index without cells."""
+    centres = []
+    for i in range(count):
+        values = [getattr(c, attr) for c in cells if getattr(c, key) == i]
+        centres.append(float(np.mean(values)) if values else (i + 0.5) * extent / count)
+    return centres
+
+
+def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values: Sequence[float],
+                  row_values: Sequence[float], title: str, footer: str,
+                  row_names: Sequence[str] | None = None, transparent: bool = False,
+                  column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
+                  row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> np.ndarray:
+    """Return a new RGBA uint8 chart: the render pasted pixel-exactly, with all text in margins."""
+    render = np.asarray(render_rgba)
+    if render.dtype != np.uint8 or render.ndim != 3 or render.shape[2] != 4:
+        raise ValueError(f"expected an RGBA uint8 image, got {render.dtype} {render.shape}")
+    rh, rw = render.shape[:2]
+    row_labels = _row_labels(row_values, row_names)
+    lay = _layout(render.shape, title, footer, row_labels, column_axis_title, row_axis_title)
+    x0, y0, width, height = lay.x0, lay.y0, lay.width, lay.height
+
+    layer = Image.new("RGBA", (width, height), _TRANSPARENT)
+    draw = ImageDraw.Draw(layer)
+
+    def put(style: _Style, text: str, x: float, baseline: float) -> None:
+        draw.text((x, baseline), text, font=style.font, fill=style.color, anchor="ls",
+                  stroke_width=style.stroke if transparent else 0, stroke_fill=_OUTLINE)
+
+    def put_centred(style: _Style, text: str, centre_x: float, baseline: float) -> None:
+        left, _, right, _ = _ink(style, text)
+        x = min(max(centre_x - (left + right) / 2, -left), width - right)  # keep inside canvas
+        put(style, text, x, baseline)
+
+    styles = lay.styles
+    centre_x = x0 + rw / 2
+    if lay.title:
+        put_centred(styles["title"], lay.title, centre_x, _baseline(styles["title"], lay.title_top))
+    if lay.column_axis_title:
+        put_centred(styles["axis"], lay.column_axis_title, centre_x, _baseline(styles["axis"], lay.axis_top))
+    if lay.footer:
+        put_centred(styles["footer"], lay.footer, centre_x, _baseline(styles["footer"], lay.footer_top))
+
+    label = styles["label"]
+    col_centres = _mean_centres(cells, len(column_values), "cx", "col", rw)
+    for value, cx in zip(column_values, col_centres):
+        put_centred(label, _drawable(label_text(value), label.font), x0 + cx, _baseline(label, lay.labels_top))
+
+    # Row labels: right-aligned against the render area, digits centred on the row's cy.
+    _, digit_top, _, digit_bottom = label.font.getbbox("0123456789", anchor="ls")
+    row_centres = _mean_centres(cells, len(row_values), "cy", "row", rh)
+    for text, cy in zip(row_labels, row_centres):
+        text = _drawable(text, label.font)
+        _, top, right, bottom = _ink(label, text)
+        baseline = min(max(y0 + cy - (digit_top + digit_bottom) / 2, -top), height - bottom)
+        put(label, text, x0 - lay.gap - right, baseline)
+
+    if lay.row_axis_title:  # rotated 90° counter-clockwise, centred on the render area
+        axis = styles["axis"]
+        left, _, right, _ = _ink(axis, lay.row_axis_title)
+        strip = Image.new("RGBA", (right - left, _line_height(axis)), _TRANSPARENT)
+        ImageDraw.Draw(strip).text((-left, _baseline(axis, 0)), lay.row_axis_title, font=axis.font,
+                                   fill=axis.color, anchor="ls", stroke_fill=_OUTLINE,
+                                   stroke_width=axis.stroke if transparent else 0)
+        strip = strip.transpose(Image.Transpose.ROTATE_90)
+        layer.alpha_composite(strip, (lay.pad, max(0, round(y0 + rh / 2 - strip.height / 2))))
+
+    background = Image.new("RGBA", (width, height), _TRANSPARENT if transparent else _BACKGROUND)
+    chart = np.array(Image.alpha_composite(background, layer))
+    chart[y0:y0 + rh, x0:x0 + rw] = render
+    return chart

@@ -1,0 +1,203 @@
+"""Render a chart spec to linear HDR radiance, AOVs and the display image.
+
+One pass of the chart program per tile writes radiance + coverage and the AOVs into float
+targets; a display pass applies exposure, the tone mapper and the sRGB OETF. Arrays come
+back top row first."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from . import camera as camera_mod
+from .cache import ArrayCache
+from .compose import ComposedSource, compose
+from .ibl import IBLBaker, make_environment
+from .programs import ProgramCache, set_uniforms
+from .spec import ChartSpec
+
+TILE = 2048   # largest tile edge; also bounds the float targets' memory
+
+
+def chart_options(spec: ChartSpec) -> dict:
+    """The compile-time options of the chart program: every feature the spec leaves out is
+    absent from the composed source."""
+    directional = sum(1 for l in spec.lights if l.kind == "directional")
+    point = sum(1 for l in spec.lights if l.kind == "point")
+    q = spec.quality_settings()
+    opts = {
+        "BRDF_MODEL": spec.brdf.replace("-", "_"),
+        "ENV": "file" if spec.env not in ("studio", "sky", "uniform", "black") else spec.env,
+        "CAMERA": spec.camera,
+        "INTERSECT": "analytic" if spec.uses_analytic_intersection() else "march",
+        "HAS_GROUND": spec.ground,
+        "USE_IBL": spec.ibl,
+        "USE_AO": spec.ibl and spec.ao,
+        # The key light (the first directional light) casts shadows onto the ground.
+        "USE_SHADOWS": spec.shadows and spec.ground and directional > 0,
+        "MULTISCATTER": spec.multiscatter,
+        "TRANSPARENT": spec.transparent,
+        "NUM_DIR_LIGHTS": directional,
+        "NUM_POINT_LIGHTS": point,
+        "GRID_ROWS": spec.rows,
+    }
+    if opts["INTERSECT"] == "march":
+        opts["NORMAL_METHOD"] = q.normal_method
+    if opts["USE_AO"]:
+        opts["AO_METHOD"] = q.ao_method
+    return opts
+
+
+def chart_source(spec: ChartSpec) -> ComposedSource:
+    return compose("chart_main.glsl", chart_options(spec))
+
+
+def display_source(spec: ChartSpec) -> ComposedSource:
+    return compose("display_main.glsl", {"TONEMAP": spec.tonemap.replace("-", "_"), "TRANSPARENT": spec.transparent})
+
+
+def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera) -> dict:
+    q = spec.quality_settings()
+    directional = [l for l in spec.lights if l.kind == "directional"]
+    point = [l for l in spec.lights if l.kind == "point"]
+    scene_size = max(spec.rows, spec.cols) * spec.spacing + 2 * spec.sphere_radius
+    u = {
+        **cam.uniforms(),
+        "u_grid": (spec.cols, spec.rows),
+        "u_radius": spec.sphere_radius,
+        "u_spacing": spec.spacing,
+        "u_ground_y": camera_mod.ground_height(spec),
+        "u_roughness_range": spec.roughness,
+        "u_metallic_range": spec.metallic,
+        "u_row_base_color": spec.row_base_colors(),
+        "u_ground_color": spec.ground_color,
+        "u_ground_roughness": spec.ground_roughness,
+        "u_spp": spec.spp,
+        "u_march_steps": q.march_steps,
+        "u_march_far": float(np.linalg.norm(cam.position)) + 4.0 * scene_size,
+        "u_hit_scale": q.hit_scale,
+        "u_shadow_steps": q.shadow_steps,
+        "u_shadow_far": 2.0 * scene_size,
+        "u_ao_taps": q.ao_taps,
+        "u_ao_radius": 0.5 * spec.sphere_radius,
+        "u_env_intensity": spec.env_intensity,
+    }
+    if directional:
+        u["u_dir_light_direction"] = [l.direction for l in directional]
+        u["u_dir_light_illuminance"] = [tuple(c * l.intensity for c in l.color) for l in directional]
+        u["u_dir_light_angular_radius"] = [float(np.radians(l.angular_radius_deg)) for l in directional]
+    if point:
+        u["u_point_light_position"] = [l.position for l in point]
+        u["u_point_light_intensity"] = [tuple(c * l.intensity for c in l.color) for l in point]
+        u["u_point_light_range"] = [l.range for l in point]
+    return u
+
+
+@dataclass
+class RenderResult:
+    hdr: np.ndarray          # (H, W, 3) float32 linear radiance, before exposure
+    alpha: np.ndarray        # (H, W) coverage
+    image: np.ndarray        # (H, W, 4) uint8 display image (sRGB)
+    aov: dict                # normal, depth, row, col, roughness, metallic, ndotv
+    camera: camera_mod.Camera
+    chart_source: ComposedSource
+    timings: dict = field(default_factory=dict)
+
+
+class Renderer:
+    """Renders specs on one context; programs, LUTs and IBL bakes are reused across renders."""
+
+    def __init__(self, ctx: moderngl.Context, cache: ArrayCache | None = None):
+        self.ctx = ctx
+        self.programs = ProgramCache(ctx)
+        self.cache = cache or ArrayCache()
+        self.baker = IBLBaker(ctx, self.programs, self.cache)
+
+    def render(self, spec: ChartSpec) -> RenderResult:
+        ctx = self.ctx
+        t0 = time.perf_counter()
+        timings = {}
+        cam = camera_mod.frame_grid(spec)
+        source = chart_source(spec)
+        program = self.programs.fragment(source)
+        display = self.programs.fragment(display_source(spec))
+        timings["compile_s"] = time.perf_counter() - t0
+
+        t1 = time.perf_counter()
+        env = make_environment(ctx, spec)
+        q = spec.quality_settings()
+        uniforms = chart_uniforms(spec, cam)
+        uniforms.update(env.uniforms)
+        textures = [("u_dfg", self.baker.dfg(spec.brdf, q))]
+        if spec.ibl:
+            lighting = self.baker.lighting(env, q, spec.brdf)
+            uniforms.update(lighting.uniforms())
+            textures.append(("u_prefiltered", lighting.prefiltered))
+        if env.texture is not None:
+            textures.append(("u_env_map", env.texture))
+        for unit, (name, tex) in enumerate(textures):
+            tex.use(unit)
+            uniforms[name] = unit
+        set_uniforms(program, uniforms)
+        display_uniforms = {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white}
+        timings["setup_s"] = time.perf_counter() - t1
+
+        t2 = time.perf_counter()
+        W, H = spec.width, spec.height
+        radiance = np.empty((H, W, 4), np.float32)
+        normal_depth = np.empty((H, W, 4), np.float32)
+        cells = np.empty((H, W, 4), np.float32)
+        image = np.empty((H, W, 4), np.uint8)
+        vao = ctx.vertex_array(program, [])
+        display_vao = ctx.vertex_array(display, [])
+        for y0 in range(0, H, TILE):
+            for x0 in range(0, W, TILE):
+                tw, th = min(TILE, W - x0), min(TILE, H - y0)
+                targets = [ctx.texture((tw, th), 4, dtype="f4") for _ in range(3)]
+                fbo = ctx.framebuffer(color_attachments=targets)
+                fbo.use()
+                program["u_tile_origin"].value = (x0, y0)
+                vao.render(moderngl.TRIANGLES, vertices=3)
+                ldr = ctx.texture((tw, th), 4)
+                ldr_fbo = ctx.framebuffer(color_attachments=[ldr])
+                ldr_fbo.use()
+                targets[0].use(15)
+                set_uniforms(display, {**display_uniforms, "u_radiance": 15})
+                display_vao.render(moderngl.TRIANGLES, vertices=3)
+                # GL rows run bottom-up; tile (x0, y0) counts from the bottom-left.
+                rows = slice(H - y0 - th, H - y0)
+                cols = slice(x0, x0 + tw)
+                for dest, tex in ((radiance, targets[0]), (normal_depth, targets[1]), (cells, targets[2])):
+                    dest[rows, cols] = np.frombuffer(tex.read(), np.float32).reshape(th, tw, 4)[::-1]
+                image[rows, cols] = np.frombuffer(ldr.read(), np.uint8).reshape(th, tw, 4)[::-1]
+                for obj in (*targets, fbo, ldr, ldr_fbo):
+                    obj.release()
+        vao.release()
+        display_vao.release()
+        timings["render_s"] = time.perf_counter() - t2
+        if env.texture is not None:
+            env.texture.release()
+
+        aov = self._aovs(spec, normal_depth, cells)
+        return RenderResult(radiance[..., :3].copy(), radiance[..., 3].copy(), image, aov, cam, source, timings)
+
+    @staticmethod
+    def _aovs(spec: ChartSpec, normal_depth: np.ndarray, cells: np.ndarray) -> dict:
+        col = np.rint(cells[..., 0]).astype(np.int32)
+        row = np.rint(cells[..., 1]).astype(np.int32)
+        sphere = (row >= 0) & (col >= 0)
+        rough = np.asarray(spec.column_roughness(), np.float32)
+        metal = np.asarray(spec.row_metallic(), np.float32)
+        roughness = np.where(sphere, rough[np.clip(col, 0, None)], np.nan).astype(np.float32)
+        metallic = np.where(sphere, metal[np.clip(row, 0, None)], np.nan).astype(np.float32)
+        return {
+            "normal": normal_depth[..., :3].copy(),
+            "depth": normal_depth[..., 3].copy(),
+            "row": np.where(sphere, row, -1).astype(np.int32),
+            "col": np.where(sphere, col, -1).astype(np.int32),
+            "roughness": roughness,
+            "metallic": metallic,
+            "ndotv": cells[..., 2].copy(),
+        }

@@ -1,0 +1,44 @@
+// Ambient occlusion of the IBL term. AO_METHOD analytic: the exact cosine-weighted occlusion
+// of each neighbouring sphere (Lagarde & de Rousiers 2014, REFERENCE.md §5), combined as
+// prod(1 - occ_i); sdf: taps along the normal, an uncalibrated artistic estimate.
+#if AO_METHOD == analytic
+// Occlusion of a sphere at relative distance d = |c - p| / R whose centre direction makes
+// cosine n_dot_c with the normal: the form factor of a sphere, exact across the horizon.
+float sphere_occlusion(float n_dot_c, float d) {
+    float sin_sigma2 = 1.0 / (d * d);
+    if (n_dot_c * n_dot_c > sin_sigma2) return sin_sigma2 * max(n_dot_c, 0.0);
+    float sin_theta = sqrt(max(1.0 - n_dot_c * n_dot_c, 1e-12));
+    float x = sqrt(max(1.0 / sin_sigma2 - 1.0, 1e-12));
+    float y = clamp(-x * n_dot_c / sin_theta, -1.0, 1.0);
+    float s = sin_theta * sqrt(1.0 - y * y);
+    return max((n_dot_c * acos(y) - x * s) * sin_sigma2 + atan(s / x), 0.0) * INV_PI;
+}
+
+float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
+    float visible = 1.0;
+    ivec2 center = nearest_cell(p);
+    for (int j = -1; j <= 1; ++j)
+        for (int i = -1; i <= 1; ++i) {
+            ivec2 cell = center + ivec2(i, j);
+            if (any(lessThan(cell, ivec2(0))) || any(greaterThanEqual(cell, u_grid)) || cell == self_cell) continue;
+            vec3 to_c = cell_center(cell) - p;
+            float dist = length(to_c);
+            visible *= 1.0 - sphere_occlusion(dot(n, to_c) / dist, max(dist / u_radius, 1.0 + 1e-4));
+        }
+    return visible;
+}
+#elif AO_METHOD == sdf
+uniform int u_ao_taps;
+uniform float u_ao_radius;
+
+float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
+    float occ = 0.0;
+    float weight = 1.0;
+    for (int i = 0; i < u_ao_taps; ++i) {
+        float h = 0.01 * u_radius + u_ao_radius * float(i) / float(max(u_ao_taps - 1, 1));
+        occ += (h - sdf_scene(p + h * n)) * weight;
+        weight *= 0.85;
+    }
+    return saturate(1.0 - 1.5 * occ / u_ao_radius);
+}
+#endif

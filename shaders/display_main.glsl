@@ -1,0 +1,20 @@
+#include "common.glsl"
+#include "tonemap.glsl"
+#include "encode.glsl"
+
+// Display program: linear HDR -> exposure -> tone map -> OETF, straight alpha out.
+uniform sampler2D u_radiance;
+uniform float u_exposure_scale;   // 2^EV
+layout(location = 0) out vec4 out_color;
+
+void main() {
+    vec4 hdr = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
+#if TRANSPARENT
+    vec3 radiance = hdr.a > 0.0 ? hdr.rgb / hdr.a : vec3(0.0);   // un-premultiply
+    float alpha = hdr.a;
+#else
+    vec3 radiance = hdr.rgb;
+    float alpha = 1.0;
+#endif
+    out_color = vec4(srgb_oetf(tonemap(radiance * u_exposure_scale)), alpha);
+}

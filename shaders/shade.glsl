@@ -1,0 +1,39 @@
+// Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
+// lights (the key light shadowed where shadows are composed in).
+vec3 shade_surface(vec3 p, vec3 n, vec3 v, ivec2 cell) {
+    Material m = cell_material(cell);
+    float n_dot_v = max(dot(n, v), MIN_N_DOT_V);
+    vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
+    float e_single = dfg.x + dfg.y;
+    vec3 color = vec3(0.0);
+#if USE_IBL
+    vec3 ibl = shade_ibl(m, n, v, n_dot_v, dfg);
+#if USE_AO
+    ibl *= ambient_occlusion(p, n, cell);
+#endif
+    color += ibl;
+#endif
+#if NUM_DIR_LIGHTS > 0
+    for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
+        vec3 l = u_dir_light_direction[i];
+        float alpha_light = alpha_for_disc(m.alpha, u_dir_light_angular_radius[i]);
+        vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_light, e_single) * u_dir_light_illuminance[i];
+#if USE_SHADOWS
+        // Light 0 is the key light; the ground receives its shadow.
+        if (i == 0 && cell.x < 0 && dot(n, l) > 0.0)
+            c *= soft_shadow(p + n * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
+#endif
+        color += c;
+    }
+#endif
+#if NUM_POINT_LIGHTS > 0
+    for (int i = 0; i < NUM_POINT_LIGHTS; ++i) {
+        vec3 to_light = u_point_light_position[i] - p;
+        float dist = length(to_light);
+        vec3 l = to_light / dist;
+        color += brdf_cos(m, n, v, l, n_dot_v, m.alpha, e_single) * u_point_light_intensity[i]
+               * point_falloff(dist, u_point_light_range[i]);
+    }
+#endif
+    return color;
+}

@@ -1,0 +1,192 @@
+"""Tests for sdfpbr.layout: chart composition around a synthetic render."""
+
+import numpy as np
+import pytest
+
+from sdfpbr.layout import Cell, compose_chart, label_text, render_area_offset
+
+TITLE = "Material chart"
+FOOTER = "ACES filmic · exposure +0.0 EV · environment: studio"
+
+
+def synthetic_render(height, width, n_rows, n_cols, background_alpha=255):
+    """Dark, slightly textured background with filled white discs on an n_rows x n_cols grid."""
+    rng = np.random.default_rng(1)
+    img = np.zeros((height, width, 4), np.uint8)
+    img[..., :3] = rng.integers(20, 40, (height, width, 3), dtype=np.uint8)
+    img[..., 3] = background_alpha
+    yy, xx = np.mgrid[:height, :width]
+    cells = []
+    for r in range(n_rows):
+        for c in range(n_cols):
+            # Slightly irregular centres, so a label placed on the column/row centre of a
+            # uniform grid (instead of on the cells) would be caught.
+            cx = (c + 0.5) * width / n_cols + 3 * c
+            cy = (r + 0.5) * height / n_rows - 2 * r
+            radius = 0.35 * min(width / n_cols, height / n_rows)
+            img[(xx - cx) ** 2 + (yy - cy) ** 2 <= radius**2] = 255
+            cells.append(Cell(r, c, cx, cy, radius))
+    return img, cells
+
+
+def runs(mask_1d):
+    """(start, stop) index ranges of consecutive True values."""
+    padded = np.concatenate([[False], mask_1d, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(padded))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def ink(chart, background):
+    return np.any(chart != np.asarray(background, np.uint8), axis=-1)
+
+
+def column_label_centres(chart, offset, render_shape, cells, n_cols, background):
+    """Horizontal ink centre of each column label (last text line above the render area)."""
+    x0, y0 = offset
+    top = ink(chart[:y0], background)
+    line = runs(top.any(axis=1))[-1]  # the text line nearest the render area
+    band = top[line[0]:line[1]]
+    cxs = [np.mean([c.cx for c in cells if c.col == i]) + x0 for i in range(n_cols)]
+    bounds = [0] + [(a + b) / 2 for a, b in zip(cxs, cxs[1:])] + [chart.shape[1]]
+    centres = []
+    for i in range(n_cols):
+        xs = np.flatnonzero(band.any(axis=0))
+        xs = xs[(xs >= bounds[i]) & (xs < bounds[i + 1])]
+        assert xs.size, f"no label ink for column {i}"
+        centres.append((xs.min() + xs.max() + 1) / 2)
+    return np.array(centres), np.array(cxs), line
+
+
+def row_label_centres(chart, offset, render_shape, cells, n_rows, background):
+    """Vertical ink centre of each row label (right-most ink block left of the render area)."""
+    x0, y0 = offset
+    h = render_shape[0]
+    left = ink(chart[y0:y0 + h, :x0], background)
+    block = runs(left.any(axis=0))[-1]
+    strip = left[:, block[0]:block[1]]
+    cys = [np.mean([c.cy for c in cells if c.row == i]) for i in range(n_rows)]
+    bounds = [0] + [(a + b) / 2 for a, b in zip(cys, cys[1:])] + [h]
+    centres = []
+    for i in range(n_rows):
+        ys = np.flatnonzero(strip.any(axis=1))
+        ys = ys[(ys >= bounds[i]) & (ys < bounds[i + 1])]
+        assert ys.size, f"no label ink for row {i}"
+        centres.append((ys.min() + ys.max() + 1) / 2 + y0)
+    return np.array(centres), np.array(cys) + y0, block
+
+
+@pytest.fixture(scope="module")
+def chart_2x3():
+    img, cells = synthetic_render(360, 540, 2, 3)
+    chart = compose_chart(img, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)
+    offset = render_area_offset(img.shape, 2, 3, TITLE, FOOTER)
+    return img, cells, chart, offset
+
+
+def test_output_type_and_size(chart_2x3):
+    img, _, chart, _ = chart_2x3
+    assert chart.dtype == np.uint8 and chart.ndim == 3 and chart.shape[2] == 4
+    assert chart.shape[0] > img.shape[0] and chart.shape[1] > img.shape[1]
+    assert (chart[..., 3] == 255).all()  # opaque mode
+
+
+def test_render_pasted_pixel_exact(chart_2x3):
+    img, _, chart, (x0, y0) = chart_2x3
+    h, w = img.shape[:2]
+    assert x0 > 0 and y0 > 0 and x0 + w < chart.shape[1] and y0 + h < chart.shape[0]
+    np.testing.assert_array_equal(chart[y0:y0 + h, x0:x0 + w], img)  # also: no text ink on the render
+
+
+def test_column_labels_centred_on_columns(chart_2x3):
+    img, cells, chart, offset = chart_2x3
+    found, expected, _ = column_label_centres(chart, offset, img.shape, cells, 3, chart[0, 0])
+    np.testing.assert_allclose(found, expected, atol=2.0)
+
+
+def test_row_labels_centred_on_rows(chart_2x3):
+    img, cells, chart, offset = chart_2x3
+    found, expected, block = row_label_centres(chart, offset, img.shape, cells, 2, chart[0, 0])
+    np.testing.assert_allclose(found, expected, atol=2.0)
+    assert block[1] < offset[0]  # labels stop before the render area
+
+
+def test_text_in_all_margins(chart_2x3):
+    img, _, chart, (x0, y0) = chart_2x3
+    h, w = img.shape[:2]
+    bg = chart[0, 0]
+    top_lines = runs(ink(chart[:y0], bg).any(axis=1))
+    assert len(top_lines) == 3  # title, column axis title, column labels
+    assert ink(chart[y0 + h:], bg).any()  # footer
+    left_blocks = runs(ink(chart[y0:y0 + h, :x0], bg).any(axis=0))
+    assert len(left_blocks) == 2  # rotated row axis title, row labels
+    rotated = ink(chart[:, left_blocks[0][0]:left_blocks[0][1]], bg)
+    ys = np.flatnonzero(rotated.any(axis=1))
+    assert ys.max() - ys.min() > rotated.shape[1]  # taller than wide: it is rotated
+
+
+def test_label_text():
+    assert label_text(0) == "0"
+    assert label_text(1) == "1"
+    assert label_text(0.25) == "0.25"
+    assert label_text(1 / 3) == "0.33"
+    assert label_text(0.5) == "0.5"
+    assert label_text(0.125) == "0.13"
+    assert label_text(2 / 3) == "0.67"
+    assert label_text(-0.001) == "0"
+
+
+def test_row_names_and_offset_consistency():
+    img, cells = synthetic_render(300, 300, 2, 2)
+    names = ["dielectric", "gold"]
+    chart = compose_chart(img, cells, [0, 1], [0, 1], TITLE, FOOTER, row_names=names)
+    plain = render_area_offset(img.shape, 2, 2, TITLE, FOOTER)
+    x0, y0 = render_area_offset(img.shape, 2, 2, TITLE, FOOTER, row_values=[0, 1], row_names=names)
+    assert x0 > plain[0]  # wider row labels widen the left margin
+    np.testing.assert_array_equal(chart[y0:y0 + 300, x0:x0 + 300], img)
+    blocks = runs(ink(chart[y0:y0 + 300, :x0], chart[0, 0]).any(axis=0))
+    assert blocks[-1][1] - blocks[1][0] > 60  # after the axis title: "0 · dielectric", not just "0"
+
+
+def test_transparent_mode():
+    img, cells = synthetic_render(300, 450, 2, 3, background_alpha=0)
+    chart = compose_chart(img, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER, transparent=True)
+    x0, y0 = render_area_offset(img.shape, 2, 3, TITLE, FOOTER)
+    np.testing.assert_array_equal(chart[y0:y0 + 300, x0:x0 + 450], img)  # render alpha kept
+    for corner in (chart[0, 0], chart[0, -1], chart[-1, 0], chart[-1, -1]):
+        assert corner[3] == 0
+    labels = chart[:y0, x0:x0 + 450]
+    opaque = labels[labels[..., 3] == 255]
+    assert len(opaque) > 0
+    assert (opaque[:, :3].min(axis=1) > 180).any()  # light text ...
+    assert (opaque[:, :3].max(axis=1) < 60).any()  # ... with a dark outline
+    transparent_bg = np.zeros(4, np.uint8)
+    found, expected, _ = column_label_centres(chart, (x0, y0), img.shape, cells, 3, transparent_bg)
+    np.testing.assert_allclose(found, expected, atol=2.0)
+
+
+def test_small_render_still_labeled():
+    img, cells = synthetic_render(256, 256, 3, 3)
+    values = [0, 0.5, 1]
+    chart = compose_chart(img, cells, values, values, TITLE, FOOTER)
+    offset = render_area_offset(img.shape, 3, 3, TITLE, FOOTER)
+    x0, y0 = offset
+    np.testing.assert_array_equal(chart[y0:y0 + 256, x0:x0 + 256], img)
+    bg = chart[0, 0]
+    found, expected, line = column_label_centres(chart, offset, img.shape, cells, 3, bg)
+    np.testing.assert_allclose(found, expected, atol=2.0)
+    assert line[1] - line[0] >= 7  # digits of an ~11 px font, not a tiny bitmap font
+    found, expected, _ = row_label_centres(chart, offset, img.shape, cells, 3, bg)
+    np.testing.assert_allclose(found, expected, atol=2.0)
+
+
+def test_large_render_font_scales():
+    img, cells = synthetic_render(1024, 1024, 2, 2)
+    chart = compose_chart(img, cells, [0, 1], [0, 1], TITLE, FOOTER)
+    offset = render_area_offset(img.shape, 2, 2, TITLE, FOOTER)
+    _, _, line = column_label_centres(chart, offset, img.shape, cells, 2, chart[0, 0])
+    assert 13 <= line[1] - line[0] <= 24  # ~22 px font: digits about 15 px tall
+
+
+def test_rejects_non_rgba():
+    with pytest.raises(ValueError):
+        compose_chart(np.zeros((10, 10, 3), np.uint8), [], [0], [0], TITLE, FOOTER)
