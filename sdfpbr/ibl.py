@@ -124,7 +124,7 @@ class IBLBaker:
         return self._dfg[key]
 
     def compute_dfg_table(self, source, size: int, samples: int) -> np.ndarray:
-        """(size, size, 4) float32: [j, i] = (A, B, C, 1) at NdotV (i+.5)/size, r (j+.5)/size."""
+        """(size, size, 4) float32: [j, i] = (A, B, C, 1) at NdotV i/(size-1), r j/(size-1)."""
         program = self.programs.compute(source)
         target = self.ctx.texture((size, size), 4, dtype="f4")
         set_uniforms(program, {"u_size": size, "u_samples": samples})

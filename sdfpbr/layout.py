@@ -72,8 +72,22 @@ class _Style:
     stroke: int  # outline width; reserved in the layout, drawn only in transparent mode
 
 
+# DejaVu Sans (Debian's fonts-dejavu-core, which .ci/run installs) draws α and ²; Pillow's
+# embedded font is the fallback when it is absent.
+_SYSTEM_FONTS = ("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "DejaVuSans.ttf")
+
+
+def _load_font(size: int) -> ImageFont.FreeTypeFont:
+    for name in _SYSTEM_FONTS:
+        try:
+            return ImageFont.truetype(name, size)
+        except OSError:
+            continue
+    return ImageFont.load_default(size=size)
+
+
 def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
-    return _Style(size, color, ImageFont.load_default(size=size), max(1, round(size / 16)))
+    return _Style(size, color, _load_font(size), max(1, round(size / 16)))
 
 
 def _styles(render_height: int) -> dict[str, _Style]:

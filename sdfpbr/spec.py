@@ -165,7 +165,7 @@ class ChartSpec:
     quality: str = "default"
     backend: str = "auto"
     device_index: int = 0
-    ground_color: tuple[float, float, float] = (0.30, 0.30, 0.30)
+    ground_color: tuple[float, float, float] = (0.18, 0.18, 0.18)
     ground_roughness: float = 0.8
     labels: bool = True
 

@@ -4,7 +4,8 @@
 #include "hammersley.glsl"
 
 // The DFG LUT (REFERENCE.md §2) by GGX importance sampling with the shading's visibility:
-// pixel (i, j) holds (A, B, C) at NdotV = (i + 0.5)/size, perceptual roughness = (j + 0.5)/size.
+// texel (i, j) holds (A, B, C) at NdotV = i/(size-1), perceptual roughness = j/(size-1): the
+// inverse of dfg_lookup, which puts 0 and 1 on the first and last texel centres.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform writeonly image2D u_target;
 uniform int u_size;
@@ -13,8 +14,8 @@ uniform int u_samples;
 void main() {
     ivec2 id = ivec2(gl_GlobalInvocationID.xy);
     if (id.x >= u_size || id.y >= u_size) return;
-    float n_dot_v = (float(id.x) + 0.5) / float(u_size);
-    float r = (float(id.y) + 0.5) / float(u_size);
+    float n_dot_v = max(float(id.x) / float(u_size - 1), MIN_N_DOT_V);
+    float r = float(id.y) / float(u_size - 1);
     float alpha = r * r;
     vec3 v = vec3(sqrt(1.0 - n_dot_v * n_dot_v), 0.0, n_dot_v);
     float a = 0.0, b = 0.0, c = 0.0;

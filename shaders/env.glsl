@@ -21,8 +21,8 @@ vec3 env_radiance(vec3 d) {
     return vec3(0.0);
 #elif ENV == studio
     float up = saturate(d.y);
-    vec3 sky = mix(vec3(0.50, 0.52, 0.56), vec3(0.20, 0.21, 0.24), sqrt(up));
-    vec3 floor_color = vec3(0.10, 0.095, 0.09) * (1.0 + 0.5 * smoothstep(-0.4, 0.0, d.y));
+    vec3 sky = mix(vec3(0.30, 0.31, 0.34), vec3(0.10, 0.11, 0.13), sqrt(up));
+    vec3 floor_color = vec3(0.06, 0.057, 0.054) * (1.0 + 0.5 * smoothstep(-0.4, 0.0, d.y));
     vec3 c = d.y >= 0.0 ? sky : floor_color;
     c += vec3(0.25) * pow(1.0 - abs(d.y), 12.0);                                         // horizon
     c += vec3(3.2, 3.3, 3.6) * soft_cap(d, normalize(vec3(0.75, 0.35, 0.55)), 0.30, 0.08); // fill box

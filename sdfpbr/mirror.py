@@ -1,0 +1,518 @@
+"""Float64 numpy mirror of the GLSL shading.
+
+The oracle for the shader tests and the generator/validator of lookup tables.
+Pure numpy, vectorised with broadcasting. Vectors are arrays of shape (..., 3).
+
+Naming: ``perceptual_roughness`` (r) is what users type and charts label;
+``alpha`` = r * r is what the formulas use. ``Fc(x) = (1 - x)^5``.
+See shared/REFERENCE.md sections 1-4 for the formulas and test vectors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "MIN_PERCEPTUAL_ROUGHNESS",
+    "MIN_N_DOT_V",
+    "TONEMAPPERS",
+    "alpha_from_perceptual",
+    "d_ggx",
+    "vis_smith_ggx_correlated",
+    "vis_schlick_ggx",
+    "k_direct",
+    "k_ibl",
+    "fresnel_schlick",
+    "dfg_integrate",
+    "e_avg",
+    "dfg_table",
+    "brdf",
+    "furnace_expected",
+    "tonemap",
+    "srgb_oetf",
+    "srgb_eotf",
+    "gamma_oetf",
+    "encode_srgb8",
+    "sample_sphere_cosine",
+    "reflect",
+    "normalize",
+]
+
+# Filament's fp32 guard: alpha^2 = 0.045^4 stays a normal, well-conditioned float.
+MIN_PERCEPTUAL_ROUGHNESS = 0.045
+# Filament clamps NdotV so the visibility term never divides by 0 at the silhouette.
+MIN_N_DOT_V = 1e-4
+# Below this alpha the lobe is a delta for any quadrature we can afford: use the limit.
+_ALPHA_DELTA = 1e-4
+_DIELECTRIC_F0 = 0.04
+_TINY = 1e-300
+
+MODELS = ("gltf", "schlick-ggx")
+
+
+def _check_model(model):
+    if model not in MODELS:
+        raise ValueError(f"unknown BRDF model {model!r}; expected one of {MODELS}")
+
+
+# ---------------------------------------------------------------------------
+# BRDF terms
+# ---------------------------------------------------------------------------
+
+def alpha_from_perceptual(perceptual_roughness):
+    """alpha = r * r."""
+    r = np.asarray(perceptual_roughness, dtype=np.float64)
+    return r * r
+
+
+def d_ggx(n_dot_h, alpha):
+    """GGX NDF a2 / (pi (NdotH^2 (a2 - 1) + 1)^2); 0 instead of NaN at alpha = 0, NdotH = 1."""
+    nh = np.asarray(n_dot_h, dtype=np.float64)
+    a2 = np.asarray(alpha, dtype=np.float64) ** 2
+    # = NdotH^2 (a2 - 1) + 1, arranged so tiny a2 near NdotH = 1 does not cancel.
+    t = (1.0 - nh) * (1.0 + nh) + nh * nh * a2
+    return a2 / (np.pi * np.maximum(t * t, _TINY))
+
+
+def vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha):
+    """Height-correlated Smith visibility G / (4 NdotL NdotV); 0 where the denominator is 0."""
+    nl = np.asarray(n_dot_l, dtype=np.float64)
+    nv = np.asarray(n_dot_v, dtype=np.float64)
+    a2 = np.asarray(alpha, dtype=np.float64) ** 2
+    gv = nl * np.sqrt(nv * nv * (1.0 - a2) + a2)
+    gl = nv * np.sqrt(nl * nl * (1.0 - a2) + a2)
+    denom = gv + gl
+    return np.where(denom > 0.0, 0.5 / np.maximum(denom, _TINY), 0.0)
+
+
+def vis_schlick_ggx(n_dot_l, n_dot_v, k):
+    """Seeds' Schlick-GGX G1(l) G1(v) / (4 NdotL NdotV) = 1 / (4 (l(1-k)+k)(v(1-k)+k))."""
+    nl = np.asarray(n_dot_l, dtype=np.float64)
+    nv = np.asarray(n_dot_v, dtype=np.float64)
+    k = np.asarray(k, dtype=np.float64)
+    denom = 4.0 * (nl * (1.0 - k) + k) * (nv * (1.0 - k) + k)
+    return np.where(denom > 0.0, 1.0 / np.maximum(denom, _TINY), 0.0)
+
+
+def k_direct(perceptual_roughness):
+    """Schlick-GGX k for punctual lights: (r + 1)^2 / 8."""
+    r = np.asarray(perceptual_roughness, dtype=np.float64)
+    return (r + 1.0) ** 2 / 8.0
+
+
+def k_ibl(perceptual_roughness):
+    """Schlick-GGX k for image-based light: alpha / 2."""
+    return alpha_from_perceptual(perceptual_roughness) / 2.0
+
+
+def _fc(x):
+    # Clamp before the power: pow of a slightly negative base is NaN in GLSL.
+    return (1.0 - np.clip(x, 0.0, 1.0)) ** 5
+
+
+def fresnel_schlick(f0, v_dot_h):
+    """Schlick Fresnel f0 + (1 - f0) (1 - x)^5, x clipped to [0, 1].
+
+    f0 is a scalar or RGB (..., 3); an RGB f0 gets v_dot_h (...) expanded on the channel axis.
+    """
+    f0 = np.asarray(f0, dtype=np.float64)
+    x = np.asarray(v_dot_h, dtype=np.float64)
+    if f0.ndim >= 1 and f0.shape[-1] == 3:
+        x = x[..., None]
+    return f0 + (1.0 - f0) * _fc(x)
+
+
+def _vis(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl):
+    if model == "gltf":
+        return vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha)
+    k = k_ibl(perceptual_roughness) if ibl else k_direct(perceptual_roughness)
+    return vis_schlick_ggx(n_dot_l, n_dot_v, k)
+
+
+# ---------------------------------------------------------------------------
+# DFG / split-sum integrals (deterministic Gauss-Legendre quadrature)
+# ---------------------------------------------------------------------------
+
+_GL_CACHE: dict = {}
+
+
+def _gauss_legendre01(n):
+    """Nodes and weights on [0, 1]."""
+    if n not in _GL_CACHE:
+        x, w = np.polynomial.legendre.leggauss(int(n))
+        _GL_CACHE[n] = (0.5 * (x + 1.0), 0.5 * w)
+    return _GL_CACHE[n]
+
+
+def _u_of_theta(sin_t, cos_t, a2):
+    # Inverse of cos^2 = (1-u)/(1+(a2-1)u): the CDF of D cos in theta_h.
+    s2 = sin_t * sin_t
+    return s2 / (a2 * cos_t * cos_t + s2)
+
+
+def _dfg_spec_flat(mu, r, model, n):
+    """A, B for 1-D arrays mu, r (alpha >= _ALPHA_DELTA).
+
+    Integrates over the half vector h with the measure D cos(theta_h) dw_h = du dphi / (2 pi),
+    so E = int Vis NdotL 4 VdotH / NdotH du dphi / (2 pi). theta_h is split where the
+    integrand stops being smooth so Gauss-Legendre converges fast:
+      th_a = (90 - theta_v)/2: above it part of the phi circle sends l below the horizon;
+      th_b = (90 + theta_v)/2: above it all of it does (the integral ends there);
+      th_c = atan(3 alpha): below it u is the good variable (the D peak), above it ln(tan).
+    In each piece phi runs over [0, phi_max] where NdotL > 0 (closed form), doubled by symmetry.
+    """
+    alpha = r * r
+    a2 = alpha * alpha
+    sv = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
+    theta_v = np.arccos(mu)
+    th_a = 0.5 * (0.5 * np.pi - theta_v)
+    th_b = 0.5 * (0.5 * np.pi + theta_v)
+    th_c = np.arctan(3.0 * alpha)
+    p1 = np.minimum(th_a, th_c)
+    p2 = np.minimum(np.maximum(th_a, th_c), th_b)
+    pieces = ((np.zeros_like(mu), p1), (p1, p2), (p2, th_b))
+
+    x, w = _gauss_legendre01(n)
+    # theta nodes through the smoothstep x = 3y^2 - 2y^3: the phi range opens like a square
+    # root at the piece ends, and the vanishing Jacobian turns that into a smooth integrand.
+    xs = x * x * (3.0 - 2.0 * x)
+    ws = w * 6.0 * x * (1.0 - x)
+    A = np.zeros_like(mu)
+    B = np.zeros_like(mu)
+    # Shapes: (m, 1, 1) per input, (1, n, 1) theta nodes, (1, 1, n) phi nodes.
+    mu3, sv3, a23, r3, al3 = (t[:, None, None] for t in (mu, sv, a2, r, alpha))
+    xt, wt = xs[None, :, None], ws[None, :, None]
+    xp, wp = x[None, None, :], w[None, None, :]
+    for lo, hi in pieces:
+        use_u = (hi <= th_c)[:, None, None]
+        lo3, hi3 = lo[:, None, None], hi[:, None, None]
+        # u variable (D peak, where D is flattened): measure du.
+        u_lo = _u_of_theta(np.sin(lo3), np.cos(lo3), a23)
+        u_hi = _u_of_theta(np.sin(hi3), np.cos(hi3), a23)
+        u = u_lo + (u_hi - u_lo) * xt
+        q = 1.0 + (a23 - 1.0) * u
+        c_u = np.sqrt(np.clip((1.0 - u) / q, 0.0, 1.0))
+        s_u = np.sqrt(np.clip(a23 * u / q, 0.0, 1.0))
+        w_u = (u_hi - u_lo) * wt
+        # s = ln(tan theta) variable (tail, which spans decades when alpha is small):
+        # measure du = 2 a2 t^2 / (a2 + t^2)^2 ds, t = tan theta; smooth, decays like 1/t^2.
+        s_lo = np.log(np.maximum(np.tan(lo3), 1e-150))
+        s_hi = np.log(np.maximum(np.tan(hi3), 1e-150))
+        t = np.exp(s_lo + (s_hi - s_lo) * xt)
+        c_t = 1.0 / np.sqrt(1.0 + t * t)
+        s_t = t * c_t
+        den = a23 + t * t
+        w_t = (s_hi - s_lo) * wt * 2.0 * a23 * t * t / (den * den)
+        c = np.where(use_u, c_u, c_t)
+        s = np.where(use_u, s_u, s_t)
+        w_th = np.where(use_u, w_u, w_t)
+        # NdotL = 2 VdotH c - mu > 0  <=>  cos(phi) > c0.
+        num = mu3 * (1.0 - 2.0 * c * c)
+        c0 = num / np.maximum(2.0 * c * s * sv3, _TINY)
+        phi_max = np.arccos(np.clip(c0, -1.0, 1.0))
+        phi = phi_max * xp
+        v_dot_h = sv3 * s * np.cos(phi) + mu3 * c
+        n_dot_l = np.maximum(2.0 * v_dot_h * c - mu3, 0.0)
+        vis = _vis(model, n_dot_l, mu3, r3, al3, ibl=True)
+        g = vis * n_dot_l * 4.0 * v_dot_h / np.maximum(c, _TINY)
+        # Weight: w_theta * phi_max w_phi * 2 (symmetry) / (2 pi).
+        wgt = w_th * phi_max * wp / np.pi
+        fc = _fc(v_dot_h)
+        B += np.sum(g * fc * wgt, axis=(1, 2))
+        A += np.sum(g * (1.0 - fc) * wgt, axis=(1, 2))
+    return A, B
+
+
+def _dfg_c_flat(mu, n):
+    """C = int (1 - (0.04 + 0.96 Fc(VdotH))) NdotL / pi dl over cosine-weighted l.
+
+    Parametrised by theta_l (not sin^2) so the integrand has no sqrt kink at the horizon.
+    """
+    x, w = _gauss_legendre01(n)
+    mu3 = mu[:, None, None]
+    sv3 = np.sqrt(np.maximum(1.0 - mu3 * mu3, 0.0))
+    th = 0.5 * np.pi * x[None, :, None]
+    phi = np.pi * x[None, None, :]
+    v_dot_l = sv3 * np.sin(th) * np.cos(phi) + mu3 * np.cos(th)
+    v_dot_h = np.sqrt(np.clip(0.5 * (1.0 + v_dot_l), 0.0, 1.0))
+    one_minus_fd = 1.0 - (_DIELECTRIC_F0 + (1.0 - _DIELECTRIC_F0) * _fc(v_dot_h))
+    # Measure: dxi dphi / (2 pi), xi = sin^2, dxi = 2 sin cos dtheta; phi doubled.
+    wgt = (0.5 * np.pi * w[None, :, None]) * 2.0 * np.sin(th) * np.cos(th) \
+        * (np.pi * w[None, None, :]) * 2.0 / (2.0 * np.pi)
+    return np.sum(one_minus_fd * wgt, axis=(1, 2))
+
+
+def dfg_integrate(n_dot_v, perceptual_roughness, model="gltf", n=64):
+    """Split-sum terms (A, B, C) at (n_dot_v, r), broadcast over the inputs.
+
+    A = int (1 - Fc) f_spec cos, B = int Fc f_spec cos (F = 1, f_spec = D Vis; model "gltf":
+    height-correlated Smith, "schlick-ggx": k = alpha/2); E = A + B. C is the Lambert weight
+    of the glTF dielectric coupling under uniform light (independent of roughness).
+    n is the Gauss-Legendre order per dimension of each of the three theta pieces (the
+    splitting makes every piece smooth: n = 32 already agrees with n = 512 to 1e-9, so the
+    default 64 leaves a wide margin and keeps tables fast). n_dot_v is clamped
+    to >= 1e-4; alpha < 1e-4 uses the delta-lobe limit A = 1 - Fc(mu), B = Fc(mu).
+    """
+    _check_model(model)
+    mu, r = np.broadcast_arrays(np.asarray(n_dot_v, dtype=np.float64),
+                                np.asarray(perceptual_roughness, dtype=np.float64))
+    shape = mu.shape
+    mu = np.clip(mu.ravel(), MIN_N_DOT_V, 1.0)
+    r = np.abs(r.ravel())
+    A = np.empty_like(mu)
+    B = np.empty_like(mu)
+    C = np.empty_like(mu)
+
+    delta = r * r < _ALPHA_DELTA
+    fc_mu = _fc(mu)
+    A[delta] = 1.0 - fc_mu[delta]
+    B[delta] = fc_mu[delta]
+
+    # Chunk so the (m, n, n) temporaries stay around a few million elements.
+    chunk = max(1, 2_000_000 // (n * n))
+    idx = np.nonzero(~delta)[0]
+    for s in range(0, idx.size, chunk):
+        sl = idx[s:s + chunk]
+        A[sl], B[sl] = _dfg_spec_flat(mu[sl], r[sl], model, n)
+    # C depends on mu only: integrate each distinct mu once.
+    mu_u, inv = np.unique(mu, return_inverse=True)
+    c_u = np.empty_like(mu_u)
+    for s in range(0, mu_u.size, chunk):
+        c_u[s:s + chunk] = _dfg_c_flat(mu_u[s:s + chunk], n)
+    C[:] = c_u[inv.ravel()]
+    return A.reshape(shape), B.reshape(shape), C.reshape(shape)
+
+
+def e_avg(perceptual_roughness, model="gltf", n=64):
+    """Hemispherical average Eavg(r) = 2 int_0^1 E(mu) mu dmu."""
+    r = np.asarray(perceptual_roughness, dtype=np.float64)
+    x, w = _gauss_legendre01(n)
+    A, B, _ = dfg_integrate(x, r[..., None], model=model, n=n)
+    return 2.0 * np.sum((A + B) * x * w, axis=-1)
+
+
+def dfg_table(size, model="gltf", n=64):
+    """LUT (size, size, 3) of (A, B, C); [j, i] at n_dot_v = (i+.5)/size, r = (j+.5)/size."""
+    t = (np.arange(size, dtype=np.float64) + 0.5) / size
+    A, B, C = dfg_integrate(t[None, :], t[:, None], model=model, n=n)
+    return np.stack([A, B, C], axis=-1)
+
+
+# ---------------------------------------------------------------------------
+# Full material (glTF 2.0 Appendix B)
+# ---------------------------------------------------------------------------
+
+def _dot(a, b):
+    return np.sum(a * b, axis=-1)
+
+
+def _compensation(f0, e):
+    # Filament's Kulla-Conty simplification; f0 (..., 3), e (...).
+    return 1.0 + f0 * (1.0 / e[..., None] - 1.0)
+
+
+def _e_for(n_dot_v, r, model):
+    """E = A + B at (n_dot_v, r), integrating each distinct pair once."""
+    nv, rr = np.broadcast_arrays(n_dot_v, r)
+    pairs = np.stack([nv.ravel(), rr.ravel()], axis=-1)
+    uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
+    A, B, _ = dfg_integrate(uniq[:, 0], uniq[:, 1], model=model)
+    return (A + B)[inv.ravel()].reshape(nv.shape)
+
+
+def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
+         multiscatter=False, e_spec=None):
+    """glTF 2.0 metal-rough BRDF value f (..., 3), without the cosine.
+
+    n, v, l unit vectors (..., 3) (v and l point away from the surface); base_color scalar,
+    (3,) or (..., 3); metallic, perceptual_roughness scalars or (...). Roughness is clamped to
+    MIN_PERCEPTUAL_ROUGHNESS, NdotV to >= 1e-4; f = 0 where NdotL <= 0. Model "schlick-ggx"
+    uses k_direct. multiscatter scales each lobe's specular by 1 + f0 (1/E - 1) with its own
+    f0 (0.04 dielectric, base_color metal), E from dfg_integrate unless e_spec is given.
+    """
+    _check_model(model)
+    n = np.asarray(n, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    l = np.asarray(l, dtype=np.float64)
+    base = np.asarray(base_color, dtype=np.float64)
+    if base.ndim == 0 or base.shape[-1] != 3:
+        base = base[..., None]
+    metal = np.asarray(metallic, dtype=np.float64)[..., None]
+    r = np.maximum(np.asarray(perceptual_roughness, dtype=np.float64), MIN_PERCEPTUAL_ROUGHNESS)
+    alpha = r * r
+
+    n_dot_l_raw = _dot(n, l)
+    lit = n_dot_l_raw > 0.0
+    n_dot_l = np.clip(n_dot_l_raw, 0.0, 1.0)
+    n_dot_v = np.clip(_dot(n, v), MIN_N_DOT_V, 1.0)
+    h = normalize(v + l)
+    n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
+    v_dot_h = np.abs(_dot(v, h))
+
+    f_spec = (d_ggx(n_dot_h, alpha) * _vis(model, n_dot_l, n_dot_v, r, alpha, ibl=False))[..., None]
+    fc = _fc(v_dot_h)[..., None]
+    fd = _DIELECTRIC_F0 + (1.0 - _DIELECTRIC_F0) * fc
+    spec_d = f_spec * fd
+    spec_m = f_spec * (base + (1.0 - base) * fc)
+    if multiscatter:
+        e = _e_for(n_dot_v, r, model) if e_spec is None else np.asarray(e_spec, dtype=np.float64)
+        e = np.maximum(e, _TINY)
+        spec_d = spec_d * _compensation(np.float64(_DIELECTRIC_F0), e)
+        spec_m = spec_m * _compensation(base, e)
+    dielectric = base / np.pi * (1.0 - fd) + spec_d
+    f = (1.0 - metal) * dielectric + metal * spec_m
+    f = np.where(lit[..., None], f, 0.0)
+    # A scalar base colour still yields RGB.
+    return np.broadcast_to(f, np.broadcast_shapes(f.shape, (3,))).copy()
+
+
+def furnace_expected(n_dot_v, base_color, metallic, perceptual_roughness, model="gltf",
+                     multiscatter=True):
+    """Pixel value under a uniform environment of radiance 1 with split-sum shading.
+
+    Per lobe specular (f0 A + B) comp(f0), diffuse (1 - metallic) base C, mixed by metallic.
+    Roughness and NdotV are clamped as in brdf. Returns (..., 3).
+    """
+    base = np.asarray(base_color, dtype=np.float64)
+    if base.ndim == 0 or base.shape[-1] != 3:
+        base = base[..., None]
+    metal = np.asarray(metallic, dtype=np.float64)[..., None]
+    r = np.maximum(np.asarray(perceptual_roughness, dtype=np.float64), MIN_PERCEPTUAL_ROUGHNESS)
+    A, B, C = dfg_integrate(n_dot_v, r, model=model)
+    e = A + B
+    A, B, C = A[..., None], B[..., None], C[..., None]
+    f0d = np.float64(_DIELECTRIC_F0)
+    spec_d = f0d * A + B
+    spec_m = base * A + B
+    if multiscatter:
+        spec_d = spec_d * _compensation(f0d, e)
+        spec_m = spec_m * _compensation(base, e)
+    dielectric = base * C + spec_d
+    out = (1.0 - metal) * dielectric + metal * spec_m
+    return np.broadcast_to(out, np.broadcast_shapes(out.shape, (3,))).copy()
+
+
+# ---------------------------------------------------------------------------
+# Tone mapping and encoding (order: exposure -> tone map -> OETF)
+# ---------------------------------------------------------------------------
+
+# Stephen Hill's fit (BakingLab ACES.hlsl), written row-major: applied as M @ c.
+# (The GLSL mat3 ports list these column by column.) Every row of the input matrix sums to 1;
+# the published output matrix's last row sums to 0.99999, so gray stays gray to ~1e-5.
+# sRGB => XYZ => D65_2_D60 => AP1 => RRT_SAT
+ACES_INPUT_MAT = np.array([
+    [0.59719, 0.35458, 0.04823],
+    [0.07600, 0.90834, 0.01566],
+    [0.02840, 0.13383, 0.83777],
+])
+# ODT_SAT => XYZ => D60_2_D65 => sRGB
+ACES_OUTPUT_MAT = np.array([
+    [1.60475, -0.53108, -0.07367],
+    [-0.10208, 1.10813, -0.00605],
+    [-0.00327, -0.07276, 1.07602],
+])
+
+TONEMAPPERS = ("none", "clamp", "reinhard", "reinhard-extended", "aces", "aces-hill", "neutral")
+
+
+def _aces_narkowicz(x):
+    return np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
+
+
+def _aces_hill(x):
+    c = x @ ACES_INPUT_MAT.T  # M @ c for each pixel
+    c = (c * (c + 0.0245786) - 0.000090537) / (c * (0.983729 * c + 0.4329510) + 0.238081)
+    return np.clip(c @ ACES_OUTPUT_MAT.T, 0.0, 1.0)
+
+
+def _pbr_neutral(x):
+    """Khronos PBR Neutral (linear in, linear out)."""
+    start = 0.8 - 0.04
+    desat = 0.15
+    m = np.min(x, axis=-1, keepdims=True)
+    offset = np.where(m < 0.08, m - 6.25 * m * m, 0.04)
+    c = x - offset
+    peak = np.max(c, axis=-1, keepdims=True)
+    d = 1.0 - start
+    new_peak = 1.0 - d * d / (peak + d - start)
+    safe_peak = np.where(peak < start, 1.0, peak)  # np.where evaluates both branches
+    comp = c * (new_peak / safe_peak)
+    g = 1.0 - 1.0 / (desat * (peak - new_peak) + 1.0)
+    comp = comp * (1.0 - g) + new_peak * g
+    return np.where(peak < start, c, comp)
+
+
+def _apply_tonemap(x, name, white=4.0):
+    x = np.asarray(x, dtype=np.float64)
+    if name == "none":
+        return x.copy()
+    if name == "clamp":
+        return np.clip(x, 0.0, 1.0)
+    if name == "reinhard":
+        return x / (1.0 + x)
+    if name == "reinhard-extended":
+        return x * (1.0 + x / (white * white)) / (1.0 + x)
+    if name == "aces":
+        return _aces_narkowicz(x)
+    if name == "aces-hill":
+        return _aces_hill(x)
+    if name == "neutral":
+        return _pbr_neutral(x)
+    raise ValueError(f"unknown tone mapper {name!r}; expected one of {TONEMAPPERS}")
+
+
+def tonemap(x, name, white=4.0):
+    """Tone map linear RGB (..., 3) with one of TONEMAPPERS; white only for reinhard-extended."""
+    return _apply_tonemap(x, name, white=white)
+
+
+def srgb_oetf(linear):
+    """Piecewise sRGB encoding (IEC 61966-2-1), input clipped to [0, 1]."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def srgb_eotf(encoded):
+    """Piecewise sRGB decoding, input clipped to [0, 1]."""
+    y = np.clip(np.asarray(encoded, dtype=np.float64), 0.0, 1.0)
+    return np.where(y <= 0.04045, y / 12.92, np.power((y + 0.055) / 1.055, 2.4))
+
+
+def gamma_oetf(linear, gamma=2.2):
+    """Pure power encoding x^(1/gamma), input clipped to [0, 1] (wrong in shadows vs sRGB)."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.power(x, 1.0 / gamma)
+
+
+def encode_srgb8(linear, exposure_ev=0.0, tonemap="aces"):
+    """Linear RGB -> uint8: x 2^EV, tone map, sRGB OETF, round(x * 255)."""
+    x = np.asarray(linear, dtype=np.float64) * (2.0 ** exposure_ev)
+    y = srgb_oetf(_apply_tonemap(x, tonemap))
+    return np.rint(y * 255.0).astype(np.uint8)
+
+
+# ---------------------------------------------------------------------------
+# Helpers for tests
+# ---------------------------------------------------------------------------
+
+def normalize(v):
+    """v / |v| along the last axis (0 stays 0)."""
+    v = np.asarray(v, dtype=np.float64)
+    norm = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+    return v / np.maximum(norm, _TINY)
+
+
+def reflect(v, n):
+    """GLSL reflect: v - 2 dot(n, v) n (v is the incident direction; use reflect(-V, N))."""
+    v = np.asarray(v, dtype=np.float64)
+    n = np.asarray(n, dtype=np.float64)
+    return v - 2.0 * np.sum(n * v, axis=-1, keepdims=True) * n
+
+
+def sample_sphere_cosine(rng, n):
+    """n cosine-weighted directions (n, 3) on the +z hemisphere (pdf = cos(theta) / pi)."""
+    u1 = rng.random(n)
+    u2 = rng.random(n)
+    s = np.sqrt(u1)
+    phi = 2.0 * np.pi * u2
+    return np.stack([s * np.cos(phi), s * np.sin(phi), np.sqrt(np.maximum(1.0 - u1, 0.0))], axis=-1)
