@@ -53,6 +53,13 @@ class _OSMesaLoader:
         if not lib.OSMesaMakeCurrent(self._ctx, self._buffer, 0x1401, 1, 1):
             raise GLUnavailable("OSMesa backend: OSMesaMakeCurrent failed")
 
+    def __enter__(self):
+        self._lib.OSMesaMakeCurrent(self._ctx, self._buffer, 0x1401, 1, 1)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass   # OSMesa keeps the context current; the next __enter__ of any context replaces it
+
     def load_opengl_function(self, name: str) -> int:
         return self._lib.OSMesaGetProcAddress(name.encode()) or 0
 

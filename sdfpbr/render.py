@@ -116,6 +116,10 @@ class Renderer:
         self.baker = IBLBaker(ctx, self.programs, self.cache)
 
     def render(self, spec: ChartSpec) -> RenderResult:
+        with self.ctx:   # make this context current: a process may hold EGL and OSMesa ones
+            return self._render(spec)
+
+    def _render(self, spec: ChartSpec) -> RenderResult:
         ctx = self.ctx
         t0 = time.perf_counter()
         timings = {}

@@ -120,7 +120,7 @@ class Quality:
     ibl_size: int = 128
     ibl_samples: int = 64
     dfg_size: int = 64
-    dfg_samples: int = 512
+    dfg_samples: int = 2048
     sh_size: int = 32
 
 

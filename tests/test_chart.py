@@ -1,0 +1,167 @@
+"""Rendered charts against properties derived independently of the renderer."""
+import numpy as np
+import pytest
+
+from sdfpbr import mirror
+from sdfpbr.spec import Light, make_spec
+
+FURNACE = dict(env="uniform", lights="none", shadows=False, ao=False, ground=False, base_color=(1.0, 1.0, 1.0),
+               width=256, height=256)
+
+
+def _interior(res, min_ndotv=0.15):
+    """Sphere pixels away from silhouettes (where a pixel mixes sphere and background)."""
+    return (res.aov["row"] >= 0) & (res.aov["ndotv"] > min_ndotv)
+
+
+@pytest.mark.parametrize("multiscatter", [True, False])
+def test_furnace_metal_row_matches_reference(renderer, multiscatter):
+    res = renderer.render(make_spec(**FURNACE, multiscatter=multiscatter))
+    m = _interior(res) & (res.aov["metallic"] == 1.0)
+    got = res.hdr[m]
+    if multiscatter:   # REFERENCE.md §3: a compensated white metal vanishes into the background
+        np.testing.assert_allclose(got, 1.0, atol=6e-3)
+    else:              # reads E(mu, r), the float64 directional albedo
+        e = sum(mirror.dfg_integrate(res.aov["ndotv"][m].astype(float), res.aov["roughness"][m].astype(float))[:2])
+        np.testing.assert_allclose(got[:, 0], e, atol=6e-3)
+        assert got[:, 0].min() < 0.5            # the loss is visible at r = 1
+
+
+def test_furnace_every_row_matches_split_sum_expectation(renderer):
+    res = renderer.render(make_spec(**FURNACE))
+    m = _interior(res)
+    want = mirror.furnace_expected(res.aov["ndotv"][m].astype(float), np.ones(3),
+                                   res.aov["metallic"][m].astype(float), res.aov["roughness"][m].astype(float))
+    np.testing.assert_allclose(res.hdr[m], want, atol=8e-3)
+
+
+def test_direct_light_matches_mirror_per_pixel(renderer):
+    """Black environment, one directional light of zero size: every sphere pixel equals
+    f(v, l) cos E from the float64 mirror, evaluated with the pixel's own normal."""
+    light = Light("directional", direction=(0.6, 0.5, 0.62), intensity=2.0)
+    spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
+                     multiscatter=False, camera="orthographic", width=192, height=192, rows=3, cols=4,
+                     base_color=(0.8, 0.5, 0.2))
+    res = renderer.render(spec)
+    m = _interior(res, 0.05)
+    n = res.aov["normal"][m].astype(float)
+    v = np.broadcast_to(-res.camera.forward, n.shape)
+    l = np.broadcast_to(np.array(light.direction), n.shape)
+    want = mirror.brdf(n, v, l, np.array(spec.base_color), res.aov["metallic"][m].astype(float),
+                       res.aov["roughness"][m].astype(float)) * np.clip((n * l).sum(1), 0, None)[:, None] * 2.0
+    np.testing.assert_allclose(res.hdr[m], want, rtol=5e-3, atol=2e-4)
+
+
+def test_metal_row_has_no_diffuse_under_back_light(renderer):
+    """Where the float64 mirror puts no specular energy but a Lambert body would be lit, the
+    metal row is black and the dielectric row is not."""
+    light = Light("directional", direction=(-0.8, 0.3, -0.52), intensity=3.0)   # behind, to the left
+    spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
+                     camera="orthographic", rows=2, cols=3, metallic=(0, 1), roughness=(0.2, 0.3),
+                     width=240, height=160, base_color=(1.0, 1.0, 1.0))
+    res = renderer.render(spec)
+    m = _interior(res, 0.1)
+    n = res.aov["normal"][m].astype(float)
+    v = np.broadcast_to(-res.camera.forward, n.shape)
+    l = np.broadcast_to(np.array(light.direction), n.shape)
+    cos = np.clip((n * l).sum(1), 0, None)
+    specular_only = mirror.brdf(n, v, l, np.ones(3), 1.0, res.aov["roughness"][m].astype(float))[:, 0] * cos * 3.0
+    lambert = cos / np.pi * 3.0
+    quiet = (specular_only < 2e-3) & (lambert > 0.1)
+    rows = res.aov["row"][m]
+    dielectric, metal = (res.hdr[m][quiet & (rows == row)] for row in (0, 1))
+    assert len(dielectric) > 10 and len(metal) > 10
+    assert dielectric.mean() > 0.1                   # the Lambert body catches the back light
+    assert metal.mean() < 0.05 * dielectric.mean()   # a metal has no body
+
+
+def test_highlight_narrows_and_brightens_towards_smooth(renderer):
+    light = Light("directional", direction=(0.3, 0.4, 0.87), intensity=3.0)
+    spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
+                     rows=1, cols=5, roughness=(0.15, 0.95), metallic=(1, 1), width=500, height=120,
+                     camera="orthographic")
+    res = renderer.render(spec)
+    peaks, areas = [], []
+    for col in range(5):
+        m = res.aov["col"] == col
+        lum = res.hdr[m].mean(1)
+        peaks.append(lum.max())
+        areas.append((lum > 0.5 * lum.max()).sum())
+    assert all(a > b for a, b in zip(peaks, peaks[1:])), peaks
+    assert all(a < b for a, b in zip(areas, areas[1:])), areas
+
+
+def test_aov_ndotv_matches_normals_and_view(renderer):
+    res = renderer.render(make_spec(width=160, height=160, rows=2, cols=2))
+    m = res.aov["row"] >= 0
+    h, w = res.hdr.shape[:2]
+    ys, xs = np.nonzero(m)
+    ndc = np.stack([2 * (xs + 0.5) / w - 1, 1 - 2 * (ys + 0.5) / h], 1)
+    cam = res.camera
+    rd = cam.forward + (ndc[:, :1] * w / h * cam.half_height) * cam.right + (ndc[:, 1:] * cam.half_height) * cam.up
+    rd /= np.linalg.norm(rd, axis=1, keepdims=True)
+    n = res.aov["normal"][m]
+    np.testing.assert_allclose(res.aov["ndotv"][m], -(n * rd).sum(1), atol=1e-4)
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    # The hit point lies on the sphere of its cell.
+    from sdfpbr.camera import sphere_centers
+    p = cam.position + rd * res.aov["depth"][m][:, None]
+    c = sphere_centers(res_spec := make_spec(width=160, height=160, rows=2, cols=2))[res.aov["row"][m], res.aov["col"][m]]
+    np.testing.assert_allclose(np.linalg.norm(p - c, axis=1), res_spec.sphere_radius, atol=1e-3)
+    assert np.isinf(res.aov["depth"][res.aov["ndotv"] == -1]).all()
+
+
+def test_marched_and_analytic_paths_agree(renderer):
+    base = dict(width=200, height=200, rows=3, cols=3)
+    a = renderer.render(make_spec(**base, intersect="analytic"))
+    b = renderer.render(make_spec(**base, intersect="march"))
+    same_cell = (a.aov["row"] == b.aov["row"]) & (a.aov["col"] == b.aov["col"])
+    # The marcher's hit threshold (half a pixel footprint) fattens silhouettes; every
+    # disagreement must be a grazing pixel.
+    grazing = (np.abs(a.aov["ndotv"]) < 0.25) | (np.abs(b.aov["ndotv"]) < 0.25)
+    assert (~same_cell <= grazing).all()
+    assert same_cell.mean() > 0.97
+    m = _interior(a, 0.2) & same_cell
+    normal_err = np.linalg.norm(a.aov["normal"][m] - b.aov["normal"][m], axis=1)
+    # Measured: median 1.8e-2 (tetrahedron normals at a one-pixel epsilon), see issue note.
+    assert np.median(normal_err) < 3e-2 and np.percentile(normal_err, 99) < 8e-2
+    rel = np.abs(a.hdr[m] - b.hdr[m]) / (a.hdr[m] + 1e-2)
+    # Measured 1.1e-2 median, 0.24 at the 99th percentile (normal error near silhouettes).
+    assert np.median(rel) < 2e-2 and np.percentile(rel, 99) < 0.3
+
+
+def test_no_nan_or_inf_at_the_edges(renderer):
+    spec = make_spec(width=128, height=128, roughness=(0, 1), metallic=(0, 1), rows=3, cols=3, spp=2,
+                     base_color=(0, 0, 0))
+    for s in (spec, make_spec(spec, base_color=(1, 1, 1), brdf="schlick-ggx"), make_spec(spec, multiscatter=False)):
+        res = renderer.render(s)
+        assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0
+
+
+def test_same_spec_same_pixels(renderer):
+    spec = make_spec(width=96, height=96, spp=2)
+    assert np.array_equal(renderer.render(spec).image, renderer.render(spec).image)
+
+
+def test_osmesa_backend_renders_the_same_chart(renderer, osmesa_renderer):
+    spec = make_spec(width=96, height=96, rows=2, cols=2)
+    a, b = renderer.render(spec), osmesa_renderer.render(spec)
+    assert osmesa_renderer.ctx.extra["backend"] == "osmesa"
+    assert np.abs(a.image.astype(int) - b.image.astype(int)).max() <= 1
+
+
+def test_transparent_background_has_zero_alpha(renderer):
+    res = renderer.render(make_spec(width=96, height=96, transparent=True, ground=False))
+    assert res.image[0, 0, 3] == 0
+    assert (res.image[..., 3][res.aov["ndotv"] > 0.3] == 255).all()
+
+
+def test_ibl_cache_on_disk_reproduces_the_bake(renderer, cache_dir):
+    from sdfpbr.cache import ArrayCache
+    from sdfpbr.gl import create_context
+    from sdfpbr.render import Renderer
+    spec = make_spec(width=64, height=64, env="sky")
+    first = renderer.render(spec)
+    assert any((cache_dir / "ibl").glob("*.npz"))
+    again = Renderer(create_context("egl"), ArrayCache(cache_dir)).render(spec)   # loads from disk
+    assert np.array_equal(first.image, again.image)

@@ -1,0 +1,92 @@
+"""The command line: bad input is one line and exit status 2, and never touches the output."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sdfpbr.compose import compose
+from sdfpbr.render import chart_source
+from sdfpbr.spec import make_spec
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["chart", "--rowz", "3"], "did you mean --rows"),
+    (["chart", "--rows", "0"], "rows must be in [1, 64]"),
+    (["chart", "--tonemap", "acse"], "did you mean 'aces'"),
+    (["chart", "--roughness", "0-1"], "LO:HI"),
+    (["chart", "--env", "nowhere.exr"], "does not exist"),
+    (["chart", "--size", "big"], "WxH"),
+])
+def test_bad_input_is_one_line_exit_2_no_file(tmp_path, args, needle):
+    out = tmp_path / "chart.png"
+    out.write_bytes(b"keep me")
+    r = run(*args, "-o", str(out))
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr and "Traceback" not in r.stderr
+    assert out.read_bytes() == b"keep me"
+
+
+def test_bad_toml_key_and_malformed_toml(tmp_path):
+    bad_key = tmp_path / "a.toml"
+    bad_key.write_text('roughnes = "0:1"\n')
+    r = run("chart", "--spec", str(bad_key), "-o", str(tmp_path / "x.png"))
+    assert r.returncode == 2 and "did you mean 'roughness'" in r.stderr
+    broken = tmp_path / "b.toml"
+    broken.write_text("rows = = 3\n")
+    r = run("chart", "--spec", str(broken), "-o", str(tmp_path / "x.png"))
+    assert r.returncode == 2 and "malformed TOML" in r.stderr
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_unwritable_output_is_refused_before_rendering(tmp_path):
+    r = run("chart", "-o", str(tmp_path / "missing" / "x.png"))
+    assert r.returncode == 2 and "does not exist" in r.stderr
+
+
+def test_furnace_chart_with_hdr_and_aov_from_the_cli(tmp_path):
+    """The issue's furnace check, end to end: white metals read 1 with compensation."""
+    png, hdr, aov = tmp_path / "f.png", tmp_path / "f.npy", tmp_path / "f.npz"
+    r = run("chart", "--env", "uniform", "--lights", "none", "--no-shadows", "--no-ao", "--no-ground",
+            "--base-color", "1,1,1", "--size", "200x200", "-o", str(png), "--hdr", str(hdr), "--aov", str(aov))
+    assert r.returncode == 0, r.stderr
+    radiance, a = np.load(hdr), np.load(aov)
+    assert radiance.shape == (200, 200, 3) and radiance.dtype == np.float32
+    metal = (a["metallic"] == 1.0) & (a["ndotv"] > 0.15)
+    np.testing.assert_allclose(radiance[metal], 1.0, atol=6e-3)
+    assert set(a.files) == {"normal", "depth", "row", "col", "roughness", "metallic", "ndotv"}
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_shader_command_from_another_directory(tmp_path):
+    r = run("shader", "--no-ground", "--no-ao", "--lights", "none", cwd=tmp_path)
+    assert r.returncode == 0 and r.stdout.startswith("#version 450")
+
+
+def test_features_left_out_are_absent_from_the_source():
+    full = chart_source(make_spec()).text
+    bare = chart_source(make_spec(ground=False, ao=False, lights="none")).text
+    for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light", "brdf_cos(m"):
+        assert needle in full and needle not in bare, needle
+
+
+def test_composer_refuses_unknown_options_and_maps_errors(tmp_path, renderer):
+    with pytest.raises(ValueError, match="allowed"):
+        compose("display_main.glsl", {"TONEMAP": "filmic"})
+    with pytest.raises(ValueError, match="unknown shader option"):
+        compose("display_main.glsl", {"TONEMAPPER": "aces"})
+    (tmp_path / "broken.glsl").write_text("void f() {\n  float x = ;\n}\n")
+    (tmp_path / "main.glsl").write_text('#include "broken.glsl"\nvoid main() {}\n')
+    from sdfpbr.errors import ShaderCompileError
+    with renderer.ctx, pytest.raises(ShaderCompileError, match=r"broken\.glsl:2"):
+        renderer.programs.fragment(compose("main.glsl", root=tmp_path))
+
+
+def test_doctor_reports_both_backends():
+    r = run("doctor")
+    assert r.returncode == 0
+    assert "egl     ok" in r.stdout and "osmesa  ok" in r.stdout
