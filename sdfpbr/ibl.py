@@ -14,7 +14,7 @@ from .cache import ArrayCache, content_key
 from .compose import compose
 from .errors import SpecError
 from .programs import ProgramCache, set_uniforms
-from .spec import ChartSpec, Quality
+from .spec import ENV_PRESETS, ChartSpec, Quality
 
 DEFAULT_SUN = (0.55, 0.6, 0.58)
 LOCAL = 8   # compute work-group edge
@@ -55,7 +55,7 @@ def load_env_file(path: str | Path) -> np.ndarray:
 
 
 def env_option(spec: ChartSpec) -> str:
-    return spec.env if spec.env in ("studio", "sky", "uniform", "black") else "file"
+    return spec.env if spec.env in ENV_PRESETS else "file"
 
 
 def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:

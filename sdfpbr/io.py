@@ -32,17 +32,16 @@ def check_writable(path: str | Path, suffixes: tuple[str, ...] | None = None, wh
 
 
 @contextmanager
-def atomic_file(path: str | Path):
+def atomic_path(path: str | Path, suffix: str = ".tmp"):
+    """Yield a temporary path beside ``path``; rename it into place only if the block succeeds."""
     p = Path(path)
     try:
-        fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.", suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.", suffix=suffix)
+        os.close(fd)
     except OSError as exc:
         raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
     try:
-        with os.fdopen(fd, "wb") as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
+        yield tmp
         os.chmod(tmp, 0o644)
         os.replace(tmp, p)
     except OSError as exc:
@@ -51,6 +50,14 @@ def atomic_file(path: str | Path):
     except BaseException:
         _unlink(tmp)
         raise
+
+
+@contextmanager
+def atomic_file(path: str | Path):
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        yield f
+        f.flush()
+        os.fsync(f.fileno())
 
 
 def _unlink(path: str) -> None:
@@ -88,19 +95,8 @@ def write_hdr(path: str | Path, hdr: np.ndarray) -> None:
     except ImportError:
         raise SpecError("writing .exr needs OpenEXR: pip install 'sdfpbr[exr]' (or use .npy)") from None
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.", suffix=".exr")
-    os.close(fd)
-    try:
-        with OpenEXR.File(header, {"RGB": hdr}) as f:
-            f.write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, p)
-    except OSError as exc:
-        _unlink(tmp)
-        raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
-    except BaseException:
-        _unlink(tmp)
-        raise
+    with atomic_path(p, ".exr") as tmp, OpenEXR.File(header, {"RGB": hdr}) as f:
+        f.write(tmp)
 
 
 def write_npz(path: str | Path, arrays: dict[str, np.ndarray]) -> None:

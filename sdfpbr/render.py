@@ -14,7 +14,7 @@ import numpy as np
 from . import camera as camera_mod
 from .cache import ArrayCache
 from .compose import ComposedSource, compose
-from .ibl import IBLBaker, make_environment
+from .ibl import IBLBaker, env_option, make_environment
 from .programs import ProgramCache, set_uniforms
 from .spec import ChartSpec
 
@@ -29,7 +29,7 @@ def chart_options(spec: ChartSpec) -> dict:
     q = spec.quality_settings()
     opts = {
         "BRDF_MODEL": spec.brdf.replace("-", "_"),
-        "ENV": "file" if spec.env not in ("studio", "sky", "uniform", "black") else spec.env,
+        "ENV": env_option(spec),
         "CAMERA": spec.camera,
         "INTERSECT": "analytic" if spec.uses_analytic_intersection() else "march",
         "HAS_GROUND": spec.ground,
