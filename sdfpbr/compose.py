@@ -43,7 +43,9 @@ def shader_dir() -> Path:
     here = Path(__file__).resolve().parent.parent / "shaders"
     if (here / "common.glsl").is_file():
         return here
-    return Path(str(resources.files("sdfpbr.shaders")))
+    # sdfpbr.shaders is a namespace package (no __init__), whose files() is a MultiplexedPath;
+    # going through the regular parent package yields a plain filesystem path.
+    return Path(resources.files("sdfpbr").joinpath("shaders"))
 
 
 def validate_options(options: Mapping[str, Value]) -> dict[str, Value]:
