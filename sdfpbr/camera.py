@@ -10,7 +10,6 @@ import numpy as np
 from .spec import ChartSpec
 
 FOV_Y_DEG = 30.0
-ELEVATION_DEG = 8.0     # look slightly down so the ground reads as a floor
 MARGIN = 1.06
 
 
@@ -63,9 +62,10 @@ def frame_grid(spec: ChartSpec) -> Camera:
     half_h = 0.5 * (spec.rows - 1) * spec.spacing + spec.sphere_radius
     aspect = spec.width / spec.height
     need = max(half_h, half_w / aspect) * MARGIN
-    elev = math.radians(ELEVATION_DEG)
-    forward = np.array([0.0, -math.sin(elev), -math.cos(elev)])
-    right = np.array([1.0, 0.0, 0.0])
+    elev, azim = math.radians(spec.camera_elevation), math.radians(spec.camera_azimuth)
+    # Azimuth 0 looks down -z at the grid's front; positive azimuth orbits towards +x.
+    forward = np.array([-math.sin(azim) * math.cos(elev), -math.sin(elev), -math.cos(azim) * math.cos(elev)])
+    right = np.array([math.cos(azim), 0.0, -math.sin(azim)])
     up = np.cross(right, forward)
     if spec.camera == "orthographic":
         position = -forward * (need * 4.0 + 4.0 * spec.sphere_radius)

@@ -26,7 +26,8 @@ class _Parser(argparse.ArgumentParser):
         raise SpecError(f"{self.prog}: {message}")
 
 
-def _add_chart_options(p: argparse.ArgumentParser) -> None:
+def add_chart_options(p: argparse.ArgumentParser) -> None:
+    """The spec flags every rendering command shares (chart, shader, reference, compare, ...)."""
     p.add_argument("--spec", metavar="FILE.toml", help="a TOML spec; flags given here override it")
     p.add_argument("--rows", type=int)
     p.add_argument("--cols", type=int)
@@ -52,6 +53,8 @@ def _add_chart_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--intersect", help="auto, analytic or march")
     p.add_argument("--quality", help="draft, default or high")
     p.add_argument("--transparent", action="store_true", default=None, help="transparent background")
+    p.add_argument("--azimuth", dest="camera_azimuth", type=float, metavar="DEG", help="camera orbit angle around the grid (default 0)")
+    p.add_argument("--elevation", dest="camera_elevation", type=float, metavar="DEG", help="camera elevation (default 8)")
     p.add_argument("--title")
     p.add_argument("--backend", help="auto (EGL, then OSMesa), egl or osmesa")
     p.add_argument("--device-index", type=int, help="EGL device by enumeration order")
@@ -63,7 +66,8 @@ def spec_from_args(args: argparse.Namespace):
     o = {}
     for name in ("rows", "cols", "env", "env_intensity", "lights", "shadows", "ao", "ground", "ibl",
                  "multiscatter", "labels", "tonemap", "exposure", "spp", "brdf", "camera", "intersect",
-                 "quality", "transparent", "title", "backend", "device_index"):
+                 "quality", "transparent", "title", "backend", "device_index", "camera_azimuth",
+                 "camera_elevation"):
         value = getattr(args, name)
         if value is not None:
             o[name] = value
@@ -134,17 +138,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
     p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv")
     p.add_argument("-v", "--verbose", action="store_true")
-    _add_chart_options(p)
+    add_chart_options(p)
     p.set_defaults(run=cmd_chart)
 
     p = sub.add_parser("shader", help="print the composed fragment shader for a spec")
     p.add_argument("--display", action="store_true", help="the tone-mapping program instead of the chart program")
-    _add_chart_options(p)
+    add_chart_options(p)
     p.set_defaults(run=cmd_shader)
 
     p = sub.add_parser("doctor", help="try each GL backend and report what it gives")
     p.add_argument("--device-index", type=int)
     p.set_defaults(run=cmd_doctor)
+
+    # Further subcommands live one per module in sdfpbr/commands/: each has
+    # register(subparsers) that adds its parser and sets run=.
+    import importlib
+    import pkgutil
+    from . import commands
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
+        importlib.import_module(f"{commands.__name__}.{info.name}").register(sub)
     return parser
 
 

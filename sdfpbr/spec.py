@@ -157,6 +157,8 @@ class ChartSpec:
     multiscatter: bool = True
     brdf: str = "gltf"
     camera: str = "perspective"
+    camera_azimuth: float = 0.0                       # degrees, orbit around the grid's vertical axis
+    camera_elevation: float = 8.0                     # degrees; slightly down so the ground reads as a floor
     intersect: str = "auto"
     sphere_radius: float = 1.0
     spacing: float = 2.5
@@ -218,6 +220,8 @@ class ChartSpec:
         s(self, "spp", _number(self.spp, "spp", 1, 1024, integer=True))
         s(self, "brdf", _choice(self.brdf, "brdf", BRDF_MODELS))
         s(self, "camera", _choice(self.camera, "camera", CAMERAS))
+        s(self, "camera_azimuth", _number(self.camera_azimuth, "camera_azimuth", -3600.0, 3600.0))
+        s(self, "camera_elevation", _number(self.camera_elevation, "camera_elevation", -89.0, 89.0))
         s(self, "intersect", _choice(self.intersect, "intersect", INTERSECT_METHODS))
         s(self, "sphere_radius", _number(self.sphere_radius, "sphere_radius", 1e-4, 1e4))
         s(self, "spacing", _number(self.spacing, "spacing", 1e-4, 1e6))
