@@ -68,8 +68,8 @@ def frame_grid(spec: ChartSpec) -> Camera:
     right = np.array([math.cos(azim), 0.0, -math.sin(azim)])
     up = np.cross(right, forward)
     if spec.camera == "orthographic":
-        position = -forward * (need * 4.0 + 4.0 * spec.sphere_radius)
+        position = -forward * (need * 4.0 + 4.0 * spec.sphere_radius) * spec.camera_distance_scale
         return Camera(position, right, up, forward, need, True, spec.width, spec.height)
     tan_half = math.tan(math.radians(FOV_Y_DEG) / 2)
-    distance = need / tan_half + spec.sphere_radius
+    distance = (need / tan_half + spec.sphere_radius) * spec.camera_distance_scale
     return Camera(-forward * distance, right, up, forward, tan_half, False, spec.width, spec.height)

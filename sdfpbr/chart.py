@@ -67,7 +67,11 @@ class Chart:
 def footer_text(spec: ChartSpec) -> str:
     env = spec.env if len(spec.env) < 40 else "…" + spec.env[-38:]
     parts = [f"tone map {spec.tonemap}", f"exposure {spec.exposure:+g} EV", f"env {env}",
-             f"BRDF {spec.brdf}" + ("" if spec.multiscatter else " (single scatter)"), f"{spec.spp} spp"]
+             f"BRDF {spec.brdf_model()}" + ("" if spec.multiscatter else " (single scatter)"), f"{spec.spp} spp"]
+    if spec.quality != "default":
+        parts.append(f"quality {spec.quality}")
+    if spec.bugs:
+        parts.append("BUG: " + ", ".join(spec.bugs))
     return "  |  ".join(parts)
 
 

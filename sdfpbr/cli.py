@@ -51,7 +51,13 @@ def add_chart_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--brdf", help="gltf (default) or schlick-ggx")
     p.add_argument("--camera", help="perspective or orthographic")
     p.add_argument("--intersect", help="auto, analytic or march")
-    p.add_argument("--quality", help="draft, default or high")
+    p.add_argument("--quality", help="draft, default, high, or seed002 (shared seed 002's approach)")
+    p.add_argument("--bug", dest="bugs", action="append", metavar="NAME",
+                   help="switch on a catalogued PBR mistake (repeatable; `sdfpbr bugs` lists them)")
+    p.add_argument("--textures", help="none or procedural (riveted panels: normal, ORM, base colour maps)")
+    p.add_argument("--base-color-texture", metavar="PNG", help="sRGB base colour map for the spheres")
+    p.add_argument("--orm-texture", metavar="PNG", help="linear occlusion/roughness/metallic map")
+    p.add_argument("--normal-texture", metavar="PNG", help="linear tangent-space normal map, OpenGL +Y")
     p.add_argument("--transparent", action="store_true", default=None, help="transparent background")
     p.add_argument("--azimuth", dest="camera_azimuth", type=float, metavar="DEG", help="camera orbit angle around the grid (default 0)")
     p.add_argument("--elevation", dest="camera_elevation", type=float, metavar="DEG", help="camera elevation (default 8)")
@@ -67,7 +73,7 @@ def spec_from_args(args: argparse.Namespace):
     for name in ("rows", "cols", "env", "env_intensity", "lights", "shadows", "ao", "ground", "ibl",
                  "multiscatter", "labels", "tonemap", "exposure", "spp", "brdf", "camera", "intersect",
                  "quality", "transparent", "title", "backend", "device_index", "camera_azimuth",
-                 "camera_elevation"):
+                 "camera_elevation", "textures", "base_color_texture", "orm_texture", "normal_texture"):
         value = getattr(args, name)
         if value is not None:
             o[name] = value
@@ -79,6 +85,8 @@ def spec_from_args(args: argparse.Namespace):
         o["metallic"] = parse_range(args.metallic, "--metallic")
     if args.base_color:
         o["base_color"] = parse_color(args.base_color)
+    if args.bugs:
+        o["bugs"] = tuple(base.bugs) + tuple(b for b in args.bugs if b not in base.bugs)
     if args.materials:
         o["row_materials"] = tuple(m.strip() for m in args.materials.split(","))
         o.setdefault("rows", len(o["row_materials"]))
@@ -86,6 +94,9 @@ def spec_from_args(args: argparse.Namespace):
 
 
 def cmd_chart(args) -> int:
+    if args.frames is not None:
+        from .animate import cmd_chart_animation
+        return cmd_chart_animation(args)
     from .chart import chart
     from .io import HDR_SUFFIXES, check_writable
     spec = spec_from_args(args)
@@ -138,6 +149,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
     p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv")
     p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("--frames", type=int, metavar="N", help="render an N-frame orbit animation instead (-o .gif, .webp or .mp4)")
+    p.add_argument("--orbit", choices=("light", "camera"), default="light", help="what turns in the animation (default light)")
+    p.add_argument("--fps", type=float, default=15.0, help="animation frames per second (default 15)")
     add_chart_options(p)
     p.set_defaults(run=cmd_chart)
 

@@ -10,12 +10,14 @@ fails in Python, before GLSL sees it. ``#line`` directives map compiler messages
 from __future__ import annotations
 
 import hashlib
+import os
 import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Mapping
 
+from .bugs import BUG_DEFINES
 from .errors import ShaderCompileError
 
 GLSL_VERSION = "#version 450 core"
@@ -30,16 +32,21 @@ OPTIONS: dict[str, tuple[str, ...]] = {
     "COPY_DIRECTION": ("to_cube", "from_cube"),
     "INTERSECT": ("analytic", "march"),
     "AO_METHOD": ("analytic", "sdf"),
+    "SCENE_SDF": ("nearest_cell", "all_spheres"),
 }
 # Options that are on/off switches or counts, emitted as #define for the GLSL code.
-FLAGS = ("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT")
+FLAGS = ("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT", "USE_TEXTURES", "HALF_RADIANCE") + BUG_DEFINES
 COUNTS = ("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS")
 
 Value = str | int | bool
 
 
 def shader_dir() -> Path:
-    """shaders/ beside the package in a source tree, else the installed sdfpbr.shaders data."""
+    """$SDFPBR_SHADER_DIR if set (tests edit a copy of the modules), else shaders/ beside the
+    package in a source tree, else the installed sdfpbr.shaders data."""
+    override = os.environ.get("SDFPBR_SHADER_DIR")
+    if override:
+        return Path(override)
     here = Path(__file__).resolve().parent.parent / "shaders"
     if (here / "common.glsl").is_file():
         return here
@@ -109,7 +116,9 @@ class _Preprocessor:
                 python.append(m.group("num"))
             elif m.group("name"):
                 name = m.group("name")
-                if name.isupper() or name in self.options:
+                if name in BUG_DEFINES and name not in self.options:
+                    python.append("False")   # a bug is off unless a spec names it
+                elif name.isupper() or name in self.options:
                     if name not in self.options:
                         raise ValueError(f"{where}: condition uses {name}, which the composer did not define")
                     python.append(repr(self.options[name]))

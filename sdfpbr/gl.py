@@ -104,7 +104,8 @@ def create_context(backend: str = "auto", device_index: int = 0) -> moderngl.Con
 
 
 def renderer_string(ctx: moderngl.Context) -> str:
-    return f"{ctx.info['GL_RENDERER']} | {ctx.info['GL_VERSION']}"
+    with ctx:   # ctx.info calls glGetString, which answers "" unless the context is current
+        return f"{ctx.info['GL_RENDERER']} | {ctx.info['GL_VERSION']}"
 
 
 @dataclass(frozen=True)

@@ -106,8 +106,12 @@ class IBLBaker:
         self._lighting: dict[str, EnvironmentLighting] = {}
 
     # ---- DFG LUT -------------------------------------------------------------------------
-    def dfg(self, brdf: str, quality: Quality) -> moderngl.Texture:
-        source = compose("dfg_main.glsl", {"BRDF_MODEL": brdf.replace("-", "_")})
+    def dfg(self, brdf: str, quality: Quality, direct_k_bug: bool = False) -> moderngl.Texture:
+        """direct_k_bug builds the LUT with the direct-light Schlick k (the ibl-direct-k bug)."""
+        opts = {"BRDF_MODEL": brdf.replace("-", "_")}
+        if direct_k_bug:
+            opts["BUG_IBL_DIRECT_K"] = True
+        source = compose("dfg_main.glsl", opts)
         size, samples = quality.dfg_size, quality.dfg_samples
         key = content_key(source.text, size, samples)
         if key not in self._dfg:

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import camera as camera_mod
 from .cache import ArrayCache
+from .bugs import bug_options
 from .compose import ComposedSource, compose
 from .ibl import IBLBaker, env_option, make_environment
 from .programs import ProgramCache, set_uniforms
@@ -28,7 +29,7 @@ def chart_options(spec: ChartSpec) -> dict:
     point = sum(1 for l in spec.lights if l.kind == "point")
     q = spec.quality_settings()
     opts = {
-        "BRDF_MODEL": spec.brdf.replace("-", "_"),
+        "BRDF_MODEL": spec.brdf_model().replace("-", "_"),
         "ENV": env_option(spec),
         "CAMERA": spec.camera,
         "INTERSECT": "analytic" if spec.uses_analytic_intersection() else "march",
@@ -42,11 +43,15 @@ def chart_options(spec: ChartSpec) -> dict:
         "NUM_DIR_LIGHTS": directional,
         "NUM_POINT_LIGHTS": point,
         "GRID_ROWS": spec.rows,
+        "HALF_RADIANCE": spec.hdr_precision == "float16",
+        "USE_TEXTURES": spec.uses_textures(),
+        "SCENE_SDF": q.scene_sdf,
     }
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
+    opts.update(bug_options(spec.active_bugs(), "chart"))
     return opts
 
 
@@ -55,7 +60,9 @@ def chart_source(spec: ChartSpec) -> ComposedSource:
 
 
 def display_source(spec: ChartSpec) -> ComposedSource:
-    return compose("display_main.glsl", {"TONEMAP": spec.tonemap.replace("-", "_"), "TRANSPARENT": spec.transparent})
+    opts = {"TONEMAP": spec.tonemap.replace("-", "_"), "TRANSPARENT": spec.transparent}
+    opts.update(bug_options(spec.active_bugs(), "display"))
+    return compose("display_main.glsl", opts)
 
 
 def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera) -> dict:
@@ -78,6 +85,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera) -> dict:
         "u_march_steps": q.march_steps,
         "u_march_far": float(np.linalg.norm(cam.position)) + 4.0 * scene_size,
         "u_hit_scale": q.hit_scale,
+        "u_hit_epsilon": q.hit_epsilon,
         "u_shadow_steps": q.shadow_steps,
         "u_shadow_far": 2.0 * scene_size,
         "u_ao_taps": q.ao_taps,
@@ -109,17 +117,20 @@ class RenderResult:
 class Renderer:
     """Renders specs on one context; programs, LUTs and IBL bakes are reused across renders."""
 
-    def __init__(self, ctx: moderngl.Context, cache: ArrayCache | None = None):
+    def __init__(self, ctx: moderngl.Context, cache: ArrayCache | None = None, tile: int | None = None):
         self.ctx = ctx
         self.programs = ProgramCache(ctx)
         self.cache = cache or ArrayCache()
         self.baker = IBLBaker(ctx, self.programs, self.cache)
+        # Tiles never exceed what the context can render into; images larger than that are tiled.
+        self.tile = min(tile or TILE, ctx.info["GL_MAX_TEXTURE_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])
 
-    def render(self, spec: ChartSpec) -> RenderResult:
+    def render(self, spec: ChartSpec, aovs: bool = True) -> RenderResult:
+        """aovs=False skips reading back the AOV targets (28 bytes a pixel): result.aov is empty."""
         with self.ctx:   # make this context current: a process may hold EGL and OSMesa ones
-            return self._render(spec)
+            return self._render(spec, aovs)
 
-    def _render(self, spec: ChartSpec) -> RenderResult:
+    def _render(self, spec: ChartSpec, aovs: bool = True) -> RenderResult:
         ctx = self.ctx
         t0 = time.perf_counter()
         timings = {}
@@ -134,13 +145,19 @@ class Renderer:
         q = spec.quality_settings()
         uniforms = chart_uniforms(spec, cam)
         uniforms.update(env.uniforms)
-        textures = [("u_dfg", self.baker.dfg(spec.brdf, q))]
-        if spec.ibl:
-            lighting = self.baker.lighting(env, q, spec.brdf)
+        options = dict(source.options)
+        textures = [("u_dfg", self.baker.dfg(options["BRDF_MODEL"], q, options.get("BUG_IBL_DIRECT_K", False)))]
+        if spec.ibl and not options.get("BUG_FEWTAP_IBL", False):
+            lighting = self.baker.lighting(env, q, options["BRDF_MODEL"])
             uniforms.update(lighting.uniforms())
             textures.append(("u_prefiltered", lighting.prefiltered))
         if env.texture is not None:
             textures.append(("u_env_map", env.texture))
+        surface_maps = {}
+        if options["USE_TEXTURES"]:
+            from .textures import texture_set, upload
+            surface_maps = upload(ctx, texture_set(spec))
+            textures.extend(surface_maps.items())
         for unit, (name, tex) in enumerate(textures):
             tex.use(unit)
             uniforms[name] = unit
@@ -149,17 +166,24 @@ class Renderer:
         timings["setup_s"] = time.perf_counter() - t1
 
         t2 = time.perf_counter()
-        W, H = spec.width, spec.height
-        radiance = np.empty((H, W, 4), np.float32)
-        normal_depth = np.empty((H, W, 4), np.float32)
-        cells = np.empty((H, W, 4), np.float32)
+        W, H, tile = spec.width, spec.height, self.tile
+        # Tiles are read straight into the final arrays: no full-size 4-channel staging copies.
+        hdr = np.empty((H, W, 3), np.float32)
+        alpha = np.empty((H, W), np.float32)
         image = np.empty((H, W, 4), np.uint8)
+        if aovs:
+            normal = np.empty((H, W, 3), np.float32)
+            depth = np.empty((H, W), np.float32)
+            col = np.empty((H, W), np.int32)
+            row = np.empty((H, W), np.int32)
+            ndotv = np.empty((H, W), np.float32)
+        half = spec.hdr_precision == "float16"
         vao = ctx.vertex_array(program, [])
         display_vao = ctx.vertex_array(display, [])
-        for y0 in range(0, H, TILE):
-            for x0 in range(0, W, TILE):
-                tw, th = min(TILE, W - x0), min(TILE, H - y0)
-                targets = [ctx.texture((tw, th), 4, dtype="f4") for _ in range(3)]
+        for y0 in range(0, H, tile):
+            for x0 in range(0, W, tile):
+                tw, th = min(tile, W - x0), min(tile, H - y0)
+                targets = [ctx.texture((tw, th), 4, dtype="f2" if half and k == 0 else "f4") for k in range(3)]
                 fbo = ctx.framebuffer(color_attachments=targets)
                 fbo.use()
                 program["u_tile_origin"].value = (x0, y0)
@@ -173,8 +197,17 @@ class Renderer:
                 # GL rows run bottom-up; tile (x0, y0) counts from the bottom-left.
                 rows = slice(H - y0 - th, H - y0)
                 cols = slice(x0, x0 + tw)
-                for dest, tex in ((radiance, targets[0]), (normal_depth, targets[1]), (cells, targets[2])):
-                    dest[rows, cols] = np.frombuffer(tex.read(), np.float32).reshape(th, tw, 4)[::-1]
+                radiance = np.frombuffer(targets[0].read(), np.float16 if half else np.float32).reshape(th, tw, 4)[::-1]
+                hdr[rows, cols] = radiance[..., :3]
+                alpha[rows, cols] = radiance[..., 3]
+                if aovs:
+                    normal_depth = np.frombuffer(targets[1].read(), np.float32).reshape(th, tw, 4)[::-1]
+                    normal[rows, cols] = normal_depth[..., :3]
+                    depth[rows, cols] = normal_depth[..., 3]
+                    cells = np.frombuffer(targets[2].read(), np.float32).reshape(th, tw, 4)[::-1]
+                    col[rows, cols] = np.rint(cells[..., 0])
+                    row[rows, cols] = np.rint(cells[..., 1])
+                    ndotv[rows, cols] = cells[..., 2]
                 image[rows, cols] = np.frombuffer(ldr.read(), np.uint8).reshape(th, tw, 4)[::-1]
                 for obj in (*targets, fbo, ldr, ldr_fbo):
                     obj.release()
@@ -183,25 +216,21 @@ class Renderer:
         timings["render_s"] = time.perf_counter() - t2
         if env.texture is not None:
             env.texture.release()
+        for tex in surface_maps.values():
+            tex.release()
 
-        aov = self._aovs(spec, normal_depth, cells)
-        return RenderResult(radiance[..., :3].copy(), radiance[..., 3].copy(), image, aov, cam, source, timings)
+        aov = self._aovs(spec, normal, depth, col, row, ndotv) if aovs else {}
+        return RenderResult(hdr, alpha, image, aov, cam, source, timings)
 
     @staticmethod
-    def _aovs(spec: ChartSpec, normal_depth: np.ndarray, cells: np.ndarray) -> dict:
-        col = np.rint(cells[..., 0]).astype(np.int32)
-        row = np.rint(cells[..., 1]).astype(np.int32)
+    def _aovs(spec: ChartSpec, normal, depth, col, row, ndotv) -> dict:
         sphere = (row >= 0) & (col >= 0)
-        rough = np.asarray(spec.column_roughness(), np.float32)
-        metal = np.asarray(spec.row_metallic(), np.float32)
-        roughness = np.where(sphere, rough[np.clip(col, 0, None)], np.nan).astype(np.float32)
-        metallic = np.where(sphere, metal[np.clip(row, 0, None)], np.nan).astype(np.float32)
-        return {
-            "normal": normal_depth[..., :3].copy(),
-            "depth": normal_depth[..., 3].copy(),
-            "row": np.where(sphere, row, -1).astype(np.int32),
-            "col": np.where(sphere, col, -1).astype(np.int32),
-            "roughness": roughness,
-            "metallic": metallic,
-            "ndotv": cells[..., 2].copy(),
-        }
+        col[~sphere] = -1
+        row[~sphere] = -1
+        # Filled through the mask, so no full-size temporaries beyond the outputs.
+        roughness = np.full(row.shape, np.nan, np.float32)
+        metallic = np.full(row.shape, np.nan, np.float32)
+        roughness[sphere] = np.asarray(spec.column_roughness(), np.float32)[col[sphere]]
+        metallic[sphere] = np.asarray(spec.row_metallic(), np.float32)[row[sphere]]
+        return {"normal": normal, "depth": depth, "row": row, "col": col,
+                "roughness": roughness, "metallic": metallic, "ndotv": ndotv}

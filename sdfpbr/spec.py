@@ -29,8 +29,10 @@ BRDF_MODELS = ("gltf", "schlick-ggx")
 CAMERAS = ("perspective", "orthographic")
 INTERSECT_METHODS = ("auto", "analytic", "march")
 BACKENDS = ("auto", "egl", "osmesa")
+TEXTURE_MODES = ("none", "procedural")
 LIGHT_KINDS = ("directional", "point")
 NORMAL_METHODS = ("tetrahedron", "central")
+HDR_PRECISIONS = ("float32", "float16")   # the float format of the radiance target
 MAX_GRID = 64
 MAX_SIZE = 16384 * 4
 
@@ -122,6 +124,11 @@ class Quality:
     dfg_size: int = 64
     dfg_samples: int = 2048
     sh_size: int = 32
+    scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
+    hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
+    intersect: str = ""              # forces "march" or "analytic"; "" follows the spec
+    brdf: str = ""                   # forces a BRDF model; "" follows the spec
+    implied_bugs: tuple[str, ...] = ()   # shortcuts a preset takes on purpose (seed002)
 
 
 QUALITY_PRESETS: dict[str, Quality] = {
@@ -130,6 +137,13 @@ QUALITY_PRESETS: dict[str, Quality] = {
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
                     ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048),
+    # The approach of shared seed 002 on our scene: every sphere in the SDF, 100 steps to a fixed
+    # 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
+    # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
+    "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
+                       shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
+                       intersect="march", brdf="schlick-ggx",
+                       implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
 }
 
 
@@ -154,11 +168,13 @@ class ChartSpec:
     exposure: float = 0.0                             # EV
     reinhard_white: float = 4.0
     spp: int = 1
+    hdr_precision: str = "float32"                    # float16: half-float radiance target, clamped to 65504
     multiscatter: bool = True
     brdf: str = "gltf"
     camera: str = "perspective"
     camera_azimuth: float = 0.0                       # degrees, orbit around the grid's vertical axis
     camera_elevation: float = 8.0                     # degrees; slightly down so the ground reads as a floor
+    camera_distance_scale: float = 1.0                # multiplies the framing distance (1: the grid fills the view)
     intersect: str = "auto"
     sphere_radius: float = 1.0
     spacing: float = 2.5
@@ -170,6 +186,11 @@ class ChartSpec:
     ground_color: tuple[float, float, float] = (0.18, 0.18, 0.18)
     ground_roughness: float = 0.8
     labels: bool = True
+    bugs: tuple[str, ...] = ()                        # names from sdfpbr.bugs.BUGS, switched on
+    textures: str = "none"                            # none | procedural (normal, ORM, base colour maps)
+    base_color_texture: str = ""                      # PNG, sRGB; replaces the procedural one
+    orm_texture: str = ""                             # PNG, linear: R occlusion, G roughness, B metallic
+    normal_texture: str = ""                          # PNG, linear tangent space, OpenGL (+Y up)
 
     def __post_init__(self):
         s = object.__setattr__
@@ -222,6 +243,8 @@ class ChartSpec:
         s(self, "camera", _choice(self.camera, "camera", CAMERAS))
         s(self, "camera_azimuth", _number(self.camera_azimuth, "camera_azimuth", -3600.0, 3600.0))
         s(self, "camera_elevation", _number(self.camera_elevation, "camera_elevation", -89.0, 89.0))
+        s(self, "camera_distance_scale", _number(self.camera_distance_scale, "camera_distance_scale", 1e-3, 1e3))
+        s(self, "hdr_precision", _choice(self.hdr_precision, "hdr_precision", HDR_PRECISIONS))
         s(self, "intersect", _choice(self.intersect, "intersect", INTERSECT_METHODS))
         s(self, "sphere_radius", _number(self.sphere_radius, "sphere_radius", 1e-4, 1e4))
         s(self, "spacing", _number(self.spacing, "spacing", 1e-4, 1e6))
@@ -232,6 +255,18 @@ class ChartSpec:
         s(self, "device_index", _number(self.device_index, "device_index", 0, 64, integer=True))
         s(self, "ground_color", _vec3(self.ground_color, "ground_color"))
         s(self, "ground_roughness", _number(self.ground_roughness, "ground_roughness", 0.0, 1.0))
+        from .bugs import get_bug
+        bugs = (self.bugs,) if isinstance(self.bugs, str) else self.bugs
+        if not isinstance(bugs, (tuple, list)):
+            raise SpecError(f"bugs must be a list of bug names, got {self.bugs!r}")
+        s(self, "bugs", tuple(get_bug(b).name for b in bugs))
+        s(self, "textures", _choice(self.textures, "textures", TEXTURE_MODES))
+        for name in ("base_color_texture", "orm_texture", "normal_texture"):
+            path = getattr(self, name)
+            if not isinstance(path, str):
+                raise SpecError(f"{name} must be a PNG path, got {path!r}")
+            if path and (Path(path).suffix.lower() != ".png" or not Path(path).is_file()):
+                raise SpecError(f"{name} {path!r} is not an existing .png file")
 
     # Derived values, one definition each.
     def row_base_colors(self) -> list[tuple[float, float, float]]:
@@ -249,7 +284,19 @@ class ChartSpec:
         return QUALITY_PRESETS[self.quality]
 
     def uses_analytic_intersection(self) -> bool:
-        return self.intersect in ("auto", "analytic")
+        forced = self.quality_settings().intersect
+        return forced == "analytic" if forced else self.intersect in ("auto", "analytic")
+
+    def uses_textures(self) -> bool:
+        return self.textures != "none" or any((self.base_color_texture, self.orm_texture, self.normal_texture))
+
+    def brdf_model(self) -> str:
+        return self.quality_settings().brdf or self.brdf
+
+    def active_bugs(self) -> tuple[str, ...]:
+        """The spec's bugs plus those its quality preset takes on purpose."""
+        implied = self.quality_settings().implied_bugs
+        return self.bugs + tuple(b for b in implied if b not in self.bugs)
 
     def to_dict(self) -> dict[str, Any]:
         out = {}
@@ -296,7 +343,7 @@ def spec_from_mapping(data: Mapping[str, Any], base: ChartSpec | None = None, wh
     values = {}
     for key, value in data.items():
         name = key.replace("-", "_")
-        if name not in SPEC_KEYS:
+        if name not in SPEC_KEYS and name != "size":   # size = "WxH" sets width and height
             raise SpecError(f"{where}: unknown key {key!r}{_closest(name, SPEC_KEYS)}")
         if name in ("roughness", "metallic") and isinstance(value, str):
             value = parse_range(value, name)

@@ -7,9 +7,14 @@
 #include "brdf.glsl"
 #include "dfg.glsl"
 #include "material.glsl"
+#if USE_TEXTURES
+#include "textures.glsl"
+#endif
 #include "env.glsl"
 #include "lights.glsl"
-#if USE_IBL
+#if USE_IBL && BUG_FEWTAP_IBL
+#include "ibl_fewtap.glsl"
+#elif USE_IBL
 #include "ibl.glsl"
 #endif
 #if USE_AO
@@ -63,7 +68,7 @@ void main() {
             sum += vec4(background(rd), 0.0);
         } else {
             vec3 p = ro + rd * hit.t;
-            sum += vec4(shade_surface(p, hit.normal, -rd, hit.cell), 1.0);
+            sum += vec4(shade_surface(p, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
         }
         if (s == 0) {
             out_normal_depth = hit.t < 0.0 ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(hit.normal, hit.t);
@@ -72,4 +77,8 @@ void main() {
         }
     }
     out_radiance = sum / float(u_spp);
+#if HALF_RADIANCE
+    // A half-float target holds at most 65504; some drivers turn larger values into Inf.
+    out_radiance = min(out_radiance, vec4(65504.0));
+#endif
 }

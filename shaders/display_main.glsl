@@ -16,5 +16,19 @@ void main() {
     vec3 radiance = hdr.rgb;
     float alpha = 1.0;
 #endif
-    out_color = vec4(srgb_oetf(tonemap(radiance * u_exposure_scale)), alpha);
+    vec3 x = radiance * u_exposure_scale;
+#if BUG_DOUBLE_TONEMAP
+    x = x / (1.0 + x);   // Reinhard, then the chosen tone map again
+#endif
+    vec3 display = tonemap(x);
+#if BUG_NO_SRGB_ENCODE
+    display = saturate(display);
+#elif BUG_GAMMA_POW
+    display = pow(saturate(display), vec3(1.0 / 2.2));
+#elif BUG_DOUBLE_GAMMA
+    display = srgb_oetf(srgb_oetf(display));
+#else
+    display = srgb_oetf(display);
+#endif
+    out_color = vec4(display, alpha);
 }

@@ -25,7 +25,15 @@ vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     float e_single = dfg.x + dfg.y;
     vec3 spec_dielectric = vec3(DIELECTRIC_F0 * dfg.x + dfg.y) * energy_compensation(vec3(DIELECTRIC_F0), e_single);
     vec3 spec_metal = (m.base_color_linear * dfg.x + dfg.y) * energy_compensation(m.base_color_linear, e_single);
-    vec3 dielectric = m.base_color_linear * irradiance * INV_PI * dfg.z + radiance * spec_dielectric;
+#if BUG_DIFFUSE_NO_FRESNEL
+    vec3 diffuse = m.base_color_linear * irradiance * INV_PI;
+#else
+    vec3 diffuse = m.base_color_linear * irradiance * INV_PI * dfg.z;
+#endif
     vec3 metal = radiance * spec_metal;
-    return mix(dielectric, metal, m.metallic);
+#if BUG_METAL_DIFFUSE
+    return diffuse + mix(radiance * spec_dielectric, metal, m.metallic);
+#else
+    return mix(diffuse + radiance * spec_dielectric, metal, m.metallic);
+#endif
 }

@@ -2,14 +2,15 @@
 // (footprint.x + footprint.y * t: orthographic + perspective) so that far spheres are not over-refined and near ones not under-refined.
 uniform int u_march_steps;
 uniform float u_march_far;
-uniform float u_hit_scale;     // hit when d < u_hit_scale * pixel footprint
+uniform float u_hit_scale;     // hit when d < u_hit_scale * pixel footprint + u_hit_epsilon
+uniform float u_hit_epsilon;
 
 Hit intersect_scene(vec3 ro, vec3 rd, vec2 footprint) {
     float t = 0.0;
     for (int i = 0; i < u_march_steps; ++i) {
         vec3 p = ro + rd * t;
         float d = sdf_scene(p);
-        float eps = u_hit_scale * (footprint.x + footprint.y * t);
+        float eps = u_hit_scale * (footprint.x + footprint.y * t) + u_hit_epsilon;
         if (d < eps) {
             Hit hit;
             hit.t = t;

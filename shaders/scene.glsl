@@ -20,8 +20,19 @@ ivec2 nearest_cell(vec3 p) {
 
 // Signed distance to the sphere union; cell receives the nearest sphere.
 float sdf_spheres(vec3 p, out ivec2 cell) {
+#if SCENE_SDF == all_spheres
+    // Shared seed 002's union: every sphere, every evaluation (O(rows x cols)).
+    float d = 1e30;
+    for (int j = 0; j < u_grid.y; ++j)
+        for (int i = 0; i < u_grid.x; ++i) {
+            float di = length(p - cell_center(ivec2(i, j))) - u_radius;
+            if (di < d) { d = di; cell = ivec2(i, j); }
+        }
+    return d;
+#else
     cell = nearest_cell(p);
     return length(p - cell_center(cell)) - u_radius;
+#endif
 }
 
 float sdf_spheres(vec3 p) { ivec2 c; return sdf_spheres(p, c); }

@@ -1,15 +1,37 @@
 // Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
 // lights (the key light shadowed where shadows are composed in).
-vec3 shade_surface(vec3 p, vec3 n, vec3 v, ivec2 cell) {
+// pixel_size: the world size of a pixel at p (texture level of detail).
+vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
     Material m = cell_material(cell);
+    vec3 n = n_geo;
+#if USE_TEXTURES
+    float occlusion = 1.0;
+    if (cell.x >= 0) {   // glTF: texture values scale the cell's factors
+        SurfaceTexels tx = sample_surface(n_geo, pixel_size);
+        m = make_material(m.base_color_linear * tx.base_color_linear, cell_metallic(cell) * tx.orm.b,
+                          cell_perceptual_roughness(cell) * tx.orm.g);
+        occlusion = tx.orm.r;
+        n = tx.normal;
+    }
+#endif
+#if BUG_UNCLAMPED_NDOTV
+    float n_dot_v = dot(n, v);
+#else
     float n_dot_v = max(dot(n, v), MIN_N_DOT_V);
+#endif
     vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
     float e_single = dfg.x + dfg.y;
     vec3 color = vec3(0.0);
+#if USE_AO
+    float ao = ambient_occlusion(p, n_geo, cell);
+#endif
 #if USE_IBL
     vec3 ibl = shade_ibl(m, n, v, n_dot_v, dfg);
 #if USE_AO
-    ibl *= ambient_occlusion(p, n, cell);
+    ibl *= ao;
+#endif
+#if USE_TEXTURES
+    ibl *= occlusion;   // the ORM occlusion darkens indirect light only
 #endif
     color += ibl;
 #endif
@@ -21,7 +43,7 @@ vec3 shade_surface(vec3 p, vec3 n, vec3 v, ivec2 cell) {
 #if USE_SHADOWS
         // Light 0 is the key light; the ground receives its shadow.
         if (i == 0 && cell.x < 0 && dot(n, l) > 0.0)
-            c *= soft_shadow(p + n * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
+            c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
 #endif
         color += c;
     }
@@ -35,5 +57,9 @@ vec3 shade_surface(vec3 p, vec3 n, vec3 v, ivec2 cell) {
                * point_falloff(dist, u_point_light_range[i]);
     }
 #endif
+#if BUG_AO_ON_DIRECT && USE_AO
+    return (color - ibl) * ao + ibl;   // occlusion now also darkens the lights
+#else
     return color;
+#endif
 }

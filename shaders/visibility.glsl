@@ -13,7 +13,9 @@ float visibility_direct(float n_dot_l, float n_dot_v, float perceptual_roughness
 
 // Visibility for the image-based term (the DFG LUT is built with this one).
 float visibility_ibl(float n_dot_l, float n_dot_v, float alpha) {
-#if BRDF_MODEL == gltf
+#if BUG_IBL_DIRECT_K
+    return vis_schlick_ggx(n_dot_l, n_dot_v, sq(sqrt(alpha) + 1.0) / 8.0);   // the punctual-light k
+#elif BRDF_MODEL == gltf
     return vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha);
 #elif BRDF_MODEL == schlick_ggx
     return vis_schlick_ggx(n_dot_l, n_dot_v, 0.5 * alpha);

@@ -1,0 +1,95 @@
+"""Textured spheres: colour spaces and conventions checked against untextured renders whose
+factors are the decoded texel values (sRGB curve for base colour, identity for ORM)."""
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from sdfpbr.errors import SpecError
+from sdfpbr.mirror import srgb_eotf
+from sdfpbr.spec import ChartSpec, make_spec
+from sdfpbr.textures import procedural_set
+
+FURNACE = ChartSpec(width=96, height=96, rows=2, cols=2, env="uniform", lights="none", ground=False,
+                    labels=False, roughness=(0.5, 0.5), metallic=(0.0, 1.0), base_color=(1.0, 1.0, 1.0))
+
+
+def _png(path, rgb):
+    img = np.zeros((8, 16, 4), np.uint8)
+    img[..., :3] = rgb
+    img[..., 3] = 255
+    iio.imwrite(path, img)
+    return str(path)
+
+
+def _interior(result):
+    # Sphere pixels away from the rims, where texture filtering at the poles and seam is moot.
+    return (result.aov["row"] >= 0) & (result.aov["ndotv"] > 0.5)
+
+
+def test_base_color_map_is_decoded_as_srgb(renderer, tmp_path):
+    flat_normal = _png(tmp_path / "n.png", (128, 128, 255))
+    white_orm = _png(tmp_path / "orm.png", (255, 255, 255))
+    textured = make_spec(FURNACE, base_color_texture=_png(tmp_path / "c.png", (128, 128, 128)),
+                         orm_texture=white_orm, normal_texture=flat_normal)
+    decoded = float(srgb_eotf(np.array(128 / 255)))
+    # Same maps except base colour: white texel, the decoded value as the factor instead.
+    plain = make_spec(textured, base_color=(decoded,) * 3,
+                      base_color_texture=_png(tmp_path / "w.png", (255, 255, 255)))
+    a, b = renderer.render(textured), renderer.render(plain)
+    m = _interior(a)
+    # llvmpipe decodes sRGB texels with a polynomial fit (measured 0.3% off the curve at 128).
+    np.testing.assert_allclose(a.hdr[m], b.hdr[m], rtol=6e-3, atol=1e-4)
+
+
+def test_orm_map_is_linear_and_scales_the_factors(renderer, tmp_path):
+    flat_normal = _png(tmp_path / "n.png", (128, 128, 255))
+    orm = _png(tmp_path / "orm.png", (255, 128, 191))
+    textured = make_spec(FURNACE, orm_texture=orm, normal_texture=flat_normal,
+                         base_color_texture=_png(tmp_path / "c.png", (255, 255, 255)))
+    # Direct light, not the furnace: with energy compensation a white furnace hides roughness.
+    textured = make_spec(textured, env="black", lights="default")
+    # Same maps except ORM: white texels, the linear texel values folded into the factors.
+    plain = make_spec(textured, roughness=(0.5 * 128 / 255,) * 2, metallic=(0.0, 191 / 255),
+                      orm_texture=_png(tmp_path / "w.png", (255, 255, 255)))
+    a, b = renderer.render(textured), renderer.render(plain)
+    m = _interior(a)
+    np.testing.assert_allclose(a.hdr[m], b.hdr[m], rtol=2e-3, atol=1e-4)
+    # The orm-srgb bug decodes 128 as 0.216: a glossier result, measurably different.
+    c = renderer.render(make_spec(textured, bugs=("orm-srgb",)))
+    assert np.abs(c.hdr[m] - b.hdr[m]).max() > 0.1
+
+
+def test_normal_map_tilts_toward_plus_y_up(renderer, tmp_path):
+    # A map tilted towards +Y (green 200) must make the spheres face up: under a sky-only light
+    # (uniform upper hemisphere is approximated by a key light from straight above) they get
+    # brighter than with the flat map; the green-flip bug makes them darker.
+    up = _png(tmp_path / "up.png", (128, 200, 230))
+    flat = _png(tmp_path / "flat.png", (128, 128, 255))
+    top_lit = ChartSpec(width=96, height=96, rows=1, cols=1, env="black", ground=False, labels=False,
+                        ibl=False, metallic=(0.0, 0.0), roughness=(1.0, 1.0), base_color=(1.0, 1.0, 1.0),
+                        lights=[{"kind": "directional", "direction": (0.0, 1.0, 0.0), "intensity": 1.0,
+                                 "angular_radius_deg": 0.5}])
+    white = _png(tmp_path / "w.png", (255, 255, 255))
+    specs = {name: make_spec(top_lit, normal_texture=path, orm_texture=white, base_color_texture=white)
+             for name, path in (("up", up), ("flat", flat))}
+    r_up, r_flat = renderer.render(specs["up"]), renderer.render(specs["flat"])
+    r_flip = renderer.render(make_spec(specs["up"], bugs=("normal-map-green-flip",)))
+    m = _interior(r_flat) & (r_flat.aov["normal"][..., 1] < 0.5)   # the front, not the lit cap
+    lum = lambda r: r.hdr[m].mean()
+    assert lum(r_up) > 1.2 * lum(r_flat) > 1.2 * lum(r_flip)
+
+
+def test_procedural_maps_are_valid():
+    maps = procedural_set()
+    n = maps.normal_linear8[..., :3] / 255.0 * 2 - 1
+    assert np.allclose(np.linalg.norm(n, axis=-1), 1.0, atol=0.02)
+    assert (n[..., 2] > 0).all()
+    orm = maps.orm_linear8[..., :3] / 255.0
+    assert 0.3 < orm[..., 1].min() and orm[..., 1].max() == 1.0
+
+
+def test_texture_paths_are_validated(tmp_path):
+    with pytest.raises(SpecError, match="orm_texture"):
+        make_spec(FURNACE, orm_texture=str(tmp_path / "missing.png"))
+    with pytest.raises(SpecError, match="textures"):
+        make_spec(FURNACE, textures="bumpy")
