@@ -54,6 +54,8 @@ class Chart:
             check_writable(hdr, HDR_SUFFIXES, "--hdr")
         if aov is not None:
             check_writable(aov, (".npz",), "--aov")
+            if not self.aov:
+                raise SpecError("this chart was rendered with aovs=False; render it with aovs=True to save AOVs")
         write_png(path, self.image, self.metadata())
         if hdr is not None:
             write_hdr(hdr, self.hdr)
@@ -88,13 +90,14 @@ def label(spec: ChartSpec, result: RenderResult) -> np.ndarray:
                          transparent=spec.transparent)
 
 
-def chart(spec: ChartSpec | str | Path | None = None, **options) -> Chart:
-    """Render a chart. ``spec`` is a ChartSpec or a TOML path; keywords override it."""
+def chart(spec: ChartSpec | str | Path | None = None, *, aovs: bool = True, **options) -> Chart:
+    """Render a chart. ``spec`` is a ChartSpec or a TOML path; keywords override it.
+    aovs=False skips reading back the AOVs (faster when only the image is wanted)."""
     if isinstance(spec, (str, Path)):
         spec = load_spec(spec)
     elif spec is not None and not isinstance(spec, ChartSpec):
         raise SpecError(f"spec must be a ChartSpec or a TOML path, got {type(spec).__name__}")
     spec = make_spec(spec, **options)
     renderer = get_renderer(spec.backend, spec.device_index)
-    result = renderer.render(spec)
+    result = renderer.render(spec, aovs=aovs)
     return Chart(spec, result, label(spec, result), renderer_string(renderer.ctx))

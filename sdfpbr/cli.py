@@ -107,7 +107,7 @@ def cmd_chart(args) -> int:
     if args.aov:
         check_writable(args.aov, (".npz",), "--aov")
     start = time.perf_counter()
-    result = chart(spec)
+    result = chart(spec, aovs=bool(args.aov))
     result.save(args.output, hdr=args.hdr, aov=args.aov)
     if args.verbose:
         t = result.result.timings

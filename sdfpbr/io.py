@@ -72,7 +72,11 @@ def png_bytes(rgba: np.ndarray, metadata: dict[str, str] | None = None) -> bytes
     for key, value in (metadata or {}).items():
         info.add_itxt(key, value)
     buf = _io.BytesIO()
-    Image.fromarray(rgba, "RGBA").save(buf, format="PNG", pnginfo=info, optimize=False)
+    # Opaque charts are stored as RGB (a quarter less to deflate); zlib level 3 encodes ~3x
+    # faster than the default 6 for ~20% more bytes, which matters for a 1 s cold start.
+    rgba = np.asarray(rgba)
+    image = Image.fromarray(rgba[..., :3], "RGB") if (rgba[..., 3] == 255).all() else Image.fromarray(rgba, "RGBA")
+    image.save(buf, format="PNG", pnginfo=info, compress_level=3)
     return buf.getvalue()
 
 
