@@ -43,8 +43,9 @@ _TEXTURED = {"textures": "procedural"}
 
 BUGS: dict[str, Bug] = {b.name: b for b in (
     _bug("unsquared-roughness", "perceptual roughness used as GGX alpha",
-         "Mid-roughness highlights snap small and sharp: GGX alpha should be perceptual roughness "
-         "squared, so that roughness reads linearly. Fix: alpha = r * r.",
+         "Low and mid roughness already look rough: highlights spread and dim, because alpha = r "
+         "is larger than r * r below 1, so the chart no longer reads linearly (the ends agree). "
+         "Fix: alpha = r * r.",
          "BUG_UNSQUARED_ROUGHNESS"),
     _bug("metal-diffuse", "metals keep a Lambert body (no 1 - metallic)",
          "Metals look milky and plastic-like: a conductor has no diffuse body, but the Lambert "
