@@ -76,8 +76,8 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "Reinhard and then again by ACES (as shared seed 002 does). Fix: one tone mapper.",
          "BUG_DOUBLE_TONEMAP", program="display"),
     _bug("ibl-direct-k", "IBL LUT built with the direct-light Schlick k",
-         "Rough spheres are too dark in the environment reflection, most at grazing angles: the "
-         "DFG LUT used G with k = (r+1)^2/8, meant for punctual lights, while shading uses "
+         "Environment reflections of metals come out too dark, by up to 15% towards the rims: "
+         "the DFG LUT used G with k = (r+1)^2/8, meant for punctual lights, while shading uses "
          "height-correlated Smith. Fix: build the LUT with the shading's G.",
          "BUG_IBL_DIRECT_K"),
     _bug("single-scatter", "no multiple-scattering compensation",

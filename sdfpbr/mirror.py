@@ -18,6 +18,10 @@ __all__ = [
     "TONEMAPPERS",
     "alpha_from_perceptual",
     "d_ggx",
+    "d_ggx_half_safe",
+    "HALF_MAX",
+    "MIN_PERCEPTUAL_ROUGHNESS_FP16",
+    "furnace_from_dfg",
     "vis_smith_ggx_correlated",
     "vis_schlick_ggx",
     "k_direct",
@@ -46,6 +50,17 @@ MIN_N_DOT_V = 1e-4
 _ALPHA_DELTA = 1e-4
 _DIELECTRIC_F0 = 0.04
 _TINY = 1e-300
+# Largest finite half float, and Filament's fp16 roughness guard: 0.089^4 = 6.3e-5 keeps alpha^2
+# a normal half (>= 2^-14); with the half-safe D its peak 1/(pi alpha^2) = 5.1e3 stays finite.
+HALF_MAX = 65504.0
+MIN_PERCEPTUAL_ROUGHNESS_FP16 = 0.089
+
+
+def _tiny(dtype):
+    """The "avoid 0/0" guard in the given precision: 1e-300 in float64 (as always), else the
+    smallest positive value the type holds (1e-300 would round to 0 in float16)."""
+    dtype = np.dtype(dtype)
+    return _TINY if dtype == np.float64 else np.finfo(dtype).smallest_subnormal
 
 MODELS = ("gltf", "schlick-ggx")
 
@@ -59,50 +74,65 @@ def _check_model(model):
 # BRDF terms
 # ---------------------------------------------------------------------------
 
-def alpha_from_perceptual(perceptual_roughness):
+def alpha_from_perceptual(perceptual_roughness, dtype=np.float64):
     """alpha = r * r."""
-    r = np.asarray(perceptual_roughness, dtype=np.float64)
+    r = np.asarray(perceptual_roughness, dtype=dtype)
     return r * r
 
 
-def d_ggx(n_dot_h, alpha):
+# Every term below takes dtype: float64 is the oracle; float16 (or float32) evaluates the same
+# formula with every operation rounded to that type, to show where it overflows or underflows.
+
+def d_ggx(n_dot_h, alpha, dtype=np.float64):
     """GGX NDF a2 / (pi (NdotH^2 (a2 - 1) + 1)^2); 0 instead of NaN at alpha = 0, NdotH = 1."""
-    nh = np.asarray(n_dot_h, dtype=np.float64)
-    a2 = np.asarray(alpha, dtype=np.float64) ** 2
+    nh = np.asarray(n_dot_h, dtype=dtype)
+    a2 = np.asarray(alpha, dtype=dtype) ** 2
     # = NdotH^2 (a2 - 1) + 1, arranged so tiny a2 near NdotH = 1 does not cancel.
     t = (1.0 - nh) * (1.0 + nh) + nh * nh * a2
-    return a2 / (np.pi * np.maximum(t * t, _TINY))
+    return a2 / (np.pi * np.maximum(t * t, _tiny(dtype)))
 
 
-def vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha):
+def d_ggx_half_safe(n_dot_h, alpha, dtype=np.float64):
+    """The same D written as (alpha / t)^2 / pi (Filament's mediump form): no t^2 and no a2
+    alone, so in float16 it neither underflows near the peak nor loses alpha^2 to subnormals
+    until the peak 1/(pi alpha^2) itself passes HALF_MAX. Equal to d_ggx in float64."""
+    nh = np.asarray(n_dot_h, dtype=dtype)
+    alpha = np.asarray(alpha, dtype=dtype)
+    a = nh * alpha
+    t = (1.0 - nh) * (1.0 + nh) + a * a
+    k = alpha / np.maximum(t, _tiny(dtype))
+    return k * k * (1.0 / np.pi)
+
+
+def vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha, dtype=np.float64):
     """Height-correlated Smith visibility G / (4 NdotL NdotV); 0 where the denominator is 0."""
-    nl = np.asarray(n_dot_l, dtype=np.float64)
-    nv = np.asarray(n_dot_v, dtype=np.float64)
-    a2 = np.asarray(alpha, dtype=np.float64) ** 2
+    nl = np.asarray(n_dot_l, dtype=dtype)
+    nv = np.asarray(n_dot_v, dtype=dtype)
+    a2 = np.asarray(alpha, dtype=dtype) ** 2
     gv = nl * np.sqrt(nv * nv * (1.0 - a2) + a2)
     gl = nv * np.sqrt(nl * nl * (1.0 - a2) + a2)
     denom = gv + gl
-    return np.where(denom > 0.0, 0.5 / np.maximum(denom, _TINY), 0.0)
+    return np.where(denom > 0.0, 0.5 / np.maximum(denom, _tiny(dtype)), 0.0)
 
 
-def vis_schlick_ggx(n_dot_l, n_dot_v, k):
+def vis_schlick_ggx(n_dot_l, n_dot_v, k, dtype=np.float64):
     """Seeds' Schlick-GGX G1(l) G1(v) / (4 NdotL NdotV) = 1 / (4 (l(1-k)+k)(v(1-k)+k))."""
-    nl = np.asarray(n_dot_l, dtype=np.float64)
-    nv = np.asarray(n_dot_v, dtype=np.float64)
-    k = np.asarray(k, dtype=np.float64)
+    nl = np.asarray(n_dot_l, dtype=dtype)
+    nv = np.asarray(n_dot_v, dtype=dtype)
+    k = np.asarray(k, dtype=dtype)
     denom = 4.0 * (nl * (1.0 - k) + k) * (nv * (1.0 - k) + k)
-    return np.where(denom > 0.0, 1.0 / np.maximum(denom, _TINY), 0.0)
+    return np.where(denom > 0.0, 1.0 / np.maximum(denom, _tiny(dtype)), 0.0)
 
 
-def k_direct(perceptual_roughness):
+def k_direct(perceptual_roughness, dtype=np.float64):
     """Schlick-GGX k for punctual lights: (r + 1)^2 / 8."""
-    r = np.asarray(perceptual_roughness, dtype=np.float64)
+    r = np.asarray(perceptual_roughness, dtype=dtype)
     return (r + 1.0) ** 2 / 8.0
 
 
-def k_ibl(perceptual_roughness):
+def k_ibl(perceptual_roughness, dtype=np.float64):
     """Schlick-GGX k for image-based light: alpha / 2."""
-    return alpha_from_perceptual(perceptual_roughness) / 2.0
+    return alpha_from_perceptual(perceptual_roughness, dtype) / 2.0
 
 
 def _fc(x):
@@ -110,23 +140,23 @@ def _fc(x):
     return (1.0 - np.clip(x, 0.0, 1.0)) ** 5
 
 
-def fresnel_schlick(f0, v_dot_h):
+def fresnel_schlick(f0, v_dot_h, dtype=np.float64):
     """Schlick Fresnel f0 + (1 - f0) (1 - x)^5, x clipped to [0, 1].
 
     f0 is a scalar or RGB (..., 3); an RGB f0 gets v_dot_h (...) expanded on the channel axis.
     """
-    f0 = np.asarray(f0, dtype=np.float64)
-    x = np.asarray(v_dot_h, dtype=np.float64)
+    f0 = np.asarray(f0, dtype=dtype)
+    x = np.asarray(v_dot_h, dtype=dtype)
     if f0.ndim >= 1 and f0.shape[-1] == 3:
         x = x[..., None]
     return f0 + (1.0 - f0) * _fc(x)
 
 
-def _vis(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl):
+def _vis(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl, dtype=np.float64):
     if model == "gltf":
-        return vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha)
-    k = k_ibl(perceptual_roughness) if ibl else k_direct(perceptual_roughness)
-    return vis_schlick_ggx(n_dot_l, n_dot_v, k)
+        return vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha, dtype)
+    k = k_ibl(perceptual_roughness, dtype) if ibl else k_direct(perceptual_roughness, dtype)
+    return vis_schlick_ggx(n_dot_l, n_dot_v, k, dtype)
 
 
 # ---------------------------------------------------------------------------
@@ -321,7 +351,7 @@ def _e_for(n_dot_v, r, model):
 
 
 def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
-         multiscatter=False, e_spec=None):
+         multiscatter=False, e_spec=None, dtype=np.float64, min_perceptual_roughness=MIN_PERCEPTUAL_ROUGHNESS):
     """glTF 2.0 metal-rough BRDF value f (..., 3), without the cosine.
 
     n, v, l unit vectors (..., 3) (v and l point away from the surface); base_color scalar,
@@ -329,35 +359,37 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     MIN_PERCEPTUAL_ROUGHNESS, NdotV to >= 1e-4; f = 0 where NdotL <= 0. Model "schlick-ggx"
     uses k_direct. multiscatter scales each lobe's specular by 1 + f0 (1/E - 1) with its own
     f0 (0.04 dielectric, base_color metal), E from dfg_integrate unless e_spec is given.
+    dtype float16 evaluates every step in half precision (E still integrated in float64);
+    min_perceptual_roughness is the clamp (MIN_PERCEPTUAL_ROUGHNESS_FP16 is Filament's fp16 one).
     """
     _check_model(model)
-    n = np.asarray(n, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    l = np.asarray(l, dtype=np.float64)
-    base = np.asarray(base_color, dtype=np.float64)
+    n = np.asarray(n, dtype=dtype)
+    v = np.asarray(v, dtype=dtype)
+    l = np.asarray(l, dtype=dtype)
+    base = np.asarray(base_color, dtype=dtype)
     if base.ndim == 0 or base.shape[-1] != 3:
         base = base[..., None]
-    metal = np.asarray(metallic, dtype=np.float64)[..., None]
-    r = np.maximum(np.asarray(perceptual_roughness, dtype=np.float64), MIN_PERCEPTUAL_ROUGHNESS)
+    metal = np.asarray(metallic, dtype=dtype)[..., None]
+    r = np.maximum(np.asarray(perceptual_roughness, dtype=dtype), np.asarray(min_perceptual_roughness, dtype))
     alpha = r * r
 
     n_dot_l_raw = _dot(n, l)
     lit = n_dot_l_raw > 0.0
     n_dot_l = np.clip(n_dot_l_raw, 0.0, 1.0)
     n_dot_v = np.clip(_dot(n, v), MIN_N_DOT_V, 1.0)
-    h = normalize(v + l)
+    h = normalize(v + l, dtype)
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
     v_dot_h = np.abs(_dot(v, h))
 
-    f_spec = (d_ggx(n_dot_h, alpha) * _vis(model, n_dot_l, n_dot_v, r, alpha, ibl=False))[..., None]
+    f_spec = (d_ggx(n_dot_h, alpha, dtype) * _vis(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
     fc = _fc(v_dot_h)[..., None]
     fd = _DIELECTRIC_F0 + (1.0 - _DIELECTRIC_F0) * fc
     spec_d = f_spec * fd
     spec_m = f_spec * (base + (1.0 - base) * fc)
     if multiscatter:
-        e = _e_for(n_dot_v, r, model) if e_spec is None else np.asarray(e_spec, dtype=np.float64)
-        e = np.maximum(e, _TINY)
-        spec_d = spec_d * _compensation(np.float64(_DIELECTRIC_F0), e)
+        e = _e_for(n_dot_v.astype(np.float64), r.astype(np.float64), model) if e_spec is None else e_spec
+        e = np.maximum(np.asarray(e, dtype=dtype), _tiny(dtype))
+        spec_d = spec_d * _compensation(np.asarray(_DIELECTRIC_F0, dtype), e)
         spec_m = spec_m * _compensation(base, e)
     dielectric = base / np.pi * (1.0 - fd) + spec_d
     f = (1.0 - metal) * dielectric + metal * spec_m
@@ -373,12 +405,19 @@ def furnace_expected(n_dot_v, base_color, metallic, perceptual_roughness, model=
     Per lobe specular (f0 A + B) comp(f0), diffuse (1 - metallic) base C, mixed by metallic.
     Roughness and NdotV are clamped as in brdf. Returns (..., 3).
     """
+    r = np.maximum(np.asarray(perceptual_roughness, dtype=np.float64), MIN_PERCEPTUAL_ROUGHNESS)
+    A, B, C = dfg_integrate(n_dot_v, r, model=model)
+    return furnace_from_dfg(A, B, C, base_color, metallic, multiscatter)
+
+
+def furnace_from_dfg(A, B, C, base_color, metallic, multiscatter=True):
+    """furnace_expected from its split-sum terms (A, B, C at each pixel's NdotV and roughness),
+    for callers that tabulate dfg_integrate once and interpolate it over many pixels."""
+    A, B, C = (np.asarray(t, dtype=np.float64) for t in (A, B, C))
     base = np.asarray(base_color, dtype=np.float64)
     if base.ndim == 0 or base.shape[-1] != 3:
         base = base[..., None]
     metal = np.asarray(metallic, dtype=np.float64)[..., None]
-    r = np.maximum(np.asarray(perceptual_roughness, dtype=np.float64), MIN_PERCEPTUAL_ROUGHNESS)
-    A, B, C = dfg_integrate(n_dot_v, r, model=model)
     e = A + B
     A, B, C = A[..., None], B[..., None], C[..., None]
     f0d = np.float64(_DIELECTRIC_F0)
@@ -420,9 +459,9 @@ def _aces_narkowicz(x):
 
 
 def _aces_hill(x):
-    c = x @ ACES_INPUT_MAT.T  # M @ c for each pixel
+    c = x @ ACES_INPUT_MAT.T.astype(x.dtype)  # M @ c for each pixel
     c = (c * (c + 0.0245786) - 0.000090537) / (c * (0.983729 * c + 0.4329510) + 0.238081)
-    return np.clip(c @ ACES_OUTPUT_MAT.T, 0.0, 1.0)
+    return np.clip(c @ ACES_OUTPUT_MAT.T.astype(x.dtype), 0.0, 1.0)
 
 
 def _pbr_neutral(x):
@@ -442,8 +481,8 @@ def _pbr_neutral(x):
     return np.where(peak < start, c, comp)
 
 
-def _apply_tonemap(x, name, white=4.0):
-    x = np.asarray(x, dtype=np.float64)
+def _apply_tonemap(x, name, white=4.0, dtype=np.float64):
+    x = np.asarray(x, dtype=dtype)
     if name == "none":
         return x.copy()
     if name == "clamp":
@@ -461,14 +500,14 @@ def _apply_tonemap(x, name, white=4.0):
     raise ValueError(f"unknown tone mapper {name!r}; expected one of {TONEMAPPERS}")
 
 
-def tonemap(x, name, white=4.0):
+def tonemap(x, name, white=4.0, dtype=np.float64):
     """Tone map linear RGB (..., 3) with one of TONEMAPPERS; white only for reinhard-extended."""
-    return _apply_tonemap(x, name, white=white)
+    return _apply_tonemap(x, name, white=white, dtype=dtype)
 
 
-def srgb_oetf(linear):
+def srgb_oetf(linear, dtype=np.float64):
     """Piecewise sRGB encoding (IEC 61966-2-1), input clipped to [0, 1]."""
-    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    x = np.clip(np.asarray(linear, dtype=dtype), 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
@@ -495,11 +534,11 @@ def encode_srgb8(linear, exposure_ev=0.0, tonemap="aces"):
 # Helpers for tests
 # ---------------------------------------------------------------------------
 
-def normalize(v):
+def normalize(v, dtype=np.float64):
     """v / |v| along the last axis (0 stays 0)."""
-    v = np.asarray(v, dtype=np.float64)
+    v = np.asarray(v, dtype=dtype)
     norm = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
-    return v / np.maximum(norm, _TINY)
+    return v / np.maximum(norm, _tiny(dtype))
 
 
 def reflect(v, n):

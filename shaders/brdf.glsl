@@ -43,7 +43,7 @@ vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float alpha_lig
     float g_l = 2.0 * n_dot_l / (n_dot_l + sqrt(a2 + (1.0 - a2) * n_dot_l * n_dot_l));
     float f_spec = d_ggx(n_dot_h, alpha_light) * g_v * g_l / (4.0 * n_dot_v * n_dot_l);
 #else
-    float f_spec = d_ggx(n_dot_h, alpha_light) * visibility_direct(n_dot_l, n_dot_v, m.perceptual_roughness, alpha_light);
+    float f_spec = d_ggx(n, h, alpha_light) * visibility_direct(n_dot_l, n_dot_v, m.perceptual_roughness, alpha_light);
 #endif
 #if BUG_FRESNEL_NDOTV
     float f_cos = n_dot_v;
