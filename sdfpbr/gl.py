@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import os
 from dataclasses import dataclass
 
 import moderngl
@@ -26,16 +27,20 @@ class _OSMesaLoader:
     _FORMAT, _RGBA, _PROFILE, _CORE, _MAJOR, _MINOR = 0x22, 0x1908, 0x33, 0x34, 0x36, 0x37
 
     def __init__(self) -> None:
+        # $SDFPBR_LIBOSMESA names the library to load instead of searching (like glcontext's
+        # $GLCONTEXT_LINUX_LIBEGL for EGL); the fault tests point both at missing files.
+        override = os.environ.get("SDFPBR_LIBOSMESA")
         name = ctypes.util.find_library("OSMesa")
         lib = None
-        for candidate in filter(None, (name, "libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")):
+        candidates = (override,) if override else (name, "libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")
+        for candidate in filter(None, candidates):
             try:
                 lib = ctypes.CDLL(candidate)
                 break
             except OSError:
                 continue
         if lib is None:
-            raise GLUnavailable("OSMesa backend: libOSMesa not found; apt-get install libosmesa6")
+            raise GLUnavailable(f"OSMesa backend: {override or 'libOSMesa'} not found; apt-get install libosmesa6")
         lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
         lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
         lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]

@@ -24,7 +24,7 @@ vec3 env_radiance(vec3 d) {
     vec3 sky = mix(vec3(0.30, 0.31, 0.34), vec3(0.10, 0.11, 0.13), sqrt(up));
     vec3 floor_color = vec3(0.06, 0.057, 0.054) * (1.0 + 0.5 * smoothstep(-0.4, 0.0, d.y));
     vec3 c = d.y >= 0.0 ? sky : floor_color;
-    c += vec3(0.25) * pow(1.0 - abs(d.y), 12.0);                                         // horizon
+    c += vec3(0.25) * pow(max(1.0 - abs(d.y), 0.0), 12.0);   // horizon; |d.y| may exceed 1 by an ulp
     c += vec3(3.2, 3.3, 3.6) * soft_cap(d, normalize(vec3(0.75, 0.35, 0.55)), 0.30, 0.08); // fill box
     c += vec3(4.0, 3.8, 3.5) * soft_cap(d, normalize(vec3(-0.35, 0.45, -0.82)), 0.20, 0.05); // rim
     c += vec3(1.2) * soft_cap(d, vec3(0.0, 1.0, 0.0), 0.35, 0.15);                         // top box
@@ -37,7 +37,7 @@ vec3 env_radiance(vec3 d) {
     sky += vec3(1.0, 0.85, 0.6) * (0.6 * pow(mu, 8.0) + 2.0 * pow(mu, 64.0));            // glow
     vec3 ground = vec3(0.22, 0.19, 0.15) * (0.6 + 0.4 * smoothstep(-0.3, 0.0, d.y));
     vec3 c = d.y >= 0.0 ? sky : ground;
-    c += vec3(0.3, 0.3, 0.32) * pow(1.0 - abs(d.y), 16.0);                                // haze
+    c += vec3(0.3, 0.3, 0.32) * pow(max(1.0 - abs(d.y), 0.0), 16.0);                      // haze
     return c * u_env_intensity;
 #elif ENV == file
     vec2 uv = vec2(atan(d.x, -d.z) * (0.5 * INV_PI) + 0.5, acos(clamp(d.y, -1.0, 1.0)) * INV_PI);

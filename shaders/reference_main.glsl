@@ -1,0 +1,65 @@
+#include "common.glsl"
+#include "hit.glsl"
+#include "scene.glsl"
+#include "camera.glsl"
+#include "ggx.glsl"
+#include "visibility.glsl"
+#include "brdf.glsl"
+#include "dfg.glsl"
+#include "material.glsl"
+#if USE_TEXTURES
+#include "textures.glsl"
+#endif
+#include "env.glsl"
+#include "lights.glsl"
+#include "intersect.glsl"
+#include "reference_intersect.glsl"
+#include "rng.glsl"
+#include "sampling.glsl"
+#include "sampling_env.glsl"
+#include "reference_path.glsl"
+
+// Reference program: adds u_sample_count more paths per pixel to running sums. Pixel samples
+// follow the R2 sequence (Roberts 2018) under a per-pixel random rotation: stratified for
+// any count. Luminance moments are kept about a shift K (the pixel's first sample) so the
+// variance does not cancel away in float32.
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f, binding = 0) uniform image2D u_sum;       // rgb: sum of radiance, a: sum of coverage
+layout(rgba32f, binding = 1) uniform image2D u_moments;   // sum (Y-K), sum (Y-K)^2, K, non-finite samples
+uniform ivec2 u_tile_origin;   // pixel offset of this dispatch (GL convention, y up)
+uniform ivec2 u_tile_size;
+uniform int u_sample_start;
+uniform int u_sample_count;
+uniform uint u_seed;
+
+const uvec2 R2_STEP = uvec2(3242174889u, 2447445413u);   // (0.7548776662, 0.5698402909) * 2^32
+
+void main() {
+    ivec2 local_id = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(local_id, u_tile_size))) return;
+    ivec2 pixel = u_tile_origin + local_id;
+    Rng pixel_rng = rng_init(uvec2(pixel), 0xffffffffu, u_seed);
+    uvec2 rotation = rng_next_bits(pixel_rng).xy;
+    vec4 sum = imageLoad(u_sum, pixel);
+    vec4 moments = imageLoad(u_moments, pixel);
+    for (int k = 0; k < u_sample_count; ++k) {
+        uint s = uint(u_sample_start + k);
+        Rng rng = rng_init(uvec2(pixel), s, u_seed);
+        vec2 offset = vec2((rotation + s * R2_STEP) >> 8u) * (1.0 / 16777216.0);
+        vec2 ndc = 2.0 * (vec2(pixel) + offset) / u_resolution - 1.0;
+        vec3 rd;
+        vec3 ro = camera_ray(ndc, rd);
+        vec4 c = trace_path(ro, rd, rng);
+        if (any(isnan(c)) || any(isinf(c))) {   // counted and reported, never silently kept
+            moments.w += 1.0;
+            c = vec4(0.0);
+        }
+        float y = luminance(c.rgb);
+        if (s == 0u) moments.z = y;
+        float d = y - moments.z;
+        sum += c;
+        moments.xy += vec2(d, d * d);
+    }
+    imageStore(u_sum, pixel, sum);
+    imageStore(u_moments, pixel, moments);
+}

@@ -1,0 +1,186 @@
+// The reference path tracer's integrator: the chart's scene, materials (brdf.glsl, each
+// surface's E from an exact table), environment (env.glsl evaluated per ray) and lights, with
+// next-event estimation for every light and the environment, and multiple importance sampling
+// (power heuristic) between BRDF sampling and each light or environment sampling technique.
+// Directional lights of angular radius theta > 0 are discs of radiance E / (pi sin^2 theta)
+// (what the chart shows in its background); theta = 0 lights and point lights are delta lights.
+// Textured spheres: the maps modulate the cell's factors and bend the shading normal as in
+// shade.glsl, read at full resolution (pixel samples do the filtering); light below the
+// geometric surface is blocked by it; the ORM occlusion darkens indirect light only (the
+// environment and interreflections), as in the chart.
+uniform int u_max_bounces;   // surface interactions per path; 1 = direct light only
+uniform int u_lambert_only;  // validation: every surface a Lambert reflector of its base colour
+
+struct Surface {
+    Material m;
+    vec3 n;             // shading normal
+    vec3 n_geometric;
+    float occlusion;    // ORM occlusion (1 without textures)
+    float n_dot_v;      // clamped as the chart clamps it
+    float e_single;     // single-scatter specular albedo for the energy compensation
+    float p_specular;   // probability of sampling the GGX lobe instead of the cosine lobe
+};
+
+Surface make_surface(ivec2 cell, vec3 n_geometric, vec3 v) {
+    Material m = cell_material(cell);
+    vec3 n = n_geometric;
+    float occlusion = 1.0;
+#if USE_TEXTURES
+    if (cell.x >= 0) {
+        SurfaceTexels tx = sample_surface(n_geometric, 1e-20 * u_radius);   // level 0
+        m = make_material(m.base_color_linear * tx.base_color_linear, cell_metallic(cell) * tx.orm.b,
+                          cell_perceptual_roughness(cell) * tx.orm.g);
+        occlusion = tx.orm.r;
+        n = tx.normal;
+    }
+#endif
+    float n_dot_v = max(dot(n, v), MIN_N_DOT_V);
+    vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
+    // Lobe selection by the lobes' reflectance at this view angle; the mixture pdf below is
+    // exact whatever the split, so this only steers variance.
+    float fc = pow5_one_minus(n_dot_v);
+    float f_dielectric = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc;
+    float specular = mix(f_dielectric, luminance(fresnel_schlick(m.base_color_linear, n_dot_v)), m.metallic);
+    float diffuse = (1.0 - m.metallic) * luminance(m.base_color_linear) * (1.0 - f_dielectric);
+    float p_specular = diffuse > 0.0 ? clamp(specular / (specular + diffuse), 0.1, 0.9) : 1.0;
+    if (u_lambert_only != 0) p_specular = 0.0;
+    return Surface(m, n, n_geometric, occlusion, n_dot_v, dfg.x + dfg.y, p_specular);
+}
+
+// f(v, l) cos(theta_l): the chart's brdf_cos, with the material's own alpha (no widening).
+vec3 surface_f_cos(Surface s, vec3 v, vec3 l) {
+#if USE_TEXTURES
+    if (dot(s.n_geometric, l) <= 0.0) return vec3(0.0);   // below the true surface
+#endif
+    if (u_lambert_only != 0) return s.m.base_color_linear * INV_PI * max(dot(s.n, l), 0.0);
+    return brdf_cos(s.m, s.n, v, l, s.n_dot_v, s.m.alpha, s.e_single);
+}
+
+float surface_pdf(Surface s, vec3 v, vec3 l) {
+    float n_dot_l = dot(s.n, l);
+    if (n_dot_l <= 0.0) return 0.0;
+    float pdf = (1.0 - s.p_specular) * n_dot_l * INV_PI;
+    if (s.p_specular > 0.0) {
+        vec3 h = normalize(v + l);
+        float n_dot_h = saturate(dot(s.n, h));
+        pdf += s.p_specular * pdf_ggx_vndf_reflection(max(dot(s.n, v), 0.0), n_dot_h, s.m.alpha);
+    }
+    return pdf;
+}
+
+vec3 surface_sample(Surface s, vec3 v, vec3 u) {
+    if (u.x < s.p_specular) {
+        vec3 h = to_world(sample_ggx_vndf(to_local(v, s.n), s.m.alpha, u.yz), s.n);
+        return reflect(-v, h);
+    }
+    return to_world(sample_cosine_hemisphere(u.yz), s.n);
+}
+
+#if NUM_DIR_LIGHTS > 0
+float disc_one_minus_cos(int i) { return 2.0 * sq(sin(0.5 * u_dir_light_angular_radius[i])); }
+vec3 disc_radiance(int i) { return u_dir_light_illuminance[i] / (PI * sq(sin(u_dir_light_angular_radius[i]))); }
+#endif
+
+// Radiance of the lights' discs seen along d, each weighted against BRDF sampling with pdf
+// pdf_brdf (pdf_brdf < 0: a camera ray, which no light sampling competes with).
+vec3 discs_seen(vec3 d, float pdf_brdf) {
+    vec3 sum = vec3(0.0);
+#if NUM_DIR_LIGHTS > 0
+    for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
+        float theta = u_dir_light_angular_radius[i];
+        if (theta > 0.0 && dot(d, u_dir_light_direction[i]) >= cos(theta)) {
+            float w = pdf_brdf < 0.0 ? 1.0 : power_heuristic(pdf_brdf, 1.0 / (2.0 * PI * disc_one_minus_cos(i)));
+            sum += disc_radiance(i) * w;
+        }
+    }
+#endif
+    return sum;
+}
+
+vec3 environment_seen(vec3 d, float pdf_brdf) {
+#if ENV == black
+    return vec3(0.0);
+#else
+    float w = (pdf_brdf < 0.0 || u_env_sampling == 0) ? 1.0 : power_heuristic(pdf_brdf, environment_pdf(d));
+    return env_radiance(d) * w;
+#endif
+}
+
+// Next-event estimation at a surface point: one sample per light and one of the environment,
+// each with a shadow ray.
+vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
+    vec3 sum = vec3(0.0);
+#if NUM_DIR_LIGHTS > 0
+    for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
+        vec3 axis = u_dir_light_direction[i];
+        if (u_dir_light_angular_radius[i] > 0.0) {
+            float omc = disc_one_minus_cos(i);
+            vec3 l = sample_cone(axis, omc, rng_next4(rng).xy);
+            vec3 f = surface_f_cos(s, v, l);
+            if (any(greaterThan(f, vec3(0.0))) && !occluded(p, l, 1e30, cell)) {
+                float pdf_light = 1.0 / (2.0 * PI * omc);
+                sum += f * disc_radiance(i) * (power_heuristic(pdf_light, surface_pdf(s, v, l)) / pdf_light);
+            }
+        } else {
+            vec3 f = surface_f_cos(s, v, axis);
+            if (any(greaterThan(f, vec3(0.0))) && !occluded(p, axis, 1e30, cell))
+                sum += f * u_dir_light_illuminance[i];
+        }
+    }
+#endif
+#if NUM_POINT_LIGHTS > 0
+    for (int i = 0; i < NUM_POINT_LIGHTS; ++i) {
+        vec3 to_light = u_point_light_position[i] - p;
+        float dist = length(to_light);
+        vec3 l = to_light / dist;
+        vec3 f = surface_f_cos(s, v, l);
+        if (any(greaterThan(f, vec3(0.0))) && !occluded(p, l, dist, cell))
+            sum += f * u_point_light_intensity[i] * point_falloff(dist, u_point_light_range[i]);
+    }
+#endif
+#if ENV != black
+    if (u_env_sampling != 0) {
+        float pdf_env;
+        vec3 l = sample_environment(rng_next4(rng).xy, pdf_env);
+        vec3 f = surface_f_cos(s, v, l);
+        if (pdf_env > 0.0 && any(greaterThan(f, vec3(0.0))) && !occluded(p, l, 1e30, cell))
+            sum += f * env_radiance(l) * (s.occlusion * power_heuristic(pdf_env, surface_pdf(s, v, l)) / pdf_env);
+    }
+#endif
+    return sum;
+}
+
+// One path from the camera: rgb radiance and coverage (1 where the camera ray hits a surface).
+vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
+    Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);
+    if (hit.t < 0.0) {
+#if TRANSPARENT
+        return vec4(0.0);   // premultiplied, as the chart: misses add no colour, only less coverage
+#endif
+        return vec4(environment_seen(rd, -1.0) + discs_seen(rd, -1.0), 0.0);
+    }
+    vec3 radiance = vec3(0.0), throughput = vec3(1.0);
+    for (int bounce = 1; bounce <= u_max_bounces; ++bounce) {
+        vec3 p = ro + rd * hit.t;
+        vec3 v = -rd;
+        Surface s = make_surface(hit.cell, hit.normal, v);
+        radiance += throughput * direct_light(s, p, v, hit.cell, rng);
+
+        vec3 l = surface_sample(s, v, rng_next4(rng).xyz);
+        float pdf = surface_pdf(s, v, l);
+        if (pdf <= 0.0) break;
+        vec3 f = surface_f_cos(s, v, l);
+        if (!any(greaterThan(f, vec3(0.0)))) break;
+        throughput *= f / pdf;
+        Hit next = trace_scene(p, l, 1e30, hit.cell);
+        if (next.t < 0.0) {
+            radiance += throughput * (environment_seen(l, pdf) * s.occlusion + discs_seen(l, pdf));
+            break;
+        }
+        throughput *= s.occlusion;   // what the next surface sends is indirect light here
+        ro = p;
+        rd = l;
+        hit = next;
+    }
+    return vec4(radiance, 1.0);
+}

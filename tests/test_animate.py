@@ -1,0 +1,153 @@
+"""Orbit animations: frames are the still charts of the orbit's specs, files read back with the
+frame count and size written, and bad input stops before anything renders."""
+import math
+import subprocess
+import sys
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from sdfpbr import animate as animate_mod
+from sdfpbr.animate import animate, animate_compare, orbit_specs, write_animation
+from sdfpbr.chart import chart
+from sdfpbr.errors import SpecError
+from sdfpbr.spec import Light, make_spec
+
+SMALL = dict(width=64, height=64, quality="draft")
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(cache_dir):
+    """Renders go through chart.get_renderer; point its disk cache at the session's."""
+
+
+def read_frames(path):
+    return np.stack(list(iio.imiter(path, plugin="pillow")))
+
+
+def test_light_orbit_turns_the_key_light_about_the_vertical():
+    spec = make_spec(**SMALL)
+    specs = orbit_specs(spec, 8, "light")
+    assert specs[0] is spec and len(specs) == 8
+    x0, y0, z0 = spec.lights[0].direction
+    for i, s in enumerate(specs):
+        x, y, z = s.lights[0].direction
+        assert y == pytest.approx(y0, abs=1e-12)               # elevation kept
+        turned = math.atan2(x, z) - math.atan2(x0, z0)          # heading advanced by i/8 of a turn
+        assert math.remainder(turned - 2 * math.pi * i / 8, 2 * math.pi) == pytest.approx(0, abs=1e-9)
+        assert s.lights[1:] == spec.lights[1:]                  # the fill light stays
+    cams = orbit_specs(make_spec(spec, camera_azimuth=10.0), 4, "camera")
+    assert [s.camera_azimuth for s in cams] == [10.0, 100.0, 190.0, 280.0]
+
+
+def test_orbit_checks():
+    spec = make_spec(**SMALL)
+    with pytest.raises(SpecError, match="directional"):
+        orbit_specs(make_spec(spec, lights=(Light("point", position=(0, 5, 5)),)), 4, "light")
+    with pytest.raises(SpecError, match="allowed: light, camera"):
+        orbit_specs(spec, 4, "sun")
+    with pytest.raises(SpecError, match="frames"):
+        orbit_specs(spec, 0, "light")
+
+
+def test_light_orbit_gif_reads_back_and_frame_0_is_the_chart(tmp_path):
+    spec = make_spec(**SMALL)
+    out = tmp_path / "orbit.gif"
+    anim = animate(spec, 4, "light", output=out, fps=10, progress=False)
+    n, h, w, _ = anim.frames.shape
+    assert n == 4
+    np.testing.assert_array_equal(anim.frames[0], chart(spec).image)
+    back = iio.imread(out, index=None)
+    assert back.shape[:3] == (4, h, w)
+    # GIF quantises to 256 colours: close to the frames, not equal.
+    assert np.abs(back[0].astype(int) - anim.frames[0][..., :3]).mean() < 4
+    for i in range(1, 4):
+        assert np.abs(anim.frames[i].astype(int) - anim.frames[0]).mean() > 0.5
+    assert iio.immeta(out, index=0).get("loop") == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["orbit.gif"]
+
+
+def test_camera_orbit_webp_is_lossless_and_mp4_has_every_frame(tmp_path):
+    spec = make_spec(**SMALL)
+    anim = animate(spec, 3, "camera", output=tmp_path / "cam.webp", progress=False)
+    np.testing.assert_array_equal(read_frames(tmp_path / "cam.webp")[..., :3], anim.frames[..., :3])
+    for i in range(1, 3):
+        np.testing.assert_array_equal(anim.frames[i], chart(make_spec(spec, camera_azimuth=120.0 * i)).image)
+    anim.save(tmp_path / "cam.mp4")
+    video = iio.imread(tmp_path / "cam.mp4", index=None, plugin="FFMPEG")
+    n, h, w = anim.frames.shape[:3]
+    assert video.shape == (3, h + h % 2, w + w % 2, 3)       # H.264 needs even sizes: padded, not scaled
+
+
+def test_compare_animation_shows_the_pair_side_by_side(tmp_path):
+    spec = make_spec(**SMALL)
+    anim = animate_compare(spec, "double-gamma", 3, "light", output=tmp_path / "pair.webp", progress=False)
+    assert read_frames(tmp_path / "pair.webp").shape[0] == 3
+    assert [s.bugs for s in anim.specs[:2]] == [(), ("double-gamma",)]
+    for i in (0, 2):   # frame i holds both renders of orbit step i, unresampled, correct on the left
+        correct, buggy = (chart(make_spec(s, labels=False)).image[..., :3] for s in anim.specs[2 * i:2 * i + 2])
+        (xc, yc), (xb, yb) = where(anim.frames[i][..., :3], correct), where(anim.frames[i][..., :3], buggy)
+        assert yc == yb and xc + correct.shape[1] < xb
+
+
+def where(image, patch):
+    """(x, y) of an exact copy of ``patch`` inside ``image``."""
+    h, w = patch.shape[:2]
+    ys, xs = np.nonzero((image[:image.shape[0] - h + 1, :image.shape[1] - w + 1] == patch[0, 0]).all(-1))
+    for y, x in zip(ys, xs):
+        if np.array_equal(image[y:y + h, x:x + w], patch):
+            return x, y
+    raise AssertionError("patch not found")
+
+
+def test_a_failed_write_leaves_the_old_file(tmp_path, monkeypatch):
+    out = tmp_path / "a.gif"
+    out.write_bytes(b"keep me")
+
+    def broken(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(iio, "imwrite", broken)
+    with pytest.raises(KeyboardInterrupt):
+        write_animation(out, np.zeros((2, 8, 8, 4), np.uint8), 10)
+    assert out.read_bytes() == b"keep me" and [p.name for p in tmp_path.iterdir()] == ["a.gif"]
+
+
+def test_mp4_without_ffmpeg_is_refused_before_rendering(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)     # as if the extra were not installed
+    with pytest.raises(SpecError, match=r"sdfpbr\[video\]"):
+        animate_mod.check_animation_output(tmp_path / "a.mp4")
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["chart", "--frames", "3", "-o", "{dir}/a.png"], "give -o NAME.gif"),
+    (["chart", "--frames", "3", "-o", "{dir}/a.avi"], "must end in .gif or .webp or .mp4"),
+    (["chart", "--frames", "0", "-o", "{dir}/a.gif"], "frames must be"),
+    (["chart", "--frames", "3", "--orbit", "sun", "-o", "{dir}/a.gif"], "invalid choice"),
+    (["chart", "--frames", "3", "--fps", "0", "-o", "{dir}/a.gif"], "fps must be"),
+    (["chart", "--frames", "3", "--hdr", "{dir}/a.npy", "-o", "{dir}/a.gif"], "--hdr and --aov"),
+    (["chart", "--frames", "3", "--lights", "none", "-o", "{dir}/a.gif"], "directional"),
+    (["compare", "--bug", "nope", "--frames", "3", "-o", "{dir}/a.gif"], "allowed: unsquared-roughness"),
+    (["compare", "--bug", "double-gamma", "--frames", "3", "-o", "{dir}/a.png"], "must end in .gif"),
+])
+def test_animation_bad_input_is_one_line_exit_2_no_file(tmp_path, args, needle):
+    r = run(*[a.format(dir=tmp_path) for a in args])
+    assert r.returncode == 2, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr and "Traceback" not in r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_animation_commands(tmp_path):
+    r = run("chart", "--frames", "3", "--orbit", "camera", "--size", "48x48", "--quality", "draft",
+            "-o", str(tmp_path / "c.webp"), "-v")
+    assert r.returncode == 0, r.stderr
+    assert "3 frames" in r.stdout and read_frames(tmp_path / "c.webp").shape[0] == 3
+    r = run("compare", "--bug", "clamp-tonemap", "--frames", "2", "--size", "48x48", "--quality", "draft",
+            "-o", str(tmp_path / "p.gif"))
+    assert r.returncode == 0, r.stderr
+    assert iio.imread(tmp_path / "p.gif", index=None).shape[0] == 2

@@ -1,0 +1,211 @@
+"""`sdfpbr bench`: the quick run end to end, the Shadertoy baseline, the ablation's claims,
+bad arguments."""
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pytest
+
+from sdfpbr import bench
+from sdfpbr.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
+from sdfpbr.cli import build_parser, main, spec_from_args
+from sdfpbr.errors import ShaderCompileError, SpecError
+from sdfpbr.render import chart_source
+
+SEEDS = Path(__file__).resolve().parents[2] / "shared" / "seeds"
+SEED_002 = next(iter(sorted(SEEDS.glob("002_*"))), None)
+needs_seed = pytest.mark.skipif(SEED_002 is None, reason="shared/seeds/002_* is not beside the repository")
+
+
+# --- the quick run, end to end -------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def quick_report(tmp_path_factory, cache_dir):
+    out = tmp_path_factory.mktemp("bench") / "out.json"
+    cmd = [sys.executable, "-m", "sdfpbr", "bench", "--quick", "--json", str(out), "-q",
+           "--heatmaps", str(out.parent / "heat")]
+    if SEED_002 is not None:
+        cmd += ["--baseline", str(SEED_002)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return out, json.loads(out.read_text()), proc.stdout
+
+
+def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report):
+    path, report, stdout = quick_report
+    cfg = bench.BenchConfig.quick()
+    rows = {(r["scene"], r["preset"]): r for r in report["rows"] if r["preset"] != "baseline"}
+    assert set(rows) == {(s, p) for s in cfg.scenes for p in cfg.presets}
+    for (scene, preset), row in rows.items():
+        for key in bench.REQUIRED_KEYS[2:]:
+            assert isinstance(row[key], (int, float)) and math.isfinite(row[key]), (scene, preset, key, row[key])
+        assert row["render_ms"] > 0 and row["compile_ms"] > 0 and row["cold_s"] > 0
+        assert 0.0 < row["flip_mean"] < 1.0 and row["rel_rmse"] >= 0.0
+        assert (row["width"], row["height"]) == (cfg.width, cfg.height)
+        # Independently: the composed source the row measured.
+        spec = bench.scene_spec(scene, cfg, preset)
+        assert row["source_bytes"] == len(chart_source(spec).text.encode())
+        assert row["spheres"] == spec.rows * spec.cols
+        # The timed draw reproduced the render the errors were computed from.
+        assert row["draw_check"] < 1e-4
+        assert len(row["flip_cells"]) == spec.rows and len(row["flip_cells"][0]) == spec.cols
+    assert "render ms" in stdout and "FLIP" in stdout
+    assert path.with_suffix(".png").stat().st_size > 1000    # the time-vs-error plot
+    heat = sorted(p.name for p in (path.parent / "heat").iterdir())
+    assert heat == sorted(f"flip_{s}_{p}.png" for s, p in rows)
+
+
+@needs_seed
+def test_quick_baseline_row(quick_report):
+    _, report, _ = quick_report
+    (row,) = [r for r in report["rows"] if r["preset"] == "baseline"]
+    assert row["render_ms"] > 0 and row["compile_ms"] > 0
+    assert row["flip_mean"] is None and row["width"] == 256
+    assert row["entry_point"] == "main"
+
+
+# --- the Shadertoy baseline --------------------------------------------------------------------------
+
+def _draw(ctx, program, w, h) -> np.ndarray:
+    tex = ctx.texture((w, h), 4, dtype="f4")
+    fbo = ctx.framebuffer(color_attachments=[tex])
+    fbo.use()
+    ctx.vertex_array(program, []).render(moderngl.TRIANGLES, vertices=3)
+    return np.frombuffer(tex.read(), np.float32).reshape(h, w, 4)
+
+
+@needs_seed
+def test_seed_002_extracts_and_renders(ctx):
+    src = load_shadertoy(SEED_002)
+    assert src.entry == "main"
+    assert src.code.lstrip().startswith("precision") and src.code.rstrip().endswith("}")
+    assert "gl_FragColor = vec4(col, 1.0);" in src.code
+    # The prose after the shader (and its GLSL snippets) is not part of the code.
+    assert "Kajiya" not in src.code and src.code.count("void main") == 1
+    program = build_program(ctx, src)
+    set_shadertoy_uniforms(program, 48, 32)
+    assert program["iResolution"].dimension == 2          # the seed declares vec2: its type is kept
+    img = _draw(ctx, program, 48, 32)
+    assert np.isfinite(img).all() and img[..., :3].std() > 0.01
+    assert np.allclose(img[..., 3], 1.0)
+
+
+MARKDOWN = """# A gradient
+
+Some prose before the code, which must not be compiled.
+
+```glsl
+// Shadertoy entry point
+void mainImage(out vec4 fragColor, in vec2 fragCoord) {
+    vec2 uv = fragCoord / iResolution.xy;
+    fragColor = vec4(uv, 0.25 + 0.0 * iTime + 0.0 * float(iFrame) + 0.0 * iMouse.x, 1.0);
+}
+```
+
+More prose afterwards, with `inline code` too.
+"""
+
+
+def test_fenced_mainimage_gets_shadertoy_uniforms(ctx, tmp_path):
+    path = tmp_path / "gradient.md"
+    path.write_text(MARKDOWN)
+    src = load_shadertoy(path)
+    assert src.entry == "mainImage" and "prose" not in src.code
+    program = build_program(ctx, src)
+    w, h = 16, 8
+    set_shadertoy_uniforms(program, w, h)
+    img = _draw(ctx, program, w, h)          # GL rows bottom-up, as fragCoord counts
+    x = (np.arange(w) + 0.5) / w
+    y = (np.arange(h) + 0.5) / h
+    np.testing.assert_allclose(img[..., 0], np.broadcast_to(x, (h, w)), atol=1e-6)
+    np.testing.assert_allclose(img[..., 1], np.broadcast_to(y[:, None], (h, w)), atol=1e-6)
+    np.testing.assert_allclose(img[..., 2], 0.25, atol=1e-6)
+
+
+def test_unfenced_old_style_shader_between_prose():
+    text = ("Intro sentence that explains what the shader below is going to draw for us.\n"
+            "#version 100\nprecision mediump float;\nuniform vec2 iResolution;\n"
+            "void main() {\n  gl_FragColor = texture2D(tex, gl_FragCoord.xy / iResolution);\n}\n"
+            "An outro paragraph that talks about the void main() { function } above in words.\n")
+    code, entry, line = extract_glsl(text)
+    assert entry == "main" and line == 2
+    assert code.startswith("#version 100") and code.rstrip().endswith("}") and "outro" not in code
+
+
+def test_baseline_errors_are_one_line(ctx, tmp_path):
+    with pytest.raises(SpecError, match="no GLSL shader"):
+        extract_glsl("just words, no shader here", "notes.txt")
+    broken = tmp_path / "broken.glsl"
+    broken.write_text("void mainImage(out vec4 c, in vec2 p) {\n  c = vec4(undefined_name);\n}\n")
+    with pytest.raises(ShaderCompileError, match=r"broken\.glsl:2") as info:
+        build_program(ctx, load_shadertoy(broken))
+    assert "\n" not in str(info.value)
+    with pytest.raises(SpecError, match="does not exist"):
+        load_shadertoy(tmp_path / "missing.glsl")
+
+
+# --- scenes, cold flags, ablation --------------------------------------------------------------------
+
+@pytest.mark.parametrize("scene", list(bench.SCENES))
+def test_cold_flags_give_the_scene_spec(scene):
+    cfg = bench.BenchConfig(width=320, height=200)
+    flags = bench.cli_flags(bench.SCENES[scene], "draft", cfg.width, cfg.height, "auto")
+    args = build_parser().parse_args(["chart", *flags])
+    assert spec_from_args(args) == bench.scene_spec(scene, cfg, "draft")
+
+
+def test_presets_include_seed002_when_defined():
+    from sdfpbr.spec import QUALITY_PRESETS
+    assert ("seed002" in bench.available_presets()) == ("seed002" in QUALITY_PRESETS)
+    assert bench.available_presets()[:3] == ("draft", "default", "high")
+
+
+def test_ablation_removes_each_feature_and_absent_features_cost_no_code(renderer):
+    cfg = bench.BenchConfig(width=64, height=64, repeats=1, warmup=0)
+    rows = {r["preset"]: r for r in bench.ablation_rows(renderer, cfg, lambda line: None)}
+    assert rows["ablation:full"]["ratio"] == 1.0
+    for feature in ("shadows", "ao", "ibl", "lights"):
+        row = rows[f"ablation:{feature}"]
+        assert row["removed"], feature                  # the composer dropped its code ...
+        assert row["absent_ok"], (feature, row["leftover"])   # ... all of it that runs
+        assert row["source_bytes"] < rows["ablation:full"]["source_bytes"]
+    for name in bench.ABSENT_PAIRS:
+        row = rows[f"absent:{name}"]
+        assert row["same_source"], name
+        assert row["render_ms"] > 0 and row["without_ms"] > 0
+    for row in rows.values():
+        assert row["draw_check"] < 1e-4
+
+
+def test_code_identifiers_ignore_comments_and_count_uses():
+    ids = bench.code_identifiers("// shadow_steps\n#define USE_SHADOWS 0\nfloat f(float a) { return a * a; } /* b */\n")
+    assert ids == {"float": 2, "f": 1, "a": 3, "return": 1}
+
+
+# --- bad arguments -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, match", [
+    (["--scenes", "default,nope"], "unknown scene 'nope'"),
+    (["--presets", "drafty"], "did you mean 'draft'"),
+    (["--baseline", "/nonexistent/shader.glsl"], "does not exist"),
+    (["--json", "/nonexistent/dir/out.json"], "does not exist"),
+    (["--json", "out.txt"], "must end in .json"),
+    (["--repeats", "0"], "repeats"),
+    (["--repeats", "many"], "invalid int"),
+    (["--size", "12x"], "size"),
+])
+def test_bad_arguments_are_one_line_exit_2(argv, match, capsys):
+    assert main(["bench", "--quick", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and match in err and err.startswith("sdfpbr")
+
+
+def test_bad_argument_in_a_fresh_process_has_no_traceback(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "sdfpbr", "bench", "--scenes", "grid4x4"],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1

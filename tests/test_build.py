@@ -1,0 +1,312 @@
+"""`sdfpbr build`: entries, the content-addressed image cache, the manifest and the gallery page.
+
+Each test builds a small gallery (48 px renders) in its own chart directory, cache and output,
+through the real GL context."""
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from sdfpbr.build import KEY_FIELD, ImageCache, build, collect, png_key, program_sources
+from sdfpbr.cache import ArrayCache
+from sdfpbr.render import Renderer, chart_source, display_source
+from sdfpbr.spec import make_spec
+
+SMALL = 'size = "48x48"\nrows = 2\ncols = 2\n'
+
+ENTRIES = {
+    # a chart with everything on: ground, shadows, IBL, AO
+    "plain.toml": SMALL + 'caption = "Plain <b>chart</b> & \\"quotes\\""\n',
+    # no ground: no shadows either
+    "noground.toml": SMALL + "ground = false\n",
+    # no IBL: no AO, no bake
+    "noibl.toml": SMALL + "ibl = false\n",
+    "sweep.toml": '[sweep]\nfield = "exposure"\nvalues = [-1.0, 1.0]\n[spec]\n' + SMALL + "ground = false\n",
+    "bug.toml": 'caption = "Alpha <= r"\n[compare]\nbug = "unsquared-roughness"\n[spec]\n' + SMALL,
+}
+
+
+def make_charts(root: Path, entries=ENTRIES) -> Path:
+    charts = root / "charts"
+    charts.mkdir()
+    for name, text in entries.items():
+        (charts / name).write_text(text)
+    return charts
+
+
+@pytest.fixture
+def env(tmp_path, monkeypatch):
+    """A private image cache and a private, editable copy of the shader modules."""
+    shaders = tmp_path / "shaders"
+    from sdfpbr.compose import shader_dir
+    shutil.copytree(shader_dir(), shaders)
+    monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("SDFPBR_SHADER_DIR", str(shaders))
+    return tmp_path
+
+
+def images(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(out.glob("*.png"))}
+
+
+def test_rebuild_with_no_change_renders_nothing(env):
+    charts = make_charts(env)
+    out = env / "out"
+    first = build(charts, out)
+    names = [e["name"] for e in first["images"]]
+    assert names == ["bug", "noground", "noibl", "plain", "sweep"]
+    assert first["rendered"] == 5 and not any(e["cached"] for e in first["images"])
+    before = images(out)
+    mtimes = {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")}
+
+    second = build(charts, out)
+    assert second["rendered"] == 0 and all(e["cached"] for e in second["images"])
+    assert images(out) == before
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")} == mtimes   # not even rewritten
+    assert [e["key"] for e in second["images"]] == [e["key"] for e in first["images"]]
+
+    forced = build(charts, out, force=True)
+    assert forced["rendered"] == 5 and images(out) == before                      # renders are deterministic
+
+
+def modules_of(spec) -> set[str]:
+    """Shader modules of the chart and display programs, straight from the composer."""
+    return set(chart_source(spec).modules) | set(display_source(spec).modules)
+
+
+@pytest.mark.parametrize("module", ["shadow.glsl", "ao.glsl"])
+def test_editing_a_shader_module_rerenders_exactly_its_users(env, module):
+    charts = make_charts(env)
+    out = env / "out"
+    build(charts, out)
+    items = collect(charts)
+    expected = {item.name for item in items if any(module in modules_of(s) for s in item.specs)}
+    assert expected and expected != {item.name for item in items}     # the gallery tells them apart
+
+    path = env / "shaders" / module
+    path.write_text(path.read_text() + "\n// edited: a new line changes the composed source\n")
+    rebuilt = build(charts, out)
+    assert {e["name"] for e in rebuilt["images"] if not e["cached"]} == expected
+    assert rebuilt["rendered"] == len(expected)
+    assert build(charts, out)["rendered"] == 0
+
+
+def test_program_sources_cover_every_program_a_render_compiles(renderer, tmp_path):
+    """The key hashes program_sources(spec); a real render must compile nothing else, with a
+    cold IBL cache (bakes) and a warm one (uploads from the cache)."""
+    specs = [make_spec(width=32, height=32, rows=2, cols=2),
+             make_spec(width=32, height=32, rows=2, cols=2, ibl=False, ground=False),
+             make_spec(width=32, height=32, rows=2, cols=2, env="sky", bugs=("ibl-direct-k",)),
+             make_spec(width=32, height=32, rows=2, cols=2, bugs=("fewtap-ibl",)),
+             make_spec(width=32, height=32, rows=2, cols=2, textures="procedural", brdf="schlick-ggx")]
+    for spec in specs:
+        allowed = {src.digest for src in program_sources(spec)}
+        for _ in ("cold", "warm"):
+            fresh = Renderer(renderer.ctx, ArrayCache(tmp_path / "ibl"))
+            fresh.render(spec)
+            compiled = {key.split(":", 1)[1] for key in fresh.programs._programs}
+            assert compiled and compiled <= allowed, spec
+
+
+def test_manifest_and_index_list_every_image_escaped(env):
+    charts = make_charts(env)
+    out = env / "out"
+    manifest = build(charts, out)
+    on_disk = json.loads((out / "manifest.json").read_text())
+    assert on_disk["images"] == json.loads(json.dumps(manifest["images"]))
+    by_name = {e["name"]: e for e in on_disk["images"]}
+    assert set(by_name) == {p.stem for p in out.glob("*.png")}
+    for name, e in by_name.items():
+        data = (out / e["image"]).read_bytes()
+        assert e["entry"] == f"{name}.toml"
+        assert png_key(data) == e["key"] and len(e["key"]) == 64
+        assert e["sha256"] == hashlib.sha256(data).hexdigest()
+        assert (e["width"], e["height"]) == Image.open(out / e["image"]).size
+        assert e["specs"] and all(s["width"] == 48 for s in e["specs"])
+        assert e["timings"]["render_s"] > 0
+    assert by_name["plain"]["caption"] == 'Plain <b>chart</b> & "quotes"'
+    assert by_name["bug"]["params"]["bug"] == "unsquared-roughness"
+    assert by_name["sweep"]["params"]["values"] == [-1.0, 1.0]
+    assert [s["exposure"] for s in by_name["sweep"]["specs"]] == [-1.0, 1.0]
+    assert by_name["noibl"]["params"]["spec"]["ibl"] is False
+    # The comparison's caption defaults to the bug's caption unless the entry gives one.
+    assert by_name["bug"]["caption"] == "Alpha <= r"
+
+    page = (out / "index.html").read_text()
+
+    class Collect(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.srcs, self.text = [], []
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "img":
+                self.srcs.append(dict(attrs)["src"])
+            assert tag != "b", "caption markup must be escaped"
+
+        def handle_data(self, data):
+            self.text.append(data)
+
+    parser = Collect()
+    parser.feed(page)
+    text = "".join(parser.text)
+    assert sorted(parser.srcs) == sorted(e["image"] for e in on_disk["images"])
+    assert 'Plain <b>chart</b> & "quotes"' in text and "Alpha <= r" in text    # shown, as text
+    assert "&lt;b&gt;chart&lt;/b&gt; &amp; &quot;quotes&quot;" in page
+    assert "unsquared-roughness" in text and "exposure" in text
+
+
+def test_png_metadata_specs_are_the_keyed_specs(env):
+    """Every spec a sheet says it rendered (PNG metadata) is one the key covers."""
+    charts = make_charts(env)
+    out = env / "out"
+    for e in build(charts, out)["images"]:
+        text = Image.open(out / e["image"]).text
+        rendered = [json.loads(v) for k, v in text.items() if k == "sdfpbr:spec" or k.startswith("sdfpbr:spec:")]
+        keyed = [json.dumps(s, sort_keys=True) for s in e["specs"]]
+        assert rendered and all(json.dumps(r, sort_keys=True) in keyed for r in rendered), e["name"]
+        assert text[KEY_FIELD] == e["key"]
+
+
+def test_damaged_cache_entry_and_output_are_replaced(env):
+    charts = make_charts(env, {k: ENTRIES[k] for k in ("plain.toml", "noground.toml")})
+    out = env / "out"
+    first = build(charts, out)
+    good = images(out)
+    cache = ImageCache()
+    plain = next(e for e in first["images"] if e["name"] == "plain")
+    entry = cache.path(plain["key"])
+    entry.write_bytes(entry.read_bytes()[:200])             # truncated
+    assert cache.get(plain["key"]) is None
+    (out / "noground.png").write_bytes(b"not a png")        # a damaged output
+    again = build(charts, out)
+    assert {e["name"]: e["cached"] for e in again["images"]} == {"plain": False, "noground": True}
+    assert images(out) == good
+    assert png_key(entry.read_bytes()) == plain["key"]
+
+
+def test_a_removed_entry_loses_its_image_only(env):
+    charts = make_charts(env, {k: ENTRIES[k] for k in ("plain.toml", "noground.toml")})
+    out = env / "out"
+    build(charts, out)
+    (out / "notes.png").write_bytes(b"a user's file")
+    (charts / "noground.toml").unlink()
+    manifest = build(charts, out)
+    assert [e["name"] for e in manifest["images"]] == ["plain"]
+    assert sorted(p.name for p in out.glob("*.png")) == ["notes.png", "plain.png"]
+
+
+def test_each_bug_expands_to_one_image_per_bug(tmp_path):
+    from sdfpbr.bugs import BUGS
+    charts = make_charts(tmp_path, {"bugs.toml": '[compare]\nbugs = "each"\n[spec]\n' + SMALL})
+    items = collect(charts)
+    assert [i.name for i in items] == [f"bugs-{name}" for name in BUGS]
+    for item, bug in zip(items, BUGS.values()):
+        correct, buggy = item.specs
+        assert bug.name in buggy.bugs and bug.name not in correct.bugs
+        assert item.caption == bug.caption
+    (tmp_path / "sheet").mkdir()
+    sheet = collect(make_charts(tmp_path / "sheet", {"s.toml": '[compare]\nbugs = "all"\n[spec]\n' + SMALL}))
+    assert len(sheet) == 1 and sheet[0].kind == "bug-sheet" and sheet[0].bug_names == tuple(BUGS)
+
+
+def test_entry_paths_are_relative_to_the_entry(tmp_path):
+    charts = make_charts(tmp_path, {"ab.toml": '[compare]\na = "specs/x.toml"\nb = "specs/y.toml"\n'
+                                               '[spec]\nsize = "48x48"\n'})
+    (charts / "specs").mkdir()
+    (charts / "specs" / "x.toml").write_text('tonemap = "aces"\n')
+    (charts / "specs" / "y.toml").write_text('tonemap = "neutral"\n')
+    np.save(charts / "env.npy", np.ones((8, 16, 3), np.float32))
+    (charts / "lit.toml").write_text(SMALL + 'env = "env.npy"\n')
+    items = {i.name: i for i in collect(charts)}
+    a, b = items["ab"].specs
+    assert (a.tonemap, b.tonemap, a.width, b.width) == ("aces", "neutral", 48, 48)
+    assert items["ab"].labels == ("x", "y")
+    assert Path(items["lit"].specs[0].env) == charts / "env.npy"
+
+
+def cli(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True, **kw)
+
+
+@pytest.mark.parametrize("name, text, needle", [
+    ("broken.toml", "rows = = 2\n", "malformed TOML"),
+    ("typo.toml", 'roughnes = "0:1"\n', "did you mean 'roughness'"),
+    ("bug.toml", '[compare]\nbug = "unsquared-roughnes"\n', "unknown bug"),
+    ("both.toml", '[compare]\nbug = "double-gamma"\na = "x.toml"\nb = "y.toml"\n', "exactly one of"),
+    ("sweep.toml", '[sweep]\nfield = "tonemapp"\nvalues = ["aces"]\n', "unknown key 'tonemapp'"),
+    ("values.toml", '[sweep]\nfield = "tonemap"\nvalues = []\n', "non-empty list"),
+    ("extra.toml", 'caption = "x"\nsize = "48x48"\n[spec]\nrows = 2\n', "[spec] belongs to"),
+    ("missing.toml", '[compare]\na = "nowhere.toml"\nb = "nowhere.toml"\n', "does not exist"),
+])
+def test_bad_entry_is_one_line_naming_the_file_exit_2_nothing_written(tmp_path, name, text, needle):
+    charts = make_charts(tmp_path, {"good.toml": SMALL, name: text})
+    out = tmp_path / "out"
+    r = cli("build", str(charts), "-o", str(out), env={**os.environ, "SDFPBR_CACHE_DIR": str(tmp_path / "cache")})
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0] and name in lines[0] and "Traceback" not in r.stderr
+    assert not out.exists() and not (tmp_path / "cache").exists()
+
+
+def test_bad_directory_and_output(tmp_path):
+    r = cli("build", str(tmp_path / "nowhere"), "-o", str(tmp_path / "out"))
+    assert r.returncode == 2 and "does not exist" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    r = cli("build", str(empty), "-o", str(tmp_path / "out"))
+    assert r.returncode == 2 and "no *.toml" in r.stderr
+    charts = make_charts(tmp_path, {"good.toml": SMALL})
+    (tmp_path / "file").write_text("x")
+    r = cli("build", str(charts), "-o", str(tmp_path / "file"))
+    assert r.returncode == 2 and "not a directory" in r.stderr
+    assert (tmp_path / "file").read_text() == "x"
+    r = cli("build", str(charts), "-o", str(tmp_path / "a" / "b"))
+    assert r.returncode == 2 and "does not exist" in r.stderr and not (tmp_path / "a").exists()
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_build_reports_progress_and_counts(tmp_path):
+    charts = make_charts(tmp_path, {"plain.toml": SMALL, "noground.toml": SMALL + "ground = false\n"})
+    env = {**os.environ, "SDFPBR_CACHE_DIR": str(tmp_path / "cache")}
+    out = tmp_path / "out"
+    r = cli("build", str(charts), "-o", str(out), env=env)
+    assert r.returncode == 0, r.stderr
+    assert "2 images (2 rendered, 0 cached)" in r.stdout
+    assert "[1/2]" in r.stderr and "[2/2]" in r.stderr and "rendered in" in r.stderr
+    r = cli("build", str(charts), "-o", str(out), env=env)
+    assert r.returncode == 0 and "2 images (0 rendered, 2 cached)" in r.stdout
+
+
+def test_the_key_follows_the_python_that_makes_images_only():
+    from sdfpbr.build import image_modules
+    names = {p.stem for p in image_modules()}
+    assert {"render", "chart", "compare", "layout", "ibl", "compose", "bugs", "textures"} <= names
+    assert not names & {"cli", "mirror", "build", "sphinxext"}
+
+
+def test_the_project_gallery_covers_the_issue_list():
+    """charts/: the default chart, the metals, every bug (own image + contact sheet), the tone
+    mapper, exposure and environment sweeps, the furnace; parsed, not rendered."""
+    from sdfpbr.bugs import BUGS
+    from sdfpbr.spec import MATERIAL_PRESETS
+    items = {i.name: i for i in collect(Path(__file__).resolve().parent.parent / "charts")}
+    assert {"default", "materials", "furnace", "tonemappers", "exposure", "environments", "bug-catalog"} <= set(items)
+    assert {f"bugs-{name}" for name in BUGS} <= set(items)
+    assert items["bug-catalog"].bug_names == tuple(BUGS)
+    assert set(items["materials"].specs[0].row_materials) == set(MATERIAL_PRESETS)
+    assert items["tonemappers"].sweep_values == ("none", "clamp", "reinhard", "reinhard-extended", "aces",
+                                                 "aces-hill", "neutral")
+    assert items["exposure"].sweep_field == "exposure" and items["environments"].sweep_field == "env"
+    furnace = items["furnace"].specs[0]
+    assert (furnace.env, furnace.lights, furnace.ground, furnace.ao, furnace.base_color) == (
+        "uniform", (), False, False, (1.0, 1.0, 1.0))
+    assert all(max(s.width, s.height) <= 1024 for i in items.values() for s in i.specs)

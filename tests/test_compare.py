@@ -1,0 +1,259 @@
+"""Comparison sheets: panels pasted pixel-exactly where the sheet says, FLIP differences that
+vanish for identical specs and sit where the specs differ, per-sphere numbers that are the
+per-cell means of the map, sweeps and contact sheets, and the compare / sweep commands."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from sdfpbr.bugs import BUGS
+from sdfpbr.camera import sphere_centers
+from sdfpbr.chart import chart
+from sdfpbr.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs, flatten,
+                            parse_sweep_values, sweep)
+from sdfpbr.errors import SpecError
+from sdfpbr.metrics import apply_colormap, flip_ldr, per_cell_mean
+from sdfpbr.spec import make_spec
+
+SMALL = dict(width=96, height=96, quality="draft")
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(cache_dir):
+    """Renders go through chart.get_renderer; point its disk cache at the session's."""
+
+
+def display(spec):
+    """The unlabeled display image of a spec, rendered independently of the sheet."""
+    return flatten(chart(spec).result.image)
+
+
+def background_far_from_spheres(spec, margin_px):
+    """Pixels farther than ``margin_px`` from every projected sphere (closed form)."""
+    res = chart(spec).result
+    px, scale = res.camera.project(sphere_centers(spec).reshape(-1, 3))
+    yy, xx = np.mgrid[:spec.height, :spec.width] + 0.5
+    dist = np.min([np.hypot(xx - x, yy - y) - spec.sphere_radius * k for (x, y), k in zip(px, scale)], axis=0)
+    return dist > margin_px
+
+
+def test_identical_specs_give_a_zero_difference_and_exact_panels():
+    spec = make_spec(**SMALL)
+    sheet = compare_specs(spec, spec, labels=("left", "right"))
+    a, b, diff = sheet.panels
+    d = sheet.differences[0]
+    assert d.mean == 0.0 and not d.error_map.any()
+    assert np.nanmax(d.per_cell) == 0.0
+    # Renders pasted unresampled at the boxes the sheet reports, left to right, tops aligned.
+    want = display(spec)
+    for p in (a, b):
+        assert (p.box.w, p.box.h) == (spec.width, spec.height)
+        np.testing.assert_array_equal(p.box.crop(sheet.image)[..., :3], want[..., :3])
+    assert a.box.y == b.box.y == diff.box.y
+    assert a.box.x + a.box.w < b.box.x and b.box.x + b.box.w < diff.box.x
+    assert diff.box.x + diff.box.w < sheet.image.shape[1] and a.box.y + a.box.h < sheet.image.shape[0]
+    # The difference panel is the colour-mapped map, apart from the printed numbers.
+    heat = apply_colormap(d.error_map)
+    unprinted = np.ones(heat.shape[:2], bool)
+    for c in d.cells:
+        x, y = int(c.x) - diff.box.x, int(c.y) - diff.box.y
+        unprinted[max(0, y - 12):y + 12, max(0, x - 24):x + 24] = False
+    np.testing.assert_array_equal(diff.box.crop(sheet.image)[..., :3][unprinted], heat[unprinted])
+    assert sheet.image.shape[2] == 4 and sheet.image.dtype == np.uint8
+    assert "same spec" in sheet.caption
+
+
+def test_exposure_difference_is_large_on_spheres_and_nil_far_from_them():
+    """+3 EV over a black, groundless scene: every lit sphere changes a lot, the black
+    background (identical in both) does not, beyond FLIP's few-pixel filter footprint."""
+    spec = make_spec(**SMALL, env="black", ground=False, rows=3, cols=3)
+    brighter = make_spec(spec, exposure=3.0)
+    sheet = compare_specs(spec, brighter)
+    d = sheet.differences[0]
+    res = chart(spec).result
+    interior = (res.aov["row"] >= 0) & (res.aov["ndotv"] > 0.3)
+    assert d.error_map[interior].mean() > 0.4
+    assert d.error_map[background_far_from_spheres(spec, 8)].max() < 0.02
+    assert "exposure 0 -> 3" in sheet.caption
+    assert d.mean == pytest.approx(flip_ldr(display(brighter), display(spec))[0], abs=1e-6)
+
+
+def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
+    spec = make_spec(**{**SMALL, "width": 160, "height": 160})
+    test = make_spec(spec, tonemap="clamp")
+    sheet = compare_specs(spec, test)
+    d = sheet.differences[0]
+    # Independently: render both, FLIP them, average per sphere.
+    mean, error_map = flip_ldr(display(test), display(spec))
+    aov = chart(spec).result.aov
+    want = per_cell_mean(error_map, aov["row"], aov["col"], spec.rows, spec.cols)
+    np.testing.assert_allclose(d.per_cell, want, rtol=1e-6, atol=1e-7)
+    printed = {(c.row, c.col): c for c in d.cells}
+    assert len(printed) == np.isfinite(want).sum() == spec.rows * spec.cols
+    for (r, c), cell in printed.items():
+        decimals = len(cell.text.split(".")[1])
+        assert abs(float(cell.text) - want[r, c]) <= 0.5 * 10 ** -decimals + 1e-9
+        # ... and drawn there: the white fill does not occur in the magma map (max 252,253,191).
+        x, y = int(cell.x), int(cell.y)
+        patch = sheet.image[y - 6:y + 6, x - 12:x + 12, :3]
+        assert (patch == 255).all(axis=-1).any()
+
+
+def test_bug_comparison_is_captioned_and_differs_where_alpha_changes():
+    """unsquared-roughness uses r instead of r^2: identical at r = 1, different in between."""
+    spec = make_spec(**{**SMALL, "width": 128, "height": 128})
+    sheet = compare_bug(spec, "unsquared-roughness")
+    bug = BUGS["unsquared-roughness"]
+    assert bug.name in sheet.title and bug.summary in sheet.title and bug.caption in sheet.caption
+    correct, buggy = sheet.specs
+    assert "unsquared-roughness" in buggy.bugs and "unsquared-roughness" not in correct.bugs
+    per_cell = sheet.differences[0].per_cell
+    assert per_cell[:, -1].max() < 0.01                 # r = 1: alpha = r = r^2
+    assert per_cell[1:, 1:-1].max() > 0.1               # mid roughness: alpha 0.25..0.75 vs 0.06..0.56
+    assert [p.label for p in sheet.panels][:2] == ["correct", "buggy: unsquared-roughness"]
+    # The correct panel is the plain chart; the buggy one the chart with the bug on.
+    np.testing.assert_array_equal(sheet.panels[0].box.crop(sheet.image)[..., :3], display(correct)[..., :3])
+    np.testing.assert_array_equal(sheet.panels[1].box.crop(sheet.image)[..., :3],
+                                  display(make_spec(spec, bugs=("unsquared-roughness",)))[..., :3])
+
+
+def test_bug_pair_for_a_spec_that_already_has_the_bug():
+    spec = make_spec(**SMALL, bugs=("clamp-tonemap",))
+    _, correct, buggy = bug_pair(spec, "clamp-tonemap")
+    assert correct.bugs == () and buggy.bugs == ("clamp-tonemap",)
+
+
+def test_sheet_saves_png_with_specs_and_digests(tmp_path):
+    spec = make_spec(**SMALL)
+    sheet = compare_bug(spec, "clamp-tonemap")
+    out = tmp_path / "cmp.png"
+    sheet.save(out)
+    with Image.open(out) as im:
+        assert im.size == (sheet.image.shape[1], sheet.image.shape[0])
+        text = im.text
+        np.testing.assert_array_equal(np.asarray(im.convert("RGBA")), sheet.image)
+    for i, s in enumerate(sheet.specs):
+        assert json.loads(text[f"sdfpbr:spec:{i}"]) == json.loads(json.dumps(s.to_dict()))
+    # A display-program bug: the chart program is the same, the display program is not.
+    assert text["sdfpbr:shader-sha256:0"] == text["sdfpbr:shader-sha256:1"]
+    assert text["sdfpbr:display-shader-sha256:0"] != text["sdfpbr:display-shader-sha256:1"]
+    assert text["Description"] == sheet.caption
+    with pytest.raises(SpecError, match=r"\.png"):
+        sheet.save(tmp_path / "cmp.jpg")
+    assert not (tmp_path / "cmp.jpg").exists()
+
+
+def test_contact_sheet_has_one_row_per_bug():
+    spec = make_spec(**SMALL)
+    names = ["clamp-tonemap", "double-gamma"]
+    sheet = bug_contact_sheet(spec, names, panel_size=64)
+    assert len(sheet.panels) == 6 and len(sheet.differences) == 2
+    assert len(sheet.specs) == 3                        # the correct chart is rendered once
+    rows = [sheet.panels[i:i + 3] for i in (0, 3)]
+    for row, name in zip(rows, names):
+        assert [p.box.w for p in row] == [64, 64, 64] and len({p.box.y for p in row}) == 1
+        assert row[1].label == f"buggy: {name}"
+    assert rows[1][0].box.y >= rows[0][0].box.y + 64
+    for d in sheet.differences:
+        assert d.mean > 0.1
+        assert d.number_style is None and not d.cells     # 6 px spheres: no room for numbers ...
+    assert "printed" not in sheet.caption                 # ... and the caption does not promise them
+    with pytest.raises(SpecError, match="allowed: unsquared-roughness"):
+        bug_contact_sheet(spec, ["clamp-tonemap", "no-such-bug"])
+
+
+def test_sweep_has_one_labeled_panel_per_value():
+    spec = make_spec(**SMALL)
+    values = ["aces", "clamp", "reinhard"]
+    sheet = sweep(spec, "tonemap", values)
+    assert [p.label for p in sheet.panels] == [f"tonemap {v}" for v in values]
+    assert [s.tonemap for s in sheet.specs] == values
+    crops = [p.box.crop(sheet.image)[..., :3] for p in sheet.panels]
+    for crop, value in zip(crops, values):
+        np.testing.assert_array_equal(crop, display(make_spec(spec, tonemap=value))[..., :3])
+    for i in range(3):
+        for j in range(i + 1, 3):
+            assert np.abs(crops[i].astype(int) - crops[j].astype(int)).mean() > 1.0
+    # Each panel's label is drawn in the band above its render.
+    for p in sheet.panels:
+        band = sheet.image[max(0, p.box.y - 40):p.box.y, p.box.x:p.box.x + p.box.w, :3]
+        assert (band.max(axis=-1) > 200).any()
+
+
+def test_sweep_grid_and_values():
+    spec = make_spec(**{**SMALL, "width": 48, "height": 48})
+    sheet = sweep(spec, "exposure", [-2, -1, 0, 1, 2], columns=2)
+    ys = sorted({p.box.y for p in sheet.panels})
+    assert len(ys) == 3 and [p.label for p in sheet.panels][0] == "exposure -2 EV"
+    assert parse_sweep_values("exposure", "-2,0,2.5") == [-2.0, 0.0, 2.5]
+    assert parse_sweep_values("multiscatter", "on,off") == [True, False]
+    assert parse_sweep_values("roughness", "0:0.5;0.5:1") == [(0.0, 0.5), (0.5, 1.0)]
+    with pytest.raises(SpecError, match="did you mean 'tonemap'"):
+        sweep(spec, "tonemapp", ["aces"])
+    with pytest.raises(SpecError, match="allowed"):
+        sweep(spec, "tonemap", ["aces", "filmic"])
+
+
+def test_specs_of_different_sizes_are_refused():
+    with pytest.raises(SpecError, match="same size"):
+        compare_specs(make_spec(**SMALL), make_spec(**{**SMALL, "width": 64}))
+
+
+# ---------------------------------------------------------------------------------------------
+# Command line.
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["compare", "--bug", "unsquared-rougness"], "did you mean unsquared-roughness"),
+    (["compare", "--bugs", "clamp-tonemap,nope"], "allowed: unsquared-roughness"),
+    (["compare", "missing-a.toml", "missing-b.toml"], "does not exist"),
+    (["compare", "one.toml"], "two spec files"),
+    (["compare"], "nothing to compare"),
+    (["compare", "--bug", "clamp-tonemap", "--bugs", "all"], "only one of"),
+    (["compare", "--bugs", "all", "--frames", "3"], "--bug comparison only"),
+    (["compare", "--bug", "clamp-tonemap", "--size", "big"], "WxH"),
+    (["sweep", "tonemap", "--values", "aces,filmic"], "allowed"),
+    (["sweep", "exposur"], "did you mean 'exposure'"),
+    (["sweep", "exposure", "--values", "1,x"], "must be numbers"),
+    (["sweep", "width"], "needs values"),
+])
+def test_bad_input_is_one_line_exit_2_no_file(tmp_path, args, needle):
+    out = tmp_path / "out.png"
+    out.write_bytes(b"keep me")
+    r = run(*args, "-o", str(out))
+    assert r.returncode == 2, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr and "Traceback" not in r.stderr
+    assert out.read_bytes() == b"keep me"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]
+
+
+@pytest.mark.parametrize("args", [["compare", "--bug", "clamp-tonemap"], ["sweep", "tonemap"]])
+def test_bad_output_suffix_is_refused(tmp_path, args):
+    r = run(*args, "--size", "48x48", "-o", str(tmp_path / "x.jpg"))
+    assert r.returncode == 2 and "must end in .png" in r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_compare_and_sweep_commands_write_sheets(tmp_path):
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    a.write_text('size = "64x64"\nquality = "draft"\n')
+    b.write_text('size = "64x64"\nquality = "draft"\nexposure = 2.0\n')
+    r = run("compare", str(a), str(b), "-o", str(tmp_path / "ab.png"), "-v")
+    assert r.returncode == 0, r.stderr
+    assert "b vs a: mean FLIP" in r.stdout and "row 4:" in r.stdout
+    r = run("compare", "--bug", "double-gamma", "--size", "64x64", "--quality", "draft", "-v", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "compare-double-gamma.png").is_file()
+    r = run("sweep", "exposure", "--values", "-2,0,2", "--size", "48x48", "--quality", "draft",
+            "-o", str(tmp_path / "sweep.png"))
+    assert r.returncode == 0, r.stderr
+    with Image.open(tmp_path / "sweep.png") as im:
+        assert json.loads(im.text["sdfpbr:panels"]) == ["exposure -2 EV", "exposure +0 EV", "exposure +2 EV"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.toml", "ab.png", "b.toml",
+                                                        "compare-double-gamma.png", "sweep.png"]

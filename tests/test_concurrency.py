@@ -1,0 +1,180 @@
+"""Builds that are killed, run in parallel processes, or run at the same time on one cache.
+
+Every build here is a real `sdfpbr build` process; kills are real SIGKILLs, either at exact
+points (the SDFPBR_BUILD_KILL_AT hook: the build kills itself the n-th time it reaches a
+phase) or at arbitrary moments. The check afterwards is always the same: every image in the
+output equals the one a clean serial build writes, every cache entry verifies, and no
+temporary file is left behind once the next build has run."""
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from sdfpbr.build import KEY_FIELD, png_key
+
+SMALL = 'size = "48x48"\nrows = 2\ncols = 2\n'
+ENTRIES = {
+    "a.toml": SMALL,
+    "b.toml": SMALL + "exposure = 1.0\n",
+    "c.toml": SMALL + 'roughness = "0.2:0.6"\n',
+    "d.toml": SMALL + "ground = false\n",
+    "e.toml": SMALL + 'tonemap = "neutral"\n',
+}
+
+
+def run_build(charts: Path, out: Path, cache: Path, *args: str, wait=True, **env_extra):
+    env = {**os.environ, "SDFPBR_CACHE_DIR": str(cache), **env_extra}
+    cmd = [sys.executable, "-m", "sdfpbr", "build", str(charts), "-o", str(out), "-q", *args]
+    if wait:
+        return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    return subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+@pytest.fixture(scope="module")
+def gallery(tmp_path_factory):
+    """The chart directory and the images a clean serial build writes from it."""
+    root = tmp_path_factory.mktemp("gallery")
+    charts = root / "charts"
+    charts.mkdir()
+    for name, text in ENTRIES.items():
+        (charts / name).write_text(text)
+    r = run_build(charts, root / "reference", root / "cache", "-j", "1")
+    assert r.returncode == 0, r.stderr
+    return charts, images(root / "reference")
+
+
+def images(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(out.glob("*.png"))}
+
+
+def same_image(a: bytes, b: bytes) -> bool:
+    """Same pixels and metadata. The build key is left out of the comparison: it hashes the
+    package's Python sources, which may differ between the reference build and a later one
+    when the tree is being edited; byte-identity under one key is test_build's business."""
+    def content(data):
+        with Image.open(io.BytesIO(data)) as im:
+            text = {k: v for k, v in im.text.items() if k != KEY_FIELD}
+            return np.asarray(im.convert("RGBA")), text
+    (pa, ta), (pb, tb) = content(a), content(b)
+    return ta == tb and np.array_equal(pa, pb)
+
+
+def temporaries(*dirs: Path) -> list[Path]:
+    return [p for d in dirs if d.exists() for p in d.rglob("*") if p.name.endswith(".tmp")]
+
+
+def assert_consistent(out: Path, cache: Path, reference: dict[str, bytes], complete: bool) -> None:
+    """Every image present is whole and right; every cache entry carries its own key."""
+    present = images(out)
+    for name, data in present.items():
+        assert png_key(data) is not None, f"{name} is not a whole image"
+        assert same_image(data, reference[name]), f"{name} differs from the serial build"
+    for entry in (cache / "build").glob("*.png"):
+        assert png_key(entry.read_bytes()) == entry.stem, f"corrupt cache entry {entry.name}"
+    if complete:
+        assert sorted(present) == sorted(reference)
+        manifest = json.loads((out / "manifest.json").read_text())
+        assert sorted(e["image"] for e in manifest["images"]) == sorted(reference)
+        assert (out / "index.html").read_text().rstrip().endswith("</html>")
+        assert temporaries(out, cache) == []
+
+
+def test_parallel_build_equals_serial_build(gallery, tmp_path):
+    charts, reference = gallery
+    r = run_build(charts, tmp_path / "out", tmp_path / "cache", "-j", "2")
+    assert r.returncode == 0, r.stderr
+    parallel = images(tmp_path / "out")
+    assert sorted(parallel) == sorted(reference)
+    assert all(same_image(parallel[name], reference[name]) for name in reference)
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["rendered"] == len(reference)
+
+
+@pytest.mark.parametrize("phase", ["render:2", "cache-temp:1", "cache:3", "output-temp:2", "output:4",
+                                   "manifest-temp:1"])
+def test_build_killed_at_a_phase_then_rerun_completes(gallery, tmp_path, phase):
+    charts, reference = gallery
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    killed = run_build(charts, out, cache, SDFPBR_BUILD_KILL_AT=phase)
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    assert_consistent(out, cache, reference, complete=False)
+    already = len(list((cache / "build").glob("*.png")))
+
+    r = run_build(charts, out, cache)
+    assert r.returncode == 0, r.stderr
+    assert_consistent(out, cache, reference, complete=True)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["cached"] == already           # the killed build's finished work is reused
+
+
+def test_builds_killed_at_arbitrary_moments(gallery, tmp_path):
+    charts, reference = gallery
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    assert run_build(charts, out, cache).returncode == 0        # warm: the forced builds below only render
+    for delay in (0.2, 0.7, 1.2, 1.7, 2.4):
+        p = run_build(charts, out, cache, "--force", wait=False)
+        time.sleep(delay)
+        p.send_signal(signal.SIGKILL)
+        p.communicate()
+        assert_consistent(out, cache, reference, complete=False)
+    r = run_build(charts, out, cache)
+    assert r.returncode == 0, r.stderr
+    assert_consistent(out, cache, reference, complete=True)
+
+
+def _processes_with(marker: str) -> list[int]:
+    found = []
+    for proc in Path("/proc").iterdir():
+        if not proc.name.isdigit():
+            continue
+        try:
+            if marker.encode() in (proc / "environ").read_bytes():
+                found.append(int(proc.name))
+        except OSError:
+            pass
+    return found
+
+
+def test_killed_parallel_build_leaves_no_workers_and_reruns(gallery, tmp_path):
+    charts, reference = gallery
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    marker = f"SDFPBR_TEST_RUN={uuid.uuid4().hex}"
+    name, value = marker.split("=")
+    killed = run_build(charts, out, cache, "-j", "2", SDFPBR_BUILD_KILL_AT="output:2", **{name: value})
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    for _ in range(100):                 # orphaned workers notice their parent is gone and exit
+        if not _processes_with(marker):
+            break
+        time.sleep(0.1)
+    assert _processes_with(marker) == []
+    r = run_build(charts, out, cache, "-j", "2")
+    assert r.returncode == 0, r.stderr
+    assert_consistent(out, cache, reference, complete=True)
+
+
+@pytest.mark.parametrize("force", [False, True], ids=["cold-cache", "both-forced"])
+def test_two_builds_sharing_a_cache_at_once(gallery, tmp_path, force):
+    """Both builds render (and write) the same keys at the same time into one cache."""
+    charts, reference = gallery
+    cache = tmp_path / "cache"
+    if force:
+        assert run_build(charts, tmp_path / "warm", cache).returncode == 0
+    extra = ("--force",) if force else ()
+    procs = [run_build(charts, tmp_path / f"out{i}", cache, *extra, wait=False) for i in range(2)]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+    for i in range(2):
+        assert_consistent(tmp_path / f"out{i}", cache, reference, complete=True)
+    keys = [{e["key"] for e in json.loads((tmp_path / f"out{i}" / "manifest.json").read_text())["images"]}
+            for i in range(2)]
+    assert keys[0] == keys[1] and keys[0] <= {p.stem for p in (cache / "build").glob("*.png")}

@@ -1,0 +1,215 @@
+"""Error metrics against closed forms, the FLIP guard, heat-map layout."""
+import numpy as np
+import pytest
+
+from sdfpbr import metrics as M
+from sdfpbr.errors import SpecError
+
+rng = np.random.default_rng(7)
+
+
+def _ref(h=24, w=32):
+    return (0.2 + rng.random((h, w, 3))).astype(np.float32)
+
+
+# --- relative RMSE -----------------------------------------------------------------------------
+
+def test_rel_rmse_identical_is_zero():
+    r = _ref()
+    assert M.rel_rmse(r, r) == 0.0
+
+
+@pytest.mark.parametrize("k", [0.01, 0.1, -0.3])
+def test_rel_rmse_of_a_uniform_relative_error_is_that_error(k):
+    r = _ref()
+    # With eps -> 0 the per-pixel relative error is exactly |k| everywhere.
+    assert M.rel_rmse(r * (1 + k), r, eps=1e-12) == pytest.approx(abs(k), rel=1e-5)
+
+
+def test_rel_rmse_closed_form_with_eps():
+    c, d, eps = 0.5, 0.2, 0.01
+    r = np.full((8, 8, 3), c, np.float32)
+    expected = np.sqrt(d * d / (c * c + eps))
+    assert M.rel_rmse(r + d, r, eps=eps) == pytest.approx(expected, rel=1e-5)
+
+
+def test_rel_rmse_mask_and_aov_dict():
+    r = _ref(10, 10)
+    t = r.copy()
+    row = np.full((10, 10), -1, np.int32)
+    col = np.full((10, 10), -1, np.int32)
+    row[:, :5] = 0
+    col[:, :5] = 0
+    t[:, 5:] *= 3.0                        # error only outside the spheres
+    aov = {"row": row, "col": col}
+    assert M.rel_rmse(t, r, mask=aov) == 0.0
+    assert M.rel_rmse(t, r) > 0.5
+    t[:, :5] *= 1.2                        # now 20% inside as well
+    assert M.rel_rmse(t, r, mask=row >= 0, eps=1e-12) == pytest.approx(0.2, rel=1e-5)
+    # Half the pixels at 0.2 and half at 2.0: the RMS over all of them.
+    assert M.rel_rmse(t, r, eps=1e-12) == pytest.approx(np.sqrt((0.2 ** 2 + 2.0 ** 2) / 2), rel=1e-5)
+
+
+def test_per_cell_rel_rmse_matches_each_cells_perturbation():
+    rows, cols = 2, 3
+    H, W = 12, 18
+    r = _ref(H, W)
+    row = np.repeat(np.arange(rows), H // rows)[:, None].repeat(W, axis=1)
+    col = np.repeat(np.arange(cols), W // cols)[None, :].repeat(H, axis=0)
+    k = np.array([[0.0, 0.1, 0.2], [0.3, 0.4, 0.5]])
+    t = r * (1 + k[row, col])[..., None]
+    col = col.copy()
+    col[row == 1] = np.where(col[row == 1] == 2, -1, col[row == 1])   # cell (1, 2) not visible
+    cells = M.per_cell_rel_rmse(t, r, row, col, rows, cols, eps=1e-12)
+    assert cells.shape == (rows, cols)
+    assert np.isnan(cells[1, 2])
+    np.testing.assert_allclose(cells[~np.isnan(cells)], k[~np.isnan(cells)], rtol=1e-5, atol=1e-7)
+
+
+def test_per_cell_mean_of_a_synthetic_map():
+    row = np.array([[0, 0, 1, 1], [0, 0, 1, -1]])
+    col = np.array([[0, 1, 0, 1], [0, 1, 0, 1]])
+    e = np.array([[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 100.0]])
+    m = M.per_cell_mean(e, row, col, 2, 2)
+    np.testing.assert_allclose(m, [[3.0, 4.0], [5.0, 4.0]])
+    m3 = M.per_cell_mean(e[..., None], row, col, 3, 2)      # (H, W, 1) maps as FLIP returns them
+    assert np.isnan(m3[2]).all()
+
+
+# --- FLIP ----------------------------------------------------------------------------------------
+
+def _ldr(h=48, w=64):
+    return (rng.random((h, w, 3)) * 255).astype(np.uint8)
+
+
+def test_flip_ldr_identical_is_zero_and_alpha_is_ignored():
+    a = _ldr()
+    rgba = np.concatenate([a, np.zeros(a.shape[:2] + (1,), np.uint8)], axis=2)
+    mean, emap = M.flip_ldr(rgba, a)
+    assert mean == 0.0
+    assert emap.shape == a.shape[:2] and emap.dtype == np.float32
+
+
+def test_flip_ldr_black_vs_white_is_large_and_grows_with_the_difference():
+    black = np.zeros((32, 32, 3), np.uint8)
+    white = np.full((32, 32, 3), 255, np.uint8)
+    big, emap = M.flip_ldr(white, black)
+    assert big > 0.7
+    gray = np.full((32, 32, 3), 40, np.uint8)
+    small, _ = M.flip_ldr(gray, black)
+    assert 0.0 < small < big
+    assert emap.min() >= 0.0 and emap.max() <= 1.0
+
+
+def test_flip_mask_mean_is_the_mean_of_the_map_over_the_mask():
+    a, b = _ldr(), _ldr()
+    mask = np.zeros(a.shape[:2], bool)
+    mask[10:20, 5:40] = True
+    mean, emap = M.flip_ldr(a, b, mask=mask)
+    assert mean == pytest.approx(float(emap[mask].mean()), rel=1e-6)
+    whole, _ = M.flip_ldr(a, b)
+    assert whole == pytest.approx(float(emap.mean()), rel=1e-4)
+
+
+def test_flip_hdr_identical_zero_different_positive_black_reference_survives():
+    r = _ref() * 4.0
+    assert M.flip_hdr(r, r)[0] == 0.0
+    assert M.flip_hdr(r * 3.0, r)[0] > 0.05
+    black = np.zeros_like(r)
+    # The library aborts the process on a black reference; the guard compares at one exposure.
+    mean, emap = M.flip_hdr(r, black)
+    assert mean > 0.5 and np.isfinite(emap).all()
+    assert M.flip_hdr(black, black)[0] == 0.0
+
+
+@pytest.mark.parametrize("test, ref, match", [
+    (np.zeros((8, 8), np.uint8), np.zeros((8, 8), np.uint8), "shape"),
+    (np.zeros((8, 8, 2), np.uint8), np.zeros((8, 8, 2), np.uint8), "shape"),
+    (np.zeros((0, 8, 3), np.uint8), np.zeros((0, 8, 3), np.uint8), "empty"),
+    (np.zeros((8, 8, 3), np.uint8), np.zeros((8, 9, 3), np.uint8), "must match"),
+    (np.zeros((8, 8, 3), np.int32), np.zeros((8, 8, 3), np.int32), "dtype"),
+    (np.full((8, 8, 3), np.nan, np.float32), np.zeros((8, 8, 3), np.float32), "NaN"),
+    (np.full((8, 8, 3), 2.0, np.float32), np.zeros((8, 8, 3), np.float32), "outside"),
+    ("image.png", np.zeros((8, 8, 3), np.uint8), "shape"),
+])
+def test_flip_ldr_guard_raises_one_clear_line(test, ref, match):
+    with pytest.raises(SpecError, match=match) as info:
+        M.flip_ldr(test, ref)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("test, ref, kwargs, match", [
+    (-np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {}, "negative"),
+    (np.ones((8, 8, 3), np.float32), np.full((8, 8, 3), np.inf, np.float32), {}, "infinite"),
+    (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"pixels_per_degree": 0}, "pixels_per_degree"),
+    (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"mask": np.zeros((8, 8), bool)}, "no pixels"),
+    (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"mask": np.ones((4, 4), bool)}, "mask has shape"),
+])
+def test_flip_hdr_guard(test, ref, kwargs, match):
+    with pytest.raises(SpecError, match=match):
+        M.flip_hdr(test, ref, **kwargs)
+
+
+def test_rel_rmse_guard():
+    r = _ref()
+    with pytest.raises(SpecError, match="must match"):
+        M.rel_rmse(r[:5], r)
+    with pytest.raises(SpecError, match="NaN"):
+        M.rel_rmse(np.where(r > 0.5, np.nan, r), r)
+    with pytest.raises(SpecError, match="eps"):
+        M.rel_rmse(r, r, eps=0)
+    with pytest.raises(SpecError, match="no pixels"):
+        M.rel_rmse(r, r, mask=np.zeros(r.shape[:2], bool))
+
+
+# --- heat maps -----------------------------------------------------------------------------------
+
+def _find(canvas: np.ndarray, block: np.ndarray) -> tuple[int, int] | None:
+    h, w = block.shape[:2]
+    for y in range(canvas.shape[0] - h + 1):
+        for x in range(canvas.shape[1] - w + 1):
+            if np.array_equal(canvas[y:y + h, x:x + w, :3], block):
+                return y, x
+    return None
+
+
+def test_heatmap_holds_the_mapped_errors_and_a_bar_dark_at_the_bottom():
+    e = rng.random((40, 60))
+    e[3, 4] = np.nan
+    img = M.heatmap_image(e, vmin=0.0, vmax=1.0)
+    assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 4
+    assert img.shape[0] >= 40 and img.shape[1] > 60 + 10
+    where = _find(img, M.apply_colormap(e, "magma"))
+    assert where is not None
+    y0, x0 = where
+    assert tuple(img[y0 + 3, x0 + 4, :3]) == M._NAN_COLOR
+    # The colour bar lies right of the map: its darkest magma entry sits below its brightest.
+    right = img[:, x0 + 60:, :3].astype(int)
+    lum = right.sum(axis=2)
+    darkest = np.argwhere((right == (0, 0, 4)).all(axis=2))
+    brightest = np.argwhere((right == (252, 253, 191)).all(axis=2))
+    assert len(darkest) and len(brightest)
+    assert darkest[:, 0].mean() > brightest[:, 0].mean()
+    assert lum.max() > 600
+
+
+def test_heatmap_title_and_range_and_colormap_checks():
+    e = np.linspace(0, 0.1, 200).reshape(10, 20)
+    plain = M.heatmap_image(e, vmax=0.1)
+    titled = M.heatmap_image(e, title="LDR FLIP", vmax=0.1)
+    assert titled.shape[0] > plain.shape[0]
+    # vmax maps to the top of the colour scale.
+    assert _find(plain, M.apply_colormap(e / 0.1)) is not None
+    with pytest.raises(SpecError, match="vmax"):
+        M.heatmap_image(e, vmin=1.0, vmax=1.0)
+    with pytest.raises(SpecError, match="colormap"):
+        M.heatmap_image(e, colormap="jet")
+    with pytest.raises(SpecError, match="shape"):
+        M.heatmap_image(np.zeros((3, 3, 3)))
+
+
+def test_apply_colormap_ends_and_monotone_luminance():
+    c = M.apply_colormap(np.linspace(0, 1, 64), "magma").astype(float)
+    assert tuple(c[0]) == (0, 0, 4) and tuple(c[-1]) == (252, 253, 191)
+    lum = c @ [0.2126, 0.7152, 0.0722]
+    assert np.all(np.diff(lum) >= -1.0)

@@ -1,0 +1,272 @@
+"""The path-traced reference against closed forms and float64 integrals (sdfpbr.mirror).
+
+Expected pixel values are integrated here independently of the renderer: primary rays are
+re-traced in numpy at 6 x 6 points per pixel (the reference averages over the pixel), and
+the BRDF integrals come from the float64 mirror. Tolerances are k standard errors of the
+reference's own per-pixel estimate plus a stated bias bound."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sdfpbr import mirror
+from sdfpbr.camera import frame_grid, sphere_centers
+from sdfpbr.reference import batch_size, render_reference
+from sdfpbr.spec import Light, make_spec
+
+FURNACE = dict(env="uniform", lights="none", ground=False, rows=1, cols=1, base_color=(1.0, 1.0, 1.0),
+               width=40, height=40)
+SUB = 6   # subsamples per pixel edge for the expected values
+# The compensation's E comes from a 128^2 float64 table read bilinearly: its error is below
+# 4e-4 relative (measured against direct quadrature); float32 sums add ~1e-5. Bound: 1e-3.
+BIAS = 1e-3
+
+
+def luminance(rgb):
+    return np.asarray(rgb, float) @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def primary_hits(spec):
+    """Per pixel and subsample, the sphere hit by the camera ray: (hit, row, col, normal, view),
+    arrays of shape (H, W, SUB*SUB[, 3]), traced in float64 as camera.glsl and a ray-sphere test."""
+    cam = frame_grid(spec)
+    h, w = spec.height, spec.width
+    offsets = (np.arange(SUB) + 0.5) / SUB
+    ox, oy = np.meshgrid(offsets, offsets)
+    px = np.arange(w)[None, :, None] + ox.ravel()[None, None, :]
+    py = (h - 1 - np.arange(h))[:, None, None] + oy.ravel()[None, None, :]   # GL rows from the bottom
+    ndc_x, ndc_y = 2 * px / w - 1, 2 * py / h - 1
+    sx, sy = ndc_x * (w / h) * cam.half_height, ndc_y * cam.half_height
+    rd = cam.forward + sx[..., None] * cam.right + sy[..., None] * cam.up
+    rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
+    ro = np.broadcast_to(cam.position, rd.shape)
+    t_best = np.full(rd.shape[:-1], np.inf)
+    row = np.full(rd.shape[:-1], -1)
+    col = np.full(rd.shape[:-1], -1)
+    centers = sphere_centers(spec)
+    for j in range(spec.rows):
+        for i in range(spec.cols):
+            oc = ro - centers[j, i]
+            b = (oc * rd).sum(-1)
+            disc = b * b - ((oc * oc).sum(-1) - spec.sphere_radius ** 2)
+            t = -b - np.sqrt(np.maximum(disc, 0))
+            better = (disc > 0) & (t > 0) & (t < t_best)
+            t_best = np.where(better, t, t_best)
+            row, col = np.where(better, j, row), np.where(better, i, col)
+    hit = np.isfinite(t_best)
+    p = ro + rd * np.where(hit, t_best, 0)[..., None]
+    normal = (p - centers[np.maximum(row, 0), np.maximum(col, 0)]) / spec.sphere_radius
+    return hit, row, col, normal, -rd
+
+
+def interior(spec, hits, min_ndotv):
+    """Pixels whose every subsample hits the same sphere at NdotV >= min_ndotv."""
+    hit, row, col, normal, view = hits
+    ndotv = (normal * view).sum(-1)
+    same = hit.all(-1) & (row == row[..., :1]).all(-1) & (col == col[..., :1]).all(-1)
+    return same & (ndotv.min(-1) >= min_ndotv)
+
+
+def check_converged(got, want, stderr, k=5.0, bias=BIAS):
+    """Per pixel within k standard errors plus the bias bound, and the mean over all pixels
+    (a far tighter test of bias) within 4 standard errors of that mean plus the bound."""
+    got, want = np.asarray(got, float), np.asarray(want, float)
+    se = np.asarray(stderr, float)
+    assert np.isfinite(se).all() and (se > 0).all()
+    excess = np.abs(got - want) - (k * se + bias * np.abs(want))
+    assert excess.max() <= 0, f"{(excess > 0).sum()} of {excess.size} pixels off, worst by {excess.max():.3g}"
+    mean_diff = abs((got - want).mean())
+    assert mean_diff <= 4 * np.sqrt((se ** 2).sum()) / se.size + bias * np.abs(want).mean(), mean_diff
+
+
+def furnace_curve(mu, metallic, roughness, multiscatter):
+    """Directional albedo of the white material under the uniform environment (REFERENCE.md
+    §2-3, float64), interpolated from a dense NdotV grid (spacing 2e-3: error < 1e-6)."""
+    grid = np.linspace(0.0, 1.0, 513)
+    albedo = mirror.furnace_expected(grid, np.ones(3), metallic, roughness, multiscatter=multiscatter)[:, 0]
+    return np.interp(mu, grid, albedo)
+
+
+@pytest.mark.parametrize("metallic, roughness, multiscatter", [
+    (1.0, 0.3, True), (1.0, 0.7, False), (0.0, 0.5, True), (0.0, 0.2, False)])
+def test_uniform_environment_converges_to_directional_albedo(renderer, metallic, roughness, multiscatter):
+    """max_bounces = 1 on a lone sphere: each pixel integrates f cos over the hemisphere, i.e.
+    the directional albedo at its NdotV (1 for a compensated white metal)."""
+    spec = make_spec(**FURNACE, roughness=(roughness, roughness), metallic=(metallic, metallic),
+                     multiscatter=multiscatter)
+    res = render_reference(spec, samples=256, max_bounces=1, seed=1, renderer=renderer)
+    hits = primary_hits(spec)
+    m = interior(spec, hits, 0.15)
+    assert m.sum() > 500 and res.non_finite == 0
+    ndotv = (hits[3] * hits[4]).sum(-1)
+    want = furnace_curve(ndotv, metallic, roughness, multiscatter).mean(-1)
+    check_converged(luminance(res.hdr)[m], want[m], res.stderr[m])
+    np.testing.assert_array_equal(res.hdr[..., 0], res.hdr[..., 2])   # white stays white
+    if metallic == 1.0 and multiscatter:
+        np.testing.assert_allclose(want[m], 1.0, atol=1e-9)   # REFERENCE.md §3: the sphere vanishes
+
+
+def test_white_lambert_sphere_converges_to_its_albedo(renderer):
+    for albedo in (1.0, 0.5):
+        spec = make_spec(**{**FURNACE, "base_color": (albedo,) * 3})
+        res = render_reference(spec, samples=128, max_bounces=4, seed=2, renderer=renderer, lambert=True)
+        m = interior(spec, primary_hits(spec), 0.05)
+        check_converged(res.hdr[..., 1][m], np.full(m.sum(), albedo), res.stderr[m], bias=1e-4)
+
+
+def test_interreflection_between_white_lambert_spheres_conserves_energy(renderer):
+    """Two white Lambert spheres in a white furnace: with enough bounces every pixel reads 1
+    (light only changes direction); with direct light only, the faces that see the other
+    sphere go dark. A path survives 12 bounces between them with probability < 1e-10."""
+    spec = make_spec(**{**FURNACE, "cols": 2, "spacing": 2.2, "width": 64, "height": 32})
+    m = interior(spec, primary_hits(spec), 0.05)
+    full = render_reference(spec, samples=96, max_bounces=12, seed=3, renderer=renderer, lambert=True)
+    check_converged(full.hdr[..., 1][m], np.ones(m.sum()), full.stderr[m], bias=1e-4)
+    direct = render_reference(spec, samples=32, max_bounces=1, seed=3, renderer=renderer, lambert=True)
+    assert direct.hdr[..., 1][m].min() < 0.85
+
+
+def test_same_seed_is_bit_identical_and_another_seed_is_not(renderer):
+    spec = make_spec(width=32, height=32)   # the default scene: ground, sun, point light, studio
+    a = render_reference(spec, samples=6, seed=7, renderer=renderer)
+    b = render_reference(spec, samples=6, seed=7, renderer=renderer)
+    c = render_reference(spec, samples=6, seed=8, renderer=renderer)
+    assert np.array_equal(a.hdr, b.hdr) and np.array_equal(a.stderr, b.stderr, equal_nan=True)
+    assert np.array_equal(a.image, b.image)
+    assert not np.array_equal(a.hdr, c.hdr)
+    assert np.abs(a.hdr - c.hdr).mean() > 1e-3 * a.hdr.mean()
+    assert a.non_finite == 0 and np.isfinite(a.hdr).all()
+
+
+def test_stderr_shrinks_as_one_over_sqrt_n_and_is_honest(renderer):
+    spec = make_spec(**FURNACE, roughness=(0.5, 0.5), metallic=(0.0, 0.0))
+    hits = primary_hits(spec)
+    m = interior(spec, hits, 0.15)
+    want = furnace_curve((hits[3] * hits[4]).sum(-1), 0.0, 0.5, True).mean(-1)[m]
+    se = {}
+    for n in (16, 64):
+        res = render_reference(spec, samples=n, max_bounces=1, seed=4, renderer=renderer)
+        se[n] = res.stderr[m]
+        # The error actually made against the float64 albedo is what the stderr says, or less
+        # (pixel samples are stratified, the estimate assumes independent ones).
+        rms_error = np.sqrt(np.mean((res.hdr[..., 0][m] - want) ** 2))
+        assert 0.5 < rms_error / np.sqrt(np.mean(se[n] ** 2)) < 1.2
+    ratio = np.mean(se[16]) / np.mean(se[64])
+    assert 1.75 < ratio < 2.25   # sqrt(64 / 16) = 2
+
+
+def test_target_error_stops_early_and_reports_what_it_reached(renderer):
+    spec = make_spec(**FURNACE, roughness=(0.5, 0.5), metallic=(1.0, 1.0))
+    res = render_reference(spec, target_error=0.01, samples=4096, max_bounces=1, seed=5, renderer=renderer)
+    assert res.error <= 0.01 and res.samples < 4096
+    assert res.samples % batch_size(spec.width, spec.height) == 0
+    m = res.aov["row"] >= 0
+    rel = res.stderr[m] / np.maximum(res.hdr[m] @ [0.2126, 0.7152, 0.0722], 1e-12)
+    assert rel.mean() == pytest.approx(res.error, rel=1e-3)
+
+
+def cone_average(f, axis, theta, rings=3, spokes=8):
+    """Mean of f(l) over directions uniform in the cone (midpoint rule in (1 - cos) and phi)."""
+    t = np.cross(axis, [0.0, 0.0, 1.0])
+    t /= np.linalg.norm(t)
+    b = np.cross(axis, t)
+    total = 0.0
+    for i in range(rings):
+        omc = (i + 0.5) / rings * (1 - np.cos(theta))
+        sin_t = np.sqrt(omc * (2 - omc))
+        for k in range(spokes):
+            phi = 2 * np.pi * (k + 0.5) / spokes
+            total = total + f((1 - omc) * axis + sin_t * (np.cos(phi) * t + np.sin(phi) * b))
+    return total / (rings * spokes)
+
+
+def test_small_sun_converges_to_closed_form(renderer):
+    """Black environment, no ground, one sun of angular radius 0.25 deg, direct light only:
+    a pixel reads the disc's radiance E / (pi sin^2) integrated over the disc,
+    E 2 / (1 + cos theta) x mean over the disc of f(v, l) NdotL, from the float64 BRDF."""
+    sun_dir = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
+    theta_deg, illuminance = 0.25, 2.0
+    sun = Light("directional", direction=tuple(sun_dir), intensity=illuminance, angular_radius_deg=theta_deg)
+    base = np.array([0.9, 0.6, 0.3])
+    spec = make_spec(env="black", lights=(sun,), ground=False, rows=2, cols=2, roughness=(0.4, 0.8),
+                     metallic=(0.0, 1.0), base_color=tuple(base), multiscatter=False, width=48, height=48)
+    res = render_reference(spec, samples=64, max_bounces=1, seed=6, renderer=renderer)
+    hits = primary_hits(spec)
+    hit, row, col, normal, view = hits
+    m = interior(spec, hits, 0.1)
+    # Keep pixels no other sphere shadows (the light comes from the camera side; this checks it).
+    centers = sphere_centers(spec)
+    p = centers[np.maximum(row, 0), np.maximum(col, 0)] + normal * spec.sphere_radius
+    for j in range(spec.rows):
+        for i in range(spec.cols):
+            rel = centers[j, i] - p
+            along = rel @ sun_dir
+            miss = np.linalg.norm(rel - along[..., None] * sun_dir, axis=-1)
+            other = (row != j) | (col != i)
+            m &= ~((other & (along > 0) & (miss < 1.05 * spec.sphere_radius)).any(-1))
+    assert m.sum() > 300
+    metallic = np.array(spec.row_metallic())[np.maximum(row, 0)]
+    roughness = np.array(spec.column_roughness())[np.maximum(col, 0)]
+    theta = np.radians(theta_deg)
+
+    def f_cos(l):
+        l = np.broadcast_to(l, normal.shape)
+        return mirror.brdf(normal, view, l, base, metallic, roughness) * np.clip((normal * l).sum(-1), 0, None)[..., None]
+
+    want = illuminance * 2 / (1 + np.cos(theta)) * cone_average(f_cos, sun_dir, theta).mean(-2)
+    lit = m & (luminance(want) > 1e-3)
+    check_converged(luminance(res.hdr)[lit], luminance(want)[lit], res.stderr[lit], bias=2e-3)
+    # Per channel, the luminance error scaled by the channel's share (the noise here is in
+    # magnitude: where on the disc and in the pixel a sample falls, not in colour).
+    share = want[lit] / luminance(want)[lit][:, None]
+    for channel in range(3):
+        check_converged(res.hdr[lit][:, channel], want[lit][:, channel], res.stderr[lit] * share[:, channel],
+                        bias=2e-3)
+    # The same pixels with the sun's centre direction only: the disc changes them by less than 1 %.
+    point = illuminance * f_cos(sun_dir).mean(-2)
+    np.testing.assert_allclose(point[lit], want[lit], rtol=1e-2, atol=1e-4)
+
+
+def test_aovs_match_the_chart(renderer):
+    """The reference traces the chart's scene: same cells, normals and NdotV per pixel."""
+    spec = make_spec(width=64, height=48, rows=3, cols=4, camera_azimuth=20.0)
+    ref = render_reference(spec, samples=1, renderer=renderer)
+    chart = renderer.render(spec)
+    same = (ref.aov["row"] == chart.aov["row"]) & (ref.aov["col"] == chart.aov["col"])
+    assert same.mean() > 0.995 and set(ref.aov) == set(chart.aov)
+    sphere = same & (ref.aov["row"] >= 0)
+    np.testing.assert_allclose(ref.aov["normal"][sphere], chart.aov["normal"][sphere], atol=1e-4)
+    np.testing.assert_allclose(ref.aov["ndotv"][sphere], chart.aov["ndotv"][sphere], atol=1e-4)
+
+
+def run_cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "sdfpbr", "reference", *args], capture_output=True,
+                          text=True, cwd=cwd)
+
+
+def test_cli_writes_png_hdr_and_aov(tmp_path, cache_dir):
+    r = run_cli("--size", "32x32", "--samples", "4", "-o", "x.png", "--hdr", "x.npy", "--aov", "x.npz",
+                cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    hdr = np.load(tmp_path / "x.npy")
+    assert hdr.shape == (32, 32, 3) and hdr.dtype == np.float32 and np.isfinite(hdr).all()
+    aov = np.load(tmp_path / "x.npz")
+    assert {"normal", "depth", "row", "col", "roughness", "metallic", "ndotv", "stderr"} <= set(aov.files)
+    from PIL import Image
+    png = Image.open(tmp_path / "x.png")
+    assert png.width > 32 and "sdfpbr:reference" in png.info
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--samples", "0"], "samples must be"),
+    (["--target-error", "0"], "target error"),
+    (["--bounces", "0"], "bounces must be"),
+    (["--seed", "-3"], "seed must be"),
+    (["--hdr", "x.txt"], ".npy or .exr"),
+])
+def test_cli_bad_arguments_are_one_line_exit_2_no_file(tmp_path, args, needle):
+    r = run_cli("--size", "32x32", *args, "-o", "x.png", cwd=tmp_path)
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr and "Traceback" not in r.stderr
+    assert not list(tmp_path.iterdir())
