@@ -77,17 +77,17 @@ def spec_from_args(args: argparse.Namespace):
         value = getattr(args, name)
         if value is not None:
             o[name] = value
-    if args.size:
+    if args.size is not None:   # an explicit empty value is an error, not "unset"
         o["width"], o["height"] = parse_size(args.size)
-    if args.roughness:
+    if args.roughness is not None:
         o["roughness"] = parse_range(args.roughness, "--roughness")
-    if args.metallic:
+    if args.metallic is not None:
         o["metallic"] = parse_range(args.metallic, "--metallic")
-    if args.base_color:
+    if args.base_color is not None:
         o["base_color"] = parse_color(args.base_color)
     if args.bugs:
         o["bugs"] = tuple(base.bugs) + tuple(b for b in args.bugs if b not in base.bugs)
-    if args.materials:
+    if args.materials is not None:
         o["row_materials"] = tuple(m.strip() for m in args.materials.split(","))
         o.setdefault("rows", len(o["row_materials"]))
     return make_spec(base, **o)

@@ -63,7 +63,7 @@ class _OSMesaLoader:
         return self
 
     def __exit__(self, *exc) -> None:
-        pass   # OSMesa keeps the context current; the next __enter__ of any context replaces it
+        self._lib.OSMesaMakeCurrent(None, None, 0, 0, 0)   # release: see create_context
 
     def load_opengl_function(self, name: str) -> int:
         return self._lib.OSMesaGetProcAddress(name.encode()) or 0
@@ -102,7 +102,12 @@ def create_context(backend: str = "auto", device_index: int = 0) -> moderngl.Con
         except GLUnavailable as exc:
             failures.append(str(exc))
             continue
-        ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)  # filter across cubemap faces
+        # Set up, then leave no context current: OSMesa and Mesa's EGL driver share libglapi's
+        # current-context slot, and EGL skips a make-current it thinks is a no-op, so a context
+        # left current by its creation got the GL calls meant for another (found by `sdfpbr
+        # stress`). Every use of a context enters it (`with ctx:`).
+        with ctx:
+            ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)  # filter across cubemap faces
         ctx.extra = {"backend": name}
         return ctx
     raise GLUnavailable("no OpenGL context: " + "; ".join(failures) + f"; {INSTALL_HINT}")
@@ -132,7 +137,8 @@ def doctor(device_index: int = 0) -> list[BackendReport]:
         except GLUnavailable as exc:
             reports.append(BackendReport(name, False, error=str(exc)))
             continue
-        info = ctx.info
+        with ctx:
+            info = ctx.info
         reports.append(BackendReport(name, True, info["GL_VENDOR"], info["GL_RENDERER"], info["GL_VERSION"]))
         ctx.release()
     return reports

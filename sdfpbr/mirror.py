@@ -21,6 +21,7 @@ __all__ = [
     "d_ggx_half_safe",
     "HALF_MAX",
     "MIN_PERCEPTUAL_ROUGHNESS_FP16",
+    "TONEMAP_INPUT_MAX",
     "furnace_from_dfg",
     "vis_smith_ggx_correlated",
     "vis_schlick_ggx",
@@ -54,6 +55,9 @@ _TINY = 1e-300
 # a normal half (>= 2^-14); with the half-safe D its peak 1/(pi alpha^2) = 5.1e3 stays finite.
 HALF_MAX = 65504.0
 MIN_PERCEPTUAL_ROUGHNESS_FP16 = 0.089
+# tonemap.glsl caps its input here (every curve is display white far below it; the ACES fits
+# square x, which overflows fp32 past ~1e19). tonemap() below is the uncapped curve.
+TONEMAP_INPUT_MAX = 1e4
 
 
 def _tiny(dtype):

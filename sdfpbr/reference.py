@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .camera import Camera
 from .compose import ComposedSource, compose
 from .errors import SpecError
 from .spec import ChartSpec
@@ -67,7 +68,7 @@ class ReferenceResult:
     error: float             # mean relative standard error over sphere pixels (see module doc)
     image: np.ndarray        # (H, W, 4) uint8 display image through the chart's display program
     aov: dict                # normal, depth, row, col, roughness, metallic, ndotv (chart layout)
-    camera: object
+    camera: Camera
     source: ComposedSource
     seed: int
     max_bounces: int
@@ -265,7 +266,7 @@ class _Progress:
             except ImportError:
                 tqdm = None
             if tqdm is not None:
-                self.bar = tqdm(total=total, unit="spp", desc="reference", file=sys.stderr, leave=False)
+                self.bar = tqdm(total=total, unit="spp", desc="reference", file=sys.stderr)
 
     def update(self, done: int, added: int, error: float | None) -> None:
         if not self.enabled:
@@ -467,11 +468,15 @@ def _render(renderer, spec, samples, target_error, seed, max_bounces, progress, 
 
 
 def _accumulate(ctx, program, sum_tex, moments_tex, w, h, samples, target_error, sphere, progress) -> int:
-    """Run batches until ``samples`` per pixel or the target error; returns the samples done."""
+    """Run batches until ``samples`` per pixel or the target error; returns the samples done.
+    The error is checked on a schedule that depends only on the sample count (every batch
+    up to 5 % more samples), so where a run stops does not depend on timing."""
     from .programs import set_uniforms
     per_batch = batch_size(w, h)
     bar = _Progress(progress, samples, target_error)
     done, error = 0, float("nan")
+    next_check = min(MIN_SAMPLES_FOR_TARGET, samples)
+    last_shown = -math.inf
     try:
         while done < samples:
             count = min(per_batch, samples - done)
@@ -481,15 +486,19 @@ def _accumulate(ctx, program, sum_tex, moments_tex, w, h, samples, target_error,
                 program.run((tw + LOCAL - 1) // LOCAL, (th + LOCAL - 1) // LOCAL)
                 ctx.memory_barrier()
             done += count
-            check = target_error is not None and done >= min(MIN_SAMPLES_FOR_TARGET, samples)
-            if check or (progress and done >= 2):
+            check = target_error is not None and done >= next_check
+            show = progress and done >= 2 and (time.monotonic() - last_shown >= 2.0 or done >= samples)
+            if check or show:   # reading the sums back also waits for the batch
                 mean, stderr = _statistics(_read(sum_tex, w, h), _read(moments_tex, w, h), done)
                 error = relative_error(_luminance(mean), stderr, sphere)
+                last_shown = time.monotonic()
             else:
                 ctx.finish()
             bar.update(done, count, error)
-            if check and error <= target_error:
-                break
+            if check:
+                if error <= target_error:
+                    break
+                next_check = done + max(per_batch, done // 20)
     finally:
         bar.close()
     return done

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import sys
 import tomllib
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
@@ -44,9 +45,11 @@ def _closest(word: str, choices) -> str:
 
 def _unit(v, what: str) -> tuple[float, float, float]:
     v = _vec3(v, what)
-    n = math.sqrt(sum(c * c for c in v))
+    n = math.hypot(*v)   # no overflow to inf (which made (1e200, 0, 0) a zero vector)
     if not n > 0:
         raise SpecError(f"{what} must be a non-zero vector, got {v}")
+    if abs(n - 1.0) <= 4 * sys.float_info.epsilon:
+        return v         # already unit: keep it, so a spec written out and read back is equal
     return tuple(c / n for c in v)
 
 
@@ -63,7 +66,7 @@ def _vec3(v, what: str) -> tuple[float, float, float]:
 def _number(v, what: str, lo: float = -math.inf, hi: float = math.inf, integer: bool = False):
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise SpecError(f"{what} must be a number, got {v!r}")
-    if integer and int(v) != v:
+    if integer and math.isfinite(v) and int(v) != v:   # int(inf) and int(nan) raise
         raise SpecError(f"{what} must be a whole number, got {v!r}")
     if not (math.isfinite(v) and lo <= v <= hi):
         raise SpecError(f"{what} must be in [{lo:g}, {hi:g}], got {v!r}")
@@ -94,6 +97,8 @@ class Light:
         s(self, "kind", _choice(self.kind, "light kind", LIGHT_KINDS))
         if self.kind == "directional":
             s(self, "direction", _unit(self.direction, "light direction"))
+        else:   # unused by point lights, but validated alike so specs compare and round-trip
+            s(self, "direction", _vec3(self.direction, "light direction"))
         s(self, "position", _vec3(self.position, "light position"))
         s(self, "color", _vec3(self.color, "light color"))
         if min(self.color) < 0:
@@ -254,6 +259,8 @@ class ChartSpec:
         s(self, "backend", _choice(self.backend, "backend", BACKENDS))
         s(self, "device_index", _number(self.device_index, "device_index", 0, 64, integer=True))
         s(self, "ground_color", _vec3(self.ground_color, "ground_color"))
+        if not all(0.0 <= c <= 1.0 for c in self.ground_color):   # negative made negative radiance
+            raise SpecError(f"ground_color components must be in [0, 1] (linear), got {self.ground_color}")
         s(self, "ground_roughness", _number(self.ground_roughness, "ground_roughness", 0.0, 1.0))
         from .bugs import get_bug
         bugs = (self.bugs,) if isinstance(self.bugs, str) else self.bugs

@@ -20,7 +20,9 @@ Hit intersect_scene(vec3 ro, vec3 rd, vec2 footprint) {
             if (sdf_ground(p) < ds) return Hit(t, vec3(0.0, 1.0, 0.0), ivec2(-1));
 #endif
             hit.cell = cell;
-            hit.normal = sdf_normal(p, max(footprint.x + footprint.y * t, 1e-5));
+            // The epsilon floor follows the scene's scale and |p|: a fixed 1e-5 fell below fp32
+            // resolution for 1000-unit spheres and normalize(0) gave NaN (`sdfpbr stress`).
+            hit.normal = sdf_normal(p, max(footprint.x + footprint.y * t, max(1e-4 * u_radius, 1e-6 * length(p))));
             return hit;
         }
         t += d;

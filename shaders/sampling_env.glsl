@@ -37,10 +37,12 @@ float env_texel_pdf(ivec2 texel, float sin_theta) {
 vec3 sample_environment(vec2 u, out float pdf) {
     int w = u_env_map_size.x, h = u_env_map_size.y;
     int j = cdf_search(u_env_marginal_cdf, 0, h, u.y);
-    float c0 = texelFetch(u_env_marginal_cdf, ivec2(j, 0), 0).r, c1 = texelFetch(u_env_marginal_cdf, ivec2(j + 1, 0), 0).r;
+    float c0 = texelFetch(u_env_marginal_cdf, ivec2(j, 0), 0).r;
+    float c1 = texelFetch(u_env_marginal_cdf, ivec2(j + 1, 0), 0).r;
     float fy = saturate((u.y - c0) / max(c1 - c0, 1e-30));
     int i = cdf_search(u_env_conditional_cdf, j, w, u.x);
-    float d0 = texelFetch(u_env_conditional_cdf, ivec2(i, j), 0).r, d1 = texelFetch(u_env_conditional_cdf, ivec2(i + 1, j), 0).r;
+    float d0 = texelFetch(u_env_conditional_cdf, ivec2(i, j), 0).r;
+    float d1 = texelFetch(u_env_conditional_cdf, ivec2(i + 1, j), 0).r;
     float fx = saturate((u.x - d0) / max(d1 - d0, 1e-30));
     vec2 uv = vec2((float(i) + fx) / float(w), (float(j) + fy) / float(h));
     vec3 d = equirect_direction(uv);

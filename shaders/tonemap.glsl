@@ -1,5 +1,6 @@
 // Tone mappers on linear RGB (REFERENCE.md §4). TONEMAP picks one at compose time.
 uniform float u_reinhard_white;
+#define TONEMAP_INPUT_MAX 1e4
 
 vec3 tonemap_aces_narkowicz(vec3 x) {
     return saturate(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14));
@@ -36,6 +37,10 @@ vec3 tonemap_neutral(vec3 color) {
 }
 
 vec3 tonemap(vec3 x) {
+    // Every curve is display white long before 1e4 (tests/test_precision.py: 0 LSB change),
+    // and the ACES fits square x: past ~1e19 that overflowed fp32 and inf / inf turned the
+    // brightest highlights black (found by `sdfpbr stress` at the spec's 1e12 / +40 EV).
+    x = min(x, vec3(TONEMAP_INPUT_MAX));
 #if TONEMAP == none
     return x;
 #elif TONEMAP == clamp

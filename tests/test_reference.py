@@ -212,7 +212,8 @@ def test_small_sun_converges_to_closed_form(renderer):
 
     def f_cos(l):
         l = np.broadcast_to(l, normal.shape)
-        return mirror.brdf(normal, view, l, base, metallic, roughness) * np.clip((normal * l).sum(-1), 0, None)[..., None]
+        cos = np.clip((normal * l).sum(-1), 0, None)[..., None]
+        return mirror.brdf(normal, view, l, base, metallic, roughness) * cos
 
     want = illuminance * 2 / (1 + np.cos(theta)) * cone_average(f_cos, sun_dir, theta).mean(-2)
     lit = m & (luminance(want) > 1e-3)
@@ -228,9 +229,14 @@ def test_small_sun_converges_to_closed_form(renderer):
     np.testing.assert_allclose(point[lit], want[lit], rtol=1e-2, atol=1e-4)
 
 
-def test_aovs_match_the_chart(renderer):
+@pytest.mark.parametrize("grid", [
+    dict(rows=3, cols=4, camera_azimuth=20.0),
+    dict(rows=3, cols=3, spacing=1.6, camera_elevation=35.0),   # overlapping spheres
+    dict(rows=10, cols=10, camera="orthographic"),
+])
+def test_aovs_match_the_chart(renderer, grid):
     """The reference traces the chart's scene: same cells, normals and NdotV per pixel."""
-    spec = make_spec(width=64, height=48, rows=3, cols=4, camera_azimuth=20.0)
+    spec = make_spec(width=64, height=48, **grid)
     ref = render_reference(spec, samples=1, renderer=renderer)
     chart = renderer.render(spec)
     same = (ref.aov["row"] == chart.aov["row"]) & (ref.aov["col"] == chart.aov["col"])

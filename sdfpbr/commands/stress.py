@@ -26,13 +26,18 @@ def register(sub) -> None:
     p.add_argument("--backend", choices=("all", "egl", "osmesa"), default="all", help="backends to sweep (default all)")
     p.add_argument("--failures", metavar="DIR", help="write each failing configuration here as a TOML spec")
     p.add_argument("--json", metavar="PATH", help="also write the summary as JSON")
+    p.add_argument("--cache-dir", metavar="DIR", help="keep the sweep's IBL bakes here (default: a temporary "
+                   "directory, removed afterwards, so thousands of edge-case bakes stay out of your cache)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     import json
+    import tempfile
     from pathlib import Path
+
+    from ..cache import ArrayCache
 
     from ..errors import OutputError
     from ..io import atomic_file, check_writable
@@ -51,11 +56,13 @@ def run(args) -> int:
     count = args.count or (QUICK_COUNT if args.quick else FULL_COUNT)
     backends = ("egl", "osmesa") if args.backend == "all" else (args.backend,)
     cases = generate_cases(args.seed, count, quick=args.quick, backends=backends)
-    renderers, notes = make_renderers(cases)
-    if not renderers:
-        from ..errors import GLUnavailable
-        raise GLUnavailable("no backend could start: " + "; ".join(notes))
-    report = run_sweep(cases, renderers, notes, seed=args.seed, failures_dir=failures_dir, progress=args.progress)
+    with tempfile.TemporaryDirectory(prefix="sdfpbr-stress-") as tmp:
+        renderers, notes = make_renderers(cases, ArrayCache(Path(args.cache_dir or tmp)))
+        if not renderers:
+            from ..errors import GLUnavailable
+            raise GLUnavailable("no backend could start: " + "; ".join(notes))
+        report = run_sweep(cases, renderers, notes, seed=args.seed, failures_dir=failures_dir,
+                           progress=args.progress)
     print(report.format())
     if failures_dir is not None and report.failures:
         print(f"{len(report.failures)} failing configurations written to {failures_dir}/ as TOML specs")
