@@ -89,8 +89,9 @@ def model_summary(cells: list[CellEnergy], white: bool) -> list[str]:
     worst_grazing = max(cells, key=lambda c: np.nan_to_num(c.grazing_max_err))
     if white and gain.exp_max > 1 + 1e-3:
         lines.append(f"model gains energy: up to {gain.exp_max:.3f} (metallic {gain.metallic:g}, roughness "
-                     f"{gain.roughness:g}, grazing NdotV {gain.min_n_dot_v:.3f}) -- the glTF dielectric coupling "
-                     f"adds Lambert and specular without a shared energy budget")
+                     f"{gain.roughness:g}, grazing NdotV {gain.min_n_dot_v:.3f}) -- the glTF coupling weights the "
+                     f"Lambert body by 1 - F(VdotH), far from grazing for most light directions, while the "
+                     f"coat reflects F at the grazing view: together more than 1")
     if white and loss.exp_min < 1 - 1e-3:
         why = ("single-scatter GGX: multiple scattering is off" if loss.metallic == 1 else
                "the Lambert weight 1 - F does not take back what the rough specular lobe loses")

@@ -28,7 +28,10 @@ def load_env_file(path: str | Path) -> np.ndarray:
     """An equirectangular environment as float32 (H, W, 3), row 0 at the zenith."""
     path = Path(path)
     if path.suffix.lower() == ".npy":
-        data = np.load(path)
+        try:
+            data = np.load(path)   # allow_pickle stays off: a pickle is refused, not run
+        except (OSError, ValueError, EOFError) as exc:
+            raise SpecError(f"cannot read environment {path}: {str(exc).splitlines()[0]}") from None
     else:
         try:
             import OpenEXR

@@ -275,3 +275,16 @@ def test_every_spec_the_validator_accepts_renders_finite_non_negative(renderer, 
         return
     res = renderer.render(spec)
     assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0, doc
+
+
+@pytest.mark.parametrize("content", [b"not an array", b"", np.zeros((4, 4)), np.zeros((8, 16, 3)) - 1.0,
+                                     np.full((8, 16, 3), np.nan), np.array([object()], dtype=object)])
+def test_broken_environment_files_are_one_line_exit_2(workdir, tmp_path, content):
+    """The env file is read at render time: still one line, exit 2, output untouched. (A text
+    file named .npy used to escape as a numpy ValueError traceback.)"""
+    path = tmp_path / "env.npy"
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        np.save(path, content, allow_pickle=True)
+    assert_rejected(["chart", "--size", "8x8", "--env", path], workdir)

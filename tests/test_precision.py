@@ -200,3 +200,14 @@ def test_half_target_display_is_the_tone_mapped_half_values(renderer):
     spec = make_spec(**BLINDING, hdr_precision="float16", exposure=-18.0, tonemap="reinhard")
     res = renderer.render(spec)
     assert display_error(res.hdr, res.alpha, res.image, spec) [1] == 0
+
+
+def test_half_targets_cost_at_most_one_lsb_below_half_max(renderer):
+    """A half target rounds radiance to 11 bits; through tone map and sRGB that moves no
+    display value by more than 1 LSB, wherever the float32 radiance is within half range."""
+    spec = make_spec(**{**BLINDING, "lights": (Light("directional", direction=(0.2, 0.3, 0.93), intensity=3.0),)},
+                     exposure=1.0, tonemap="aces")
+    full = renderer.render(spec)
+    half = renderer.render(make_spec(spec, hdr_precision="float16"))
+    assert full.hdr.max() < HALF_MAX
+    assert np.abs(full.image.astype(int) - half.image.astype(int)).max() <= 1

@@ -21,7 +21,8 @@ def register(sub) -> None:
                                    "light intensity, camera distance, sphere geometry, grid and image size, "
                                    "half/single-float targets and backends. Exit status 1 if any check fails.")
     p.add_argument("--quick", action="store_true", help=f"the CI subset ({QUICK_COUNT} configurations, small images)")
-    p.add_argument("--count", type=_positive, help=f"configurations (default {FULL_COUNT}, --quick {QUICK_COUNT})")
+    p.add_argument("--count", type=_positive, help=f"configurations (default {FULL_COUNT}, --quick {QUICK_COUNT}; "
+                   "very small counts are rounded up so that every kind of check runs)")
     p.add_argument("--seed", type=int, default=0, help="the sweep is a pure function of the seed (default 0)")
     p.add_argument("--backend", choices=("all", "egl", "osmesa"), default="all", help="backends to sweep (default all)")
     p.add_argument("--failures", metavar="DIR", help="write each failing configuration here as a TOML spec")
