@@ -66,10 +66,15 @@ class Chart:
         return png_bytes(self.image)
 
 
-def footer_text(spec: ChartSpec) -> str:
+def footer_scene_parts(spec: ChartSpec, brdf: str) -> list[str]:
+    """What the chart and the reference footers share: display and scene settings."""
     env = spec.env if len(spec.env) < 40 else "…" + spec.env[-38:]
-    parts = [f"tone map {spec.tonemap}", f"exposure {spec.exposure:+g} EV", f"env {env}",
-             f"BRDF {spec.brdf_model()}" + ("" if spec.multiscatter else " (single scatter)"), f"{spec.spp} spp"]
+    return [f"tone map {spec.tonemap}", f"exposure {spec.exposure:+g} EV", f"env {env}",
+            f"BRDF {brdf}" + ("" if spec.multiscatter else " (single scatter)")]
+
+
+def footer_text(spec: ChartSpec) -> str:
+    parts = footer_scene_parts(spec, spec.brdf_model()) + [f"{spec.spp} spp"]
     if spec.quality != "default":
         parts.append(f"quality {spec.quality}")
     if spec.bugs:
@@ -77,16 +82,17 @@ def footer_text(spec: ChartSpec) -> str:
     return "  |  ".join(parts)
 
 
-def label(spec: ChartSpec, result: RenderResult) -> np.ndarray:
+def label(spec: ChartSpec, result, title: str | None = None, footer: str | None = None) -> np.ndarray:
+    """The labeled layout around a render (anything with .image and .camera)."""
     if not spec.labels:
         return result.image
     centers = sphere_centers(spec).reshape(-1, 3)
     px, scale = result.camera.project(centers)
     cells = [Cell(i // spec.cols, i % spec.cols, float(x), float(y), float(spec.sphere_radius * s))
              for i, ((x, y), s) in enumerate(zip(px, scale))]
-    title = spec.title or f"Roughness × metallic — {spec.rows}×{spec.cols}"
+    title = spec.title or title or f"Roughness × metallic — {spec.rows}×{spec.cols}"
     return compose_chart(result.image, cells, spec.column_roughness(), spec.row_metallic(), title,
-                         footer_text(spec), row_names=list(spec.row_materials) or None,
+                         footer if footer is not None else footer_text(spec), row_names=list(spec.row_materials) or None,
                          transparent=spec.transparent)
 
 

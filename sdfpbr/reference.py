@@ -511,25 +511,15 @@ def _luminance(rgba: np.ndarray) -> np.ndarray:
 # ---- labeled output --------------------------------------------------------------------------
 
 def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
-    env = spec.env if len(spec.env) < 40 else "…" + spec.env[-38:]
+    from .chart import footer_scene_parts
     err = f", rel. stderr {result.error:.2%}" if math.isfinite(result.error) else ""
-    parts = [f"tone map {spec.tonemap}", f"exposure {spec.exposure:+g} EV", f"env {env}",
-             f"BRDF {spec.brdf}" + ("" if spec.multiscatter else " (single scatter)"),
-             f"path-traced reference, {result.samples} spp, {result.max_bounces} bounces{err}"]
+    parts = footer_scene_parts(spec, spec.brdf) + [
+        f"path-traced reference, {result.samples} spp, {result.max_bounces} bounces{err}"]
     return "  |  ".join(parts)
 
 
 def label(spec: ChartSpec, result: ReferenceResult) -> np.ndarray:
     """The chart's labeled layout around the reference render."""
-    from .camera import sphere_centers
-    from .layout import Cell, compose_chart
-    if not spec.labels:
-        return result.image
-    centers = sphere_centers(spec).reshape(-1, 3)
-    px, scale = result.camera.project(centers)
-    cells = [Cell(i // spec.cols, i % spec.cols, float(x), float(y), float(spec.sphere_radius * s))
-             for i, ((x, y), s) in enumerate(zip(px, scale))]
-    title = spec.title or f"Roughness × metallic — {spec.rows}×{spec.cols} (reference)"
-    return compose_chart(result.image, cells, spec.column_roughness(), spec.row_metallic(), title,
-                         footer_text(spec, result), row_names=list(spec.row_materials) or None,
-                         transparent=spec.transparent)
+    from . import chart
+    return chart.label(spec, result, title=f"Roughness × metallic — {spec.rows}×{spec.cols} (reference)",
+                       footer=footer_text(spec, result))

@@ -62,8 +62,7 @@ float surface_pdf(Surface s, vec3 v, vec3 l) {
     float pdf = (1.0 - s.p_specular) * n_dot_l * INV_PI;
     if (s.p_specular > 0.0) {
         vec3 h = normalize(v + l);
-        float n_dot_h = saturate(dot(s.n, h));
-        pdf += s.p_specular * pdf_ggx_vndf_reflection(max(dot(s.n, v), 0.0), n_dot_h, s.m.alpha);
+        pdf += s.p_specular * pdf_ggx_vndf_reflection(max(dot(s.n, v), 0.0), s.n, h, s.m.alpha);
     }
     return pdf;
 }

@@ -39,11 +39,12 @@ vec3 sample_ggx_vndf(vec3 v_local, float alpha, vec2 u) {
 
 // pdf of l = reflect(-v, h) with h from sample_ggx_vndf: G1(v) D(h) / (4 NdotV), written as
 // D / (2 (NdotV + sqrt(a2 + (1 - a2) NdotV^2))) so that it stays finite at NdotV = 0.
-// d_ggx is the NDF of ggx.glsl, called exactly as brdf_cos calls it, so D cancels in f / pdf.
-float pdf_ggx_vndf_reflection(float n_dot_v, float n_dot_h, float alpha) {
+// d_ggx is the NDF of ggx.glsl, called exactly as brdf_cos calls it (the vector form), so D
+// cancels in f / pdf even at the peak of near-mirror lobes.
+float pdf_ggx_vndf_reflection(float n_dot_v, vec3 n, vec3 h, float alpha) {
     float a2 = alpha * alpha;
     float lambda_denominator = n_dot_v + sqrt(a2 + (1.0 - a2) * n_dot_v * n_dot_v);
-    return d_ggx(n_dot_h, alpha) / (2.0 * lambda_denominator);
+    return d_ggx(n, h, alpha) / (2.0 * lambda_denominator);
 }
 
 // Uniform direction inside the cone of half-angle theta around axis; one_minus_cos_theta is
