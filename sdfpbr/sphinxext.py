@@ -71,7 +71,7 @@ def _entry(directive: "SdfpbrChart") -> tuple[dict, Path, str, list[Path]]:
 
 
 def _one_item(data: dict, base_dir: Path, where: str):
-    from .build import parse_entry
+    from .tools.build import parse_entry
     from .errors import SpecError
     items = parse_entry(data, where, base_dir, "chart")
     if len(items) != 1:
@@ -102,7 +102,7 @@ class SdfpbrChart(SphinxDirective):
     }
 
     def run(self) -> list[nodes.Node]:
-        from .build import ImageCache, _write_atomic, ensure_image, gl_renderers
+        from .tools.build import ImageCache, _write_atomic, ensure_image, gl_renderers
         from .errors import SdfpbrError
         try:
             data, base_dir, where, files = _entry(self)
@@ -162,7 +162,7 @@ def _outdated(app, env, added, changed, removed) -> list[str]:
     changed) are read again, so their images are re-rendered. The GL renderer string is the one
     recorded at reading: making a context here, in the process Sphinx forks its parallel
     readers from, would hand them GL state across a fork."""
-    from .build import item_key
+    from .tools.build import item_key
     from .errors import SdfpbrError
     stale = []
     for docname, records in getattr(env, "sdfpbr_charts", {}).items():

@@ -5,8 +5,8 @@ import os
 import pytest
 
 from sdfpbr.cache import ArrayCache
-from sdfpbr.gl import create_context
-from sdfpbr.render import Renderer
+from sdfpbr.gpu.gl import create_context
+from sdfpbr.gpu.render import Renderer
 
 
 @pytest.fixture(scope="session")

@@ -8,11 +8,11 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from sdfpbr import animate as animate_mod
-from sdfpbr.animate import animate, animate_compare, orbit_specs, write_animation
-from sdfpbr.chart import chart
+from sdfpbr.tools import animate as animate_mod
+from sdfpbr.tools.animate import animate, animate_compare, orbit_specs, write_animation
+from sdfpbr.api import chart
 from sdfpbr.errors import SpecError
-from sdfpbr.spec import Light, make_spec
+from sdfpbr.spec.chart_spec import Light, make_spec
 
 SMALL = dict(width=64, height=64, quality="draft")
 

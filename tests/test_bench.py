@@ -10,11 +10,11 @@ import moderngl
 import numpy as np
 import pytest
 
-from sdfpbr import bench
-from sdfpbr.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
-from sdfpbr.cli import build_parser, main, spec_from_args
+from sdfpbr.tools import bench
+from sdfpbr.tools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
+from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import ShaderCompileError, SpecError
-from sdfpbr.render import chart_source
+from sdfpbr.gpu.render import chart_source
 
 SEEDS = Path(__file__).resolve().parents[2] / "shared" / "seeds"
 SEED_002 = next(iter(sorted(SEEDS.glob("002_*"))), None)
@@ -159,7 +159,7 @@ def test_cold_flags_give_the_scene_spec(scene):
 
 
 def test_presets_include_seed002_when_defined():
-    from sdfpbr.spec import QUALITY_PRESETS
+    from sdfpbr.spec.chart_spec import QUALITY_PRESETS
     assert ("seed002" in bench.available_presets()) == ("seed002" in QUALITY_PRESETS)
     assert bench.available_presets()[:3] == ("draft", "default", "high")
 

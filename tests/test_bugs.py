@@ -3,12 +3,12 @@ changes the image where the physics says it should (FLIP per sphere cell)."""
 import numpy as np
 import pytest
 
-from sdfpbr import metrics
-from sdfpbr.bugs import BUGS, get_bug
-from sdfpbr.cli import main
+from sdfpbr.image import metrics
+from sdfpbr.spec.bugs import BUGS, get_bug
+from sdfpbr.cli.main import main
 from sdfpbr.errors import SpecError
-from sdfpbr.render import chart_options, chart_source, display_source
-from sdfpbr.spec import ChartSpec, make_spec
+from sdfpbr.gpu.render import chart_options, chart_source, display_source
+from sdfpbr.spec.chart_spec import ChartSpec, make_spec
 
 BASE = ChartSpec(width=96, height=96, labels=False)
 

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sdfpbr.build import KEY_FIELD, ImageCache, build, collect, png_key, program_sources
+from sdfpbr.tools.build import KEY_FIELD, ImageCache, build, collect, png_key, program_sources
 from sdfpbr.cache import ArrayCache
-from sdfpbr.render import Renderer, chart_source, display_source
-from sdfpbr.spec import make_spec
+from sdfpbr.gpu.render import Renderer, chart_source, display_source
+from sdfpbr.spec.chart_spec import make_spec
 
 SMALL = 'size = "48x48"\nrows = 2\ncols = 2\n'
 
@@ -46,7 +46,7 @@ def make_charts(root: Path, entries=ENTRIES) -> Path:
 def env(tmp_path, monkeypatch):
     """A private image cache and a private, editable copy of the shader modules."""
     shaders = tmp_path / "shaders"
-    from sdfpbr.compose import shader_dir
+    from sdfpbr.shading.compose import shader_dir
     shutil.copytree(shader_dir(), shaders)
     monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setenv("SDFPBR_SHADER_DIR", str(shaders))
@@ -205,7 +205,7 @@ def test_a_removed_entry_loses_its_image_only(env):
 
 
 def test_each_bug_expands_to_one_image_per_bug(tmp_path):
-    from sdfpbr.bugs import BUGS
+    from sdfpbr.spec.bugs import BUGS
     charts = make_charts(tmp_path, {"bugs.toml": '[compare]\nbugs = "each"\n[spec]\n' + SMALL})
     items = collect(charts)
     assert [i.name for i in items] == [f"bugs-{name}" for name in BUGS]
@@ -287,17 +287,17 @@ def test_cli_build_reports_progress_and_counts(tmp_path):
 
 
 def test_the_key_follows_the_python_that_makes_images_only():
-    from sdfpbr.build import image_modules
+    from sdfpbr.tools.build import image_modules
     names = {p.stem for p in image_modules()}
-    assert {"render", "chart", "compare", "layout", "ibl", "compose", "bugs", "textures"} <= names
+    assert {"render", "api", "compare", "layout", "ibl", "compose", "bugs", "textures"} <= names
     assert not names & {"cli", "mirror", "build", "sphinxext"}
 
 
 def test_the_project_gallery_covers_the_issue_list():
     """charts/: the default chart, the metals, every bug (own image + contact sheet), the tone
     mapper, exposure and environment sweeps, the furnace; parsed, not rendered."""
-    from sdfpbr.bugs import BUGS
-    from sdfpbr.spec import MATERIAL_PRESETS
+    from sdfpbr.spec.bugs import BUGS
+    from sdfpbr.spec.chart_spec import MATERIAL_PRESETS
     items = {i.name: i for i in collect(Path(__file__).resolve().parent.parent / "charts")}
     assert {"default", "materials", "furnace", "tonemappers", "exposure", "environments", "bug-catalog"} <= set(items)
     assert {f"bugs-{name}" for name in BUGS} <= set(items)

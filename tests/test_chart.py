@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from sdfpbr import mirror
-from sdfpbr.spec import Light, make_spec
+from sdfpbr.oracle import mirror
+from sdfpbr.spec.chart_spec import Light, make_spec
 
 FURNACE = dict(env="uniform", lights="none", shadows=False, ao=False, ground=False, base_color=(1.0, 1.0, 1.0),
                width=256, height=256)
@@ -104,7 +104,7 @@ def test_aov_ndotv_matches_normals_and_view(renderer):
     np.testing.assert_allclose(res.aov["ndotv"][m], -(n * rd).sum(1), atol=1e-4)
     np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
     # The hit point lies on the sphere of its cell.
-    from sdfpbr.camera import sphere_centers
+    from sdfpbr.shading.camera import sphere_centers
     p = cam.position + rd * res.aov["depth"][m][:, None]
     c = sphere_centers(res_spec := make_spec(width=160, height=160, rows=2, cols=2))[res.aov["row"][m], res.aov["col"][m]]
     np.testing.assert_allclose(np.linalg.norm(p - c, axis=1), res_spec.sphere_radius, atol=1e-3)
@@ -158,8 +158,8 @@ def test_transparent_background_has_zero_alpha(renderer):
 
 def test_ibl_cache_on_disk_reproduces_the_bake(renderer, cache_dir):
     from sdfpbr.cache import ArrayCache
-    from sdfpbr.gl import create_context
-    from sdfpbr.render import Renderer
+    from sdfpbr.gpu.gl import create_context
+    from sdfpbr.gpu.render import Renderer
     spec = make_spec(width=64, height=64, env="sky")
     first = renderer.render(spec)
     assert any((cache_dir / "ibl").glob("*.npz"))

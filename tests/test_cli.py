@@ -5,9 +5,9 @@ import sys
 import numpy as np
 import pytest
 
-from sdfpbr.compose import compose
-from sdfpbr.render import chart_source
-from sdfpbr.spec import make_spec
+from sdfpbr.shading.compose import compose
+from sdfpbr.gpu.render import chart_source
+from sdfpbr.spec.chart_spec import make_spec
 
 
 def run(*args, cwd=None):

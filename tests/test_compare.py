@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sdfpbr.bugs import BUGS
-from sdfpbr.camera import sphere_centers
-from sdfpbr.chart import chart
-from sdfpbr.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs, flatten,
+from sdfpbr.spec.bugs import BUGS
+from sdfpbr.shading.camera import sphere_centers
+from sdfpbr.api import chart
+from sdfpbr.tools.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs, flatten,
                             parse_sweep_values, sweep)
 from sdfpbr.errors import SpecError
-from sdfpbr.metrics import apply_colormap, flip_ldr, per_cell_mean
-from sdfpbr.spec import make_spec
+from sdfpbr.image.metrics import apply_colormap, flip_ldr, per_cell_mean
+from sdfpbr.spec.chart_spec import make_spec
 
 SMALL = dict(width=96, height=96, quality="draft")
 

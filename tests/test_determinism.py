@@ -7,9 +7,9 @@ import sys
 
 import numpy as np
 
-from sdfpbr.chart import chart
-from sdfpbr.spec import Light, make_spec
-from sdfpbr.stress import generate_cases, spec_to_toml
+from sdfpbr.api import chart
+from sdfpbr.spec.chart_spec import Light, make_spec
+from sdfpbr.tools.stress import generate_cases, spec_to_toml
 
 # Supersampled (R2 offsets), both light kinds, IBL, AO, shadows, a tone map with a knee.
 SPEC = make_spec(width=96, height=72, rows=2, cols=3, spp=3, quality="draft", tonemap="neutral",
@@ -58,7 +58,7 @@ def test_stress_configurations_are_a_function_of_the_seed():
 
 
 def test_reference_is_reproducible_from_its_seed(renderer):
-    from sdfpbr.reference import render_reference
+    from sdfpbr.tools.reference import render_reference
     spec = make_spec(width=32, height=24, rows=1, cols=2, quality="draft")
     a = render_reference(spec, samples=4, seed=7, renderer=renderer)
     b = render_reference(spec, samples=4, seed=7, renderer=renderer)

@@ -8,10 +8,10 @@ from contextlib import redirect_stdout
 import numpy as np
 import pytest
 
-from sdfpbr import mirror
-from sdfpbr.cli import main
-from sdfpbr.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
-from sdfpbr.spec import make_spec
+from sdfpbr.oracle import mirror
+from sdfpbr.cli.main import main
+from sdfpbr.tools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
+from sdfpbr.spec.chart_spec import make_spec
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def test_mixed_metallic_row_is_the_mix_of_its_lobes(report):
     m = res.aov["metallic"] == 0.5
     n_dot_v = res.aov["ndotv"][m].astype(float)
     rough = res.aov["roughness"][m].astype(float)
-    from sdfpbr.stress import FurnaceTable
+    from sdfpbr.tools.stress import FurnaceTable
     table = FurnaceTable()
     zeros, ones = np.zeros_like(rough), np.ones_like(rough)
     half = 0.5 * (table.expected(n_dot_v, rough, 1.0, zeros) + table.expected(n_dot_v, rough, 1.0, ones))

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from sdfpbr.compose import compose, shader_dir
+from sdfpbr.shading.compose import compose, shader_dir
 from sdfpbr.errors import ShaderCompileError
-from sdfpbr.render import chart_options
-from sdfpbr.spec import make_spec
+from sdfpbr.gpu.render import chart_options
+from sdfpbr.spec.chart_spec import make_spec
 
 KEEP = b"pre-existing output, must survive"
 NO_EGL = {"GLCONTEXT_LINUX_LIBEGL": "/nonexistent/libEGL.so.1"}        # read by glcontext
@@ -154,7 +154,7 @@ FULL_DISK_SCRIPT = textwrap.dedent("""
     import resource, signal, sys
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)          # write() then fails with EFBIG
     resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
-    from sdfpbr.cli import main
+    from sdfpbr.cli.main import main
     sys.exit(main(sys.argv[1:]))
 """)
 

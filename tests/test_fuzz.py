@@ -13,9 +13,9 @@ import pytest
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
-from sdfpbr.cli import build_parser, main
+from sdfpbr.cli.main import build_parser, main
 from sdfpbr.errors import SpecError
-from sdfpbr.spec import (BACKENDS, BRDF_MODELS, CAMERAS, ENV_PRESETS, INTERSECT_METHODS, MATERIAL_PRESETS,
+from sdfpbr.spec.chart_spec import (BACKENDS, BRDF_MODELS, CAMERAS, ENV_PRESETS, INTERSECT_METHODS, MATERIAL_PRESETS,
                          QUALITY_PRESETS, SPEC_KEYS, TONEMAPPERS, load_spec)
 
 FUZZ = settings(max_examples=150, deadline=None, database=None,

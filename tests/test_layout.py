@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sdfpbr.layout import Cell, compose_chart, label_text, render_area_offset
+from sdfpbr.image.layout import Cell, compose_chart, label_text, render_area_offset
 
 TITLE = "Material chart"
 FOOTER = "ACES filmic · exposure +0.0 EV · environment: studio"

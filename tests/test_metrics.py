@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sdfpbr import metrics as M
+from sdfpbr.image import metrics as M
 from sdfpbr.errors import SpecError
 
 rng = np.random.default_rng(7)

@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from sdfpbr import mirror
+from sdfpbr.oracle import mirror
 
 # REFERENCE §2: (r, mu, E, A, B), height-correlated visibility, F = 1.
 DFG_TABLE = [

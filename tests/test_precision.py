@@ -8,9 +8,9 @@ import warnings
 import numpy as np
 import pytest
 
-from sdfpbr import mirror
-from sdfpbr.render import chart_source
-from sdfpbr.spec import Light, make_spec
+from sdfpbr.oracle import mirror
+from sdfpbr.gpu.render import chart_source
+from sdfpbr.spec.chart_spec import Light, make_spec
 
 HALF = np.float16
 HALF_MAX = float(np.finfo(HALF).max)            # 65504
@@ -151,7 +151,7 @@ def test_the_tone_map_input_cap_changes_no_display_value(name):
     """tonemap.glsl caps its input at TONEMAP_INPUT_MAX so the ACES fits cannot overflow fp32;
     every curve is display white long before, so the 8-bit sRGB output is bit-identical for
     any input up to 1e30 and any ratio between channels."""
-    from sdfpbr.spec import make_spec
+    from sdfpbr.spec.chart_spec import make_spec
     rng = np.random.default_rng(9)
     x = 10.0 ** rng.uniform(-3, 30, (20000, 3))
     dark = rng.random(20000) < 0.3                       # saturated colours: one channel at 0
@@ -163,7 +163,7 @@ def test_the_tone_map_input_cap_changes_no_display_value(name):
 
 
 def test_the_cap_is_in_the_display_program():
-    from sdfpbr.render import display_source
+    from sdfpbr.gpu.render import display_source
     import re
     text = display_source(make_spec()).text
     assert float(re.search(r"#define TONEMAP_INPUT_MAX (\S+)", text).group(1)) == mirror.TONEMAP_INPUT_MAX
@@ -196,7 +196,7 @@ def test_half_targets_stay_finite_and_saturate_at_half_max(renderer):
 
 
 def test_half_target_display_is_the_tone_mapped_half_values(renderer):
-    from sdfpbr.stress import display_error
+    from sdfpbr.tools.stress import display_error
     spec = make_spec(**BLINDING, hdr_precision="float16", exposure=-18.0, tonemap="reinhard")
     res = renderer.render(spec)
     assert display_error(res.hdr, res.alpha, res.image, spec) [1] == 0

@@ -10,10 +10,10 @@ import sys
 import numpy as np
 import pytest
 
-from sdfpbr import mirror
-from sdfpbr.camera import frame_grid, sphere_centers
-from sdfpbr.reference import batch_size, render_reference
-from sdfpbr.spec import Light, make_spec
+from sdfpbr.oracle import mirror
+from sdfpbr.shading.camera import frame_grid, sphere_centers
+from sdfpbr.tools.reference import batch_size, render_reference
+from sdfpbr.spec.chart_spec import Light, make_spec
 
 FURNACE = dict(env="uniform", lights="none", ground=False, rows=1, cols=1, base_color=(1.0, 1.0, 1.0),
                width=40, height=40)

@@ -4,10 +4,10 @@ import shutil
 import numpy as np
 import pytest
 
-from sdfpbr import mirror
-from sdfpbr.compose import compose, shader_dir
-from sdfpbr.programs import set_uniforms
-from sdfpbr.spec import QUALITY_PRESETS
+from sdfpbr.oracle import mirror
+from sdfpbr.shading.compose import compose, shader_dir
+from sdfpbr.gpu.programs import set_uniforms
+from sdfpbr.spec.chart_spec import QUALITY_PRESETS
 
 BRDF_KERNEL = """
 #include "common.glsl"
@@ -154,8 +154,8 @@ def test_display_program_matches_reference(ctx, renderer, name):
 
 
 def test_uniform_environment_bakes_to_one_and_irradiance_pi(ctx, renderer):
-    from sdfpbr.ibl import make_environment
-    from sdfpbr.spec import make_spec
+    from sdfpbr.gpu.ibl import make_environment
+    from sdfpbr.spec.chart_spec import make_spec
     env = make_environment(renderer.ctx, make_spec(env="uniform", lights="none"))
     q = QUALITY_PRESETS["draft"]
     lighting = renderer.baker.lighting(env, q, "gltf")
@@ -169,8 +169,8 @@ def test_uniform_environment_bakes_to_one_and_irradiance_pi(ctx, renderer):
 
 def test_studio_sh_matches_float64_projection(ctx, renderer):
     """SH9 from the GPU against a float64 projection of the same baked cubemap level."""
-    from sdfpbr.ibl import make_environment
-    from sdfpbr.spec import make_spec
+    from sdfpbr.gpu.ibl import make_environment
+    from sdfpbr.spec.chart_spec import make_spec
     env = make_environment(renderer.ctx, make_spec(env="studio"))
     q = QUALITY_PRESETS["draft"]
     lighting = renderer.baker.lighting(env, q, "gltf")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from sdfpbr.build import KEY_FIELD, ImageCache, ensure_image, parse_entry
+from sdfpbr.tools.build import KEY_FIELD, ImageCache, ensure_image, parse_entry
 
 FILE_SPEC = 'rows = 2\ncols = 2\nsize = "64x48"\nlabels = false\ncaption = "From the <file> & its caption"\n'
 INLINE_SPEC = 'rows = 1\ncols = 3\nsize = "96x32"\nlabels = false\ntonemap = "neutral"'
@@ -103,7 +103,7 @@ def test_sphinx_build_renders_file_and_inline_charts(tmp_path, monkeypatch):
 
 def test_sphinx_rebuild_rereads_only_when_a_chart_key_changes(tmp_path, monkeypatch):
     monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
-    from sdfpbr.compose import shader_dir
+    from sdfpbr.shading.compose import shader_dir
     shaders = tmp_path / "shaders"
     shutil.copytree(shader_dir(), shaders)
     src = make_project(tmp_path)

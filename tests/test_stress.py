@@ -12,10 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sdfpbr import mirror, stress
-from sdfpbr.camera import frame_grid
-from sdfpbr.cli import main
-from sdfpbr.spec import Light, load_spec, make_spec
+from sdfpbr.oracle import mirror
+
+from sdfpbr.tools import stress
+from sdfpbr.shading.camera import frame_grid
+from sdfpbr.cli.main import main
+from sdfpbr.spec.chart_spec import Light, load_spec, make_spec
 
 SMALL = dict(width=144, height=128, rows=2, cols=3, quality="draft", roughness=(0.3, 1.0))
 
@@ -112,7 +114,7 @@ def test_monotonic_cases_pass_and_a_swapped_column_fails(renderer):
 
 
 def test_tiles_check_sees_a_changed_pixel(renderer):
-    from sdfpbr.render import Renderer
+    from sdfpbr.gpu.render import Renderer
     spec = make_spec(**SMALL)
     tiled = Renderer(renderer.ctx, renderer.cache, tile=stress.TILED_TILE).render(spec)
     plain = renderer.render(spec)
@@ -182,7 +184,7 @@ def test_cli_sweep_exit_status_and_summary(tmp_path):
 def test_cli_sweep_finds_a_planted_nan_and_writes_its_spec(tmp_path):
     """A copy of the shaders whose surfaces turn NaN where a sphere's normal points up-right:
     the sweep must fail (exit 1) and leave ready-to-run specs behind."""
-    from sdfpbr.compose import shader_dir
+    from sdfpbr.shading.compose import shader_dir
     shaders = tmp_path / "shaders"
     shutil.copytree(shader_dir(), shaders)
     shade = shaders / "shade.glsl"

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.mirror import srgb_eotf
-from sdfpbr.spec import ChartSpec, make_spec
-from sdfpbr.textures import procedural_set
+from sdfpbr.oracle.mirror import srgb_eotf
+from sdfpbr.spec.chart_spec import ChartSpec, make_spec
+from sdfpbr.gpu.textures import procedural_set
 
 FURNACE = ChartSpec(width=96, height=96, rows=2, cols=2, env="uniform", lights="none", ground=False,
                     labels=False, roughness=(0.5, 0.5), metallic=(0.0, 1.0), base_color=(1.0, 1.0, 1.0))

@@ -6,8 +6,8 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from sdfpbr.render import TILE, Renderer
-from sdfpbr.spec import Light, make_spec
+from sdfpbr.gpu.render import TILE, Renderer
+from sdfpbr.spec.chart_spec import Light, make_spec
 
 BASE = dict(width=90, height=70, rows=2, cols=3, quality="draft")
 VARIANTS = [

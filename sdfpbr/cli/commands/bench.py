@@ -1,0 +1,111 @@
+"""`sdfpbr bench`: render time, compile time, cold start and error against the reference, per
+scene and quality preset."""
+from __future__ import annotations
+
+import argparse
+
+EPILOG = """\
+columns:
+  render ms   chart program draw at full size, median of --repeats after a warm-up; each draw
+              between ctx.finish() calls on the wall clock (a GL timer query where it measures
+              execution; llvmpipe's does not). '±' is the median absolute deviation.
+  compile ms  link of a never-seen program plus its first draw (llvmpipe JIT-compiles there)
+  src kB      composed chart source (features a spec leaves out are not in it)
+  cold s      fresh `python -m sdfpbr chart` process, Mesa shader cache off, empty sdfpbr cache
+  cold* s     the same with the sdfpbr disk cache filled (IBL bakes, LUTs): a second run
+  FLIP        mean LDR FLIP of the display image vs the reference, whole frame; FLIPsph over
+              sphere pixels
+  relRMSE     relative RMSE of linear radiance over sphere pixels, sqrt(mean((t-r)^2/(r^2+0.01)))
+scenes: default (5x5 chart), grid3x3, grid10x10 (same size), bare (no ground, shadows, AO),
+  furnace (white spheres, uniform env, no lights or ground).
+--ablation adds rows 'ablation:<feature>' (one feature off on the default scene; 'code gone'
+  when no identifier of the feature is left in the source) and 'absent:<case>' (a feature the
+  scene cannot use must compose to the same source and time as leaving it out); these are timed
+  in 3 interleaved rounds so load changes on a shared machine hit every variant alike.
+--baseline times a Shadertoy-style shader (a .glsl file or a document containing one) the same
+  way; it draws its own scene, so it has no error figures.
+"""
+
+
+def _list(text: str) -> list[str]:
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("bench", help="time and error of each quality preset over a scene suite",
+                              description="Benchmark render time, compile time, cold start and error "
+                                          "against the reference renderer.",
+                              epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true",
+                   help="CI size: 256x256, scenes default,bare, presets draft,default, 3 repeats, 16-sample references")
+    p.add_argument("--scenes", type=_list, metavar="A,B", help="default, grid3x3, grid10x10, bare, furnace (default: all)")
+    p.add_argument("--presets", type=_list, metavar="A,B", help="draft, default, high, seed002 (default: all)")
+    p.add_argument("--size", metavar="WxH", help="render size (default 1024x1024)")
+    p.add_argument("--repeats", type=int, metavar="N", help="timed draws per row (default 5)")
+    p.add_argument("--warmup", type=int, metavar="N", help="untimed draws first (default 1)")
+    p.add_argument("--ref-samples", type=int, metavar="N", help="reference samples per pixel (default 256)")
+    p.add_argument("--seed", type=int, default=0, help="reference seed (default 0)")
+    p.add_argument("--no-reference", action="store_true", help="skip the error columns")
+    p.add_argument("--no-cold", action="store_true", help="skip the cold-process columns")
+    p.add_argument("--ablation", action="store_true", help="add the feature ablation rows")
+    p.add_argument("--baseline", metavar="FILE", help="also time a Shadertoy-style shader (.glsl or a document)")
+    p.add_argument("--json", metavar="FILE.json",
+                   help="write {machine, settings, rows: [...]} as JSON; rows carry every column and more "
+                        "(link_ms, first_draw_ms, hdr_flip_mean, per-sphere flip_cells, ref_rel_noise, ...)")
+    p.add_argument("--plot", metavar="FILE.png", help="time-vs-error plot (default: beside --json)")
+    p.add_argument("--no-plot", action="store_true", help="no plot even with --json")
+    p.add_argument("--heatmaps", metavar="DIR", help="write a FLIP heat map per scene and preset")
+    p.add_argument("--backend", help="auto (EGL, then OSMesa), egl or osmesa")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import sys
+    from pathlib import Path
+
+    from ...tools.bench import BenchConfig, format_table, run_bench, write_json, write_plot
+    from ...errors import SdfpbrError
+    from ...image.io import check_writable
+    from ...spec.chart_spec import parse_size
+
+    overrides = {}
+    if args.scenes is not None:
+        overrides["scenes"] = tuple(args.scenes)
+    if args.presets is not None:
+        overrides["presets"] = tuple(args.presets)
+    if args.size:
+        overrides["width"], overrides["height"] = parse_size(args.size)
+    for name in ("repeats", "warmup", "ref_samples", "seed", "baseline", "heatmaps", "backend"):
+        value = getattr(args, name)
+        if value is not None:
+            overrides[name] = value
+    overrides.update(reference=not args.no_reference, cold=not args.no_cold, ablation=args.ablation)
+    if not args.quiet:
+        overrides["log"] = lambda line: print(line, file=sys.stderr, flush=True)
+    cfg = BenchConfig.quick(**overrides) if args.quick else BenchConfig(**overrides)
+
+    # Every destination is checked before the (long) run.
+    if args.json:
+        check_writable(args.json, (".json",), "--json")
+    plot = args.plot
+    if plot is None and args.json and not args.no_plot:
+        plot = str(Path(args.json).with_suffix(".png"))
+    if args.no_plot:
+        plot = None
+    if plot:
+        check_writable(plot, (".png",), "--plot")
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise SdfpbrError("--plot needs matplotlib: pip install 'sdfpbr[metrics]' (or --no-plot)") from None
+
+    report = run_bench(cfg)
+    print(format_table(report))
+    if args.json:
+        write_json(args.json, report)
+    if plot:
+        write_plot(plot, report)
+        if not args.quiet:
+            print(f"plot: {plot}", file=sys.stderr)
+    return 0

@@ -1,0 +1,144 @@
+"""Headless OpenGL contexts: EGL (Mesa llvmpipe on a CPU, the NVIDIA driver on a GPU) and
+OSMesa as a fallback. Only this module knows how contexts are made; everything else takes a
+``moderngl.Context``."""
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+from dataclasses import dataclass
+
+import moderngl
+
+from ..errors import GLUnavailable
+
+BACKENDS = ("auto", "egl", "osmesa")
+REQUIRED_GL = 450   # compute shaders and image load/store for the IBL bake
+GL_TEXTURE_CUBE_MAP_SEAMLESS = 0x884F
+
+INSTALL_HINT = ("install Mesa's EGL driver (Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 "
+                "libgl1-mesa-dri) or OSMesa (apt-get install libosmesa6)")
+
+
+class _OSMesaLoader:
+    """Makes an OSMesa context current and hands moderngl its GL entry points."""
+
+    # OSMesa attribute names from osmesa.h
+    _FORMAT, _RGBA, _PROFILE, _CORE, _MAJOR, _MINOR = 0x22, 0x1908, 0x33, 0x34, 0x36, 0x37
+
+    def __init__(self) -> None:
+        # $SDFPBR_LIBOSMESA names the library to load instead of searching (like glcontext's
+        # $GLCONTEXT_LINUX_LIBEGL for EGL); the fault tests point both at missing files.
+        override = os.environ.get("SDFPBR_LIBOSMESA")
+        name = ctypes.util.find_library("OSMesa")
+        lib = None
+        candidates = (override,) if override else (name, "libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")
+        for candidate in filter(None, candidates):
+            try:
+                lib = ctypes.CDLL(candidate)
+                break
+            except OSError:
+                continue
+        if lib is None:
+            raise GLUnavailable(f"OSMesa backend: {override or 'libOSMesa'} not found; apt-get install libosmesa6")
+        lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
+        lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
+        lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]
+        lib.OSMesaGetProcAddress.restype = ctypes.c_void_p
+        lib.OSMesaGetProcAddress.argtypes = [ctypes.c_char_p]
+        lib.OSMesaDestroyContext.argtypes = [ctypes.c_void_p]
+        attrs = (ctypes.c_int * 9)(self._FORMAT, self._RGBA, self._PROFILE, self._CORE,
+                                   self._MAJOR, REQUIRED_GL // 100, self._MINOR, (REQUIRED_GL // 10) % 10, 0)
+        self._lib = lib
+        self._ctx = lib.OSMesaCreateContextAttribs(attrs, None)
+        if not self._ctx:
+            raise GLUnavailable(f"OSMesa backend: could not create a GL {REQUIRED_GL // 100}.{(REQUIRED_GL // 10) % 10} core context")
+        # OSMesa needs a colour buffer to make current; rendering goes to our own framebuffers.
+        self._buffer = (ctypes.c_ubyte * 4)()
+        if not lib.OSMesaMakeCurrent(self._ctx, self._buffer, 0x1401, 1, 1):
+            raise GLUnavailable("OSMesa backend: OSMesaMakeCurrent failed")
+
+    def __enter__(self):
+        self._lib.OSMesaMakeCurrent(self._ctx, self._buffer, 0x1401, 1, 1)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._lib.OSMesaMakeCurrent(None, None, 0, 0, 0)   # release: see create_context
+
+    def load_opengl_function(self, name: str) -> int:
+        return self._lib.OSMesaGetProcAddress(name.encode()) or 0
+
+    def release(self) -> None:
+        if self._ctx:
+            self._lib.OSMesaDestroyContext(self._ctx)
+            self._ctx = None
+
+
+def _create(backend: str, device_index: int) -> moderngl.Context:
+    if backend == "egl":
+        try:
+            return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL, device_index=device_index)
+        except Exception as exc:  # glcontext raises bare Exceptions for a missing libEGL or device
+            raise GLUnavailable(f"EGL backend: {str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__}") from exc
+    if backend == "osmesa":
+        loader = _OSMesaLoader()
+        try:
+            return moderngl.create_context(context=loader, standalone=True, require=REQUIRED_GL)
+        except Exception as exc:
+            loader.release()
+            raise GLUnavailable(f"OSMesa backend: {exc}") from exc
+    raise GLUnavailable(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
+
+
+def create_context(backend: str = "auto", device_index: int = 0) -> moderngl.Context:
+    """A standalone GL 4.5 core context. 'auto' tries EGL, then OSMesa."""
+    if backend not in BACKENDS:
+        raise GLUnavailable(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
+    order = ("egl", "osmesa") if backend == "auto" else (backend,)
+    failures = []
+    for name in order:
+        try:
+            ctx = _create(name, device_index)
+        except GLUnavailable as exc:
+            failures.append(str(exc))
+            continue
+        # Set up, then leave no context current: OSMesa and Mesa's EGL driver share libglapi's
+        # current-context slot, and EGL skips a make-current it thinks is a no-op, so a context
+        # left current by its creation got the GL calls meant for another (found by `sdfpbr
+        # stress`). Every use of a context enters it (`with ctx:`).
+        with ctx:
+            ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)  # filter across cubemap faces
+        ctx.extra = {"backend": name}
+        return ctx
+    raise GLUnavailable("no OpenGL context: " + "; ".join(failures) + f"; {INSTALL_HINT}")
+
+
+def renderer_string(ctx: moderngl.Context) -> str:
+    with ctx:   # ctx.info calls glGetString, which answers "" unless the context is current
+        return f"{ctx.info['GL_RENDERER']} | {ctx.info['GL_VERSION']}"
+
+
+@dataclass(frozen=True)
+class BackendReport:
+    backend: str
+    ok: bool
+    vendor: str = ""
+    renderer: str = ""
+    version: str = ""
+    error: str = ""
+
+
+def doctor(device_index: int = 0) -> list[BackendReport]:
+    """Try every backend; report what each gives or why it failed."""
+    reports = []
+    for name in ("egl", "osmesa"):
+        try:
+            ctx = _create(name, device_index)
+        except GLUnavailable as exc:
+            reports.append(BackendReport(name, False, error=str(exc)))
+            continue
+        with ctx:
+            info = ctx.info
+        reports.append(BackendReport(name, True, info["GL_VENDOR"], info["GL_RENDERER"], info["GL_VERSION"]))
+        ctx.release()
+    return reports

@@ -1,0 +1,240 @@
+"""Image-based lighting computed from the environment on the GPU: a float cubemap bake with a
+full mip chain, GGX-prefiltered levels, SH9 irradiance, and the DFG LUT. Results are cached
+on disk, keyed by the composed bake sources, their parameters and the environment's content."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+from ..cache import ArrayCache, content_key
+from ..shading.compose import compose
+from ..errors import SpecError
+from .programs import ProgramCache, set_uniforms
+from ..spec.chart_spec import ENV_PRESETS, ChartSpec, Quality
+
+DEFAULT_SUN = (0.55, 0.6, 0.58)
+LOCAL = 8   # compute work-group edge
+
+
+def _groups(n: int) -> int:
+    return (n + LOCAL - 1) // LOCAL
+
+
+def load_env_file(path: str | Path) -> np.ndarray:
+    """An equirectangular environment as float32 (H, W, 3), row 0 at the zenith."""
+    path = Path(path)
+    if path.suffix.lower() == ".npy":
+        try:
+            data = np.load(path)   # allow_pickle stays off: a pickle is refused, not run
+        except (OSError, ValueError, EOFError) as exc:
+            raise SpecError(f"cannot read environment {path}: {str(exc).splitlines()[0]}") from None
+    else:
+        try:
+            import OpenEXR
+        except ImportError:
+            raise SpecError("reading .exr environments needs OpenEXR: pip install 'sdfpbr[exr]'") from None
+        try:
+            with OpenEXR.File(str(path)) as f:
+                channels = f.channels()
+                if "RGB" in channels:
+                    data = channels["RGB"].pixels
+                elif "RGBA" in channels:
+                    data = channels["RGBA"].pixels[..., :3]
+                else:
+                    data = np.stack([channels[c].pixels for c in "RGB"], axis=-1)
+        except Exception as exc:
+            raise SpecError(f"cannot read environment {path}: {exc}") from None
+    data = np.asarray(data, dtype=np.float32)
+    if data.ndim != 3 or data.shape[2] < 3 or data.shape[0] < 2 or data.shape[1] < 2:
+        raise SpecError(f"environment {path} must be an H x W x 3 image, got shape {data.shape}")
+    data = data[..., :3]
+    if not np.all(np.isfinite(data)) or data.min() < 0:
+        raise SpecError(f"environment {path} has negative, NaN or Inf values")
+    return np.ascontiguousarray(data)
+
+
+def env_option(spec: ChartSpec) -> str:
+    return spec.env if spec.env in ENV_PRESETS else "file"
+
+
+def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:
+    for light in spec.lights:
+        if light.kind == "directional":
+            return light.direction
+    return tuple(np.array(DEFAULT_SUN) / np.linalg.norm(DEFAULT_SUN))
+
+
+@dataclass
+class Environment:
+    """What the chart program samples: the env as a texture (for file envs) plus its uniforms."""
+    option: str
+    uniforms: dict
+    texture: moderngl.Texture | None
+    content: str   # hash of what defines the radiance
+
+
+def make_environment(ctx: moderngl.Context, spec: ChartSpec) -> Environment:
+    option = env_option(spec)
+    uniforms = {"u_env_intensity": spec.env_intensity, "u_sun_direction": sun_direction(spec)}
+    texture = None
+    content = content_key(option, uniforms)
+    if option == "file":
+        data = load_env_file(spec.env)
+        texture = ctx.texture((data.shape[1], data.shape[0]), 3, data.tobytes(), dtype="f4")
+        texture.repeat_x, texture.repeat_y = True, False
+        content = content_key(option, uniforms, data.tobytes())
+    return Environment(option, uniforms, texture, content)
+
+
+@dataclass
+class EnvironmentLighting:
+    prefiltered: moderngl.TextureCube
+    lods: int
+    sh: np.ndarray    # (9, 3) irradiance coefficients, cosine lobe applied
+
+    def uniforms(self) -> dict:
+        return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh]}
+
+
+class IBLBaker:
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache):
+        self.ctx = ctx
+        self.programs = programs
+        self.cache = cache
+        self._dfg: dict[str, moderngl.Texture] = {}
+        self._lighting: dict[str, EnvironmentLighting] = {}
+
+    # ---- DFG LUT -------------------------------------------------------------------------
+    def dfg(self, brdf: str, quality: Quality, direct_k_bug: bool = False) -> moderngl.Texture:
+        """direct_k_bug builds the LUT with the direct-light Schlick k (the ibl-direct-k bug)."""
+        opts = {"BRDF_MODEL": brdf.replace("-", "_")}
+        if direct_k_bug:
+            opts["BUG_IBL_DIRECT_K"] = True
+        source = compose("dfg_main.glsl", opts)
+        size, samples = quality.dfg_size, quality.dfg_samples
+        key = content_key(source.text, size, samples)
+        if key not in self._dfg:
+            cached = self.cache.get("dfg", key)
+            if cached is not None:
+                table = cached["table"]
+            else:
+                table = self.compute_dfg_table(source, size, samples)
+                self.cache.put("dfg", key, {"table": table})
+            tex = self.ctx.texture((size, size), 4, np.ascontiguousarray(table, np.float32).tobytes(), dtype="f4")
+            tex.repeat_x = tex.repeat_y = False   # CLAMP_TO_EDGE, linear data
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self._dfg[key] = tex
+        return self._dfg[key]
+
+    def compute_dfg_table(self, source, size: int, samples: int) -> np.ndarray:
+        """(size, size, 4) float32: [j, i] = (A, B, C, 1) at NdotV i/(size-1), r j/(size-1)."""
+        program = self.programs.compute(source)
+        target = self.ctx.texture((size, size), 4, dtype="f4")
+        set_uniforms(program, {"u_size": size, "u_samples": samples})
+        target.bind_to_image(0, read=False, write=True)
+        program.run(_groups(size), _groups(size), 1)
+        self.ctx.memory_barrier()
+        table = np.frombuffer(target.read(), dtype=np.float32).reshape(size, size, 4).copy()
+        target.release()
+        return table
+
+    # ---- environment -------------------------------------------------------------------
+    def lighting(self, env: Environment, quality: Quality, brdf: str) -> EnvironmentLighting:
+        opts = {"ENV": env.option, "BRDF_MODEL": brdf.replace("-", "_")}
+        bake_src = compose("bake_env_main.glsl", opts)
+        prefilter_src = compose("prefilter_main.glsl", opts)
+        sh_src = compose("sh_main.glsl")
+        size = quality.ibl_size
+        levels = max(1, int(math.log2(size)) - 1)      # down to 4 x 4
+        key = content_key(bake_src.text, prefilter_src.text, sh_src.text, env.content,
+                          quality.env_bake_size, size, quality.ibl_samples, quality.sh_size)
+        if key in self._lighting:
+            return self._lighting[key]
+        cached = self.cache.get("ibl", key)
+        if cached is not None:
+            cube = self._cube_from_levels([cached[f"level{k}"] for k in range(levels)])
+            result = EnvironmentLighting(cube, levels - 1, cached["sh"])
+        else:
+            result = self._bake(env, quality, bake_src, prefilter_src, sh_src, levels)
+            arrays = {f"level{k}": self._read_cube_level(result.prefiltered, k, size >> k) for k in range(levels)}
+            arrays["sh"] = result.sh
+            self.cache.put("ibl", key, arrays)
+        self._lighting[key] = result
+        return result
+
+    def _bake(self, env, quality, bake_src, prefilter_src, sh_src, levels) -> EnvironmentLighting:
+        ctx = self.ctx
+        n = quality.env_bake_size
+        source = ctx.texture_cube((n, n), 4, dtype="f4")
+        bake = self.programs.compute(bake_src)
+        set_uniforms(bake, {**env.uniforms, "u_size": n, "u_env_map": 1})
+        if env.texture is not None:
+            env.texture.use(1)
+        source.bind_to_image(0, read=False, write=True, level=0)
+        bake.run(_groups(n), _groups(n), 6)
+        ctx.memory_barrier()
+        source.build_mipmaps()
+        source.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+
+        size = quality.ibl_size
+        target = ctx.texture_cube((size, size), 4, dtype="f4")
+        target.build_mipmaps(0, levels - 1)   # allocates the chain we overwrite below
+        prefilter = self.programs.compute(prefilter_src)
+        source.use(0)
+        for k in range(levels):
+            s = size >> k
+            r = k / (levels - 1) if levels > 1 else 0.0   # lod = r (levels - 1), as ibl.glsl reads it
+            set_uniforms(prefilter, {"u_source": 0, "u_size": s, "u_source_size": float(n),
+                                     "u_perceptual_roughness": r, "u_samples": quality.ibl_samples})
+            target.bind_to_image(0, read=False, write=True, level=k)
+            prefilter.run(_groups(s), _groups(s), 6)
+            ctx.memory_barrier()
+        target.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+
+        sh_prog = self.programs.compute(sh_src)
+        sh_size = min(quality.sh_size, n)
+        buffer = ctx.buffer(reserve=9 * 16)
+        buffer.bind_to_storage_buffer(0)
+        set_uniforms(sh_prog, {"u_source": 0, "u_source_lod": int(math.log2(n // sh_size)), "u_size": sh_size})
+        sh_prog.run(1, 1, 1)
+        ctx.memory_barrier()
+        sh = np.frombuffer(buffer.read(), dtype=np.float32).reshape(9, 4)[:, :3].copy()
+        buffer.release()
+        source.release()
+        return EnvironmentLighting(target, levels - 1, sh)
+
+    def _copy_program(self, direction: str):
+        return self.programs.compute(compose("copy_cube_main.glsl", {"COPY_DIRECTION": direction}))
+
+    def _read_cube_level(self, cube: moderngl.TextureCube, level: int, size: int) -> np.ndarray:
+        array = self.ctx.texture_array((size, size, 6), 4, dtype="f4")
+        program = self._copy_program("from_cube")
+        cube.bind_to_image(0, read=True, write=False, level=level)
+        array.bind_to_image(1, read=False, write=True)
+        set_uniforms(program, {"u_size": size})
+        program.run(_groups(size), _groups(size), 6)
+        self.ctx.memory_barrier()
+        data = np.frombuffer(array.read(), dtype=np.float32).reshape(6, size, size, 4).copy()
+        array.release()
+        return data
+
+    def _cube_from_levels(self, levels: list[np.ndarray]) -> moderngl.TextureCube:
+        size = levels[0].shape[1]
+        cube = self.ctx.texture_cube((size, size), 4, dtype="f4")
+        cube.build_mipmaps(0, len(levels) - 1)
+        program = self._copy_program("to_cube")
+        for k, data in enumerate(levels):
+            s = data.shape[1]
+            array = self.ctx.texture_array((s, s, 6), 4, np.ascontiguousarray(data, np.float32).tobytes(), dtype="f4")
+            array.bind_to_image(0, read=True, write=False)
+            cube.bind_to_image(1, read=False, write=True, level=k)
+            set_uniforms(program, {"u_size": s})
+            program.run(_groups(s), _groups(s), 6)
+            self.ctx.memory_barrier()
+            array.release()
+        cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        return cube

@@ -1,0 +1,50 @@
+"""GL programs compiled from composed sources, cached by content per context."""
+from __future__ import annotations
+
+import time
+
+import moderngl
+import numpy as np
+
+from ..shading.compose import ComposedSource, compile_error, compose
+
+
+class ProgramCache:
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self._programs: dict[str, moderngl.Program | moderngl.ComputeShader] = {}
+        self._vertex = compose("fullscreen_vert.glsl")
+        self.compile_seconds = 0.0   # total spent compiling, for the benchmark
+
+    def fragment(self, source: ComposedSource) -> moderngl.Program:
+        key = "frag:" + source.digest
+        if key not in self._programs:
+            start = time.perf_counter()
+            try:
+                self._programs[key] = self.ctx.program(vertex_shader=self._vertex.text, fragment_shader=source.text)
+            except Exception as exc:   # moderngl raises a bare Error with the driver log
+                raise compile_error(source, exc) from None
+            self.compile_seconds += time.perf_counter() - start
+        return self._programs[key]
+
+    def compute(self, source: ComposedSource) -> moderngl.ComputeShader:
+        key = "comp:" + source.digest
+        if key not in self._programs:
+            start = time.perf_counter()
+            try:
+                self._programs[key] = self.ctx.compute_shader(source.text)
+            except Exception as exc:
+                raise compile_error(source, exc) from None
+            self.compile_seconds += time.perf_counter() - start
+        return self._programs[key]
+
+
+def set_uniforms(program, values: dict) -> None:
+    """Set the uniforms the program has; composed-out features simply have none."""
+    for name, value in values.items():
+        if name in program:
+            member = program[name]
+            if isinstance(value, list):   # uniform arrays (all float here): write packed data
+                member.write(np.asarray(value, np.float32).tobytes())
+            else:
+                member.value = value

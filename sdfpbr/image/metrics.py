@@ -1,0 +1,296 @@
+"""Error metrics between a render and its reference, and error heat maps.
+
+* ``rel_rmse``: relative RMSE in linear HDR (Rousselle et al. 2011's relMSE, square-rooted),
+  over sphere pixels or any mask; ``per_cell_rel_rmse`` per sphere of the chart.
+* ``flip_ldr`` / ``flip_hdr``: NVIDIA's FLIP through the ``flip-evaluator`` package (extra
+  ``metrics``). Its Python API calls ``sys.exit`` on bad arguments and aborts on a black HDR
+  reference, so every input is checked here first and a bad one raises SpecError instead.
+* ``per_cell_mean``: the mean of any per-pixel error map per sphere cell.
+* ``heatmap_image``: an error map as an RGBA image with a labeled colour bar (numpy + Pillow).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SdfpbrError, SpecError
+
+DEFAULT_EPS = 1e-2          # relMSE's guard against division by ~0 (Rousselle et al. use 0.01)
+DEFAULT_PPD = 67.0          # FLIP's default: 0.7 m from a 0.7 m wide 3840-pixel monitor
+_NAN_COLOR = (48, 48, 48)   # heat-map pixels outside the evaluated region
+
+
+# ---------------------------------------------------------------------------------------------
+# Input checks: one line that names the argument and what is allowed.
+
+def _image(a, what: str, *, ldr: bool = False) -> np.ndarray:
+    """(H, W, 3) float32 from (H, W, 3|4) input; alpha dropped. LDR: uint8 or floats in [0, 1]."""
+    try:
+        arr = np.asarray(a)
+    except Exception:
+        raise SpecError(f"{what} must be an image array, got {type(a).__name__}") from None
+    if arr.ndim != 3 or arr.shape[2] not in (3, 4):
+        raise SpecError(f"{what} must have shape (H, W, 3) or (H, W, 4), got {arr.shape}")
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise SpecError(f"{what} is empty, shape {arr.shape}")
+    arr = arr[..., :3]
+    if arr.dtype == np.uint8 and ldr:
+        return arr.astype(np.float32) / 255.0
+    if arr.dtype.kind != "f":
+        allowed = "uint8 or float in [0, 1]" if ldr else "float (linear radiance)"
+        raise SpecError(f"{what} has dtype {arr.dtype}; allowed: {allowed}")
+    arr = arr.astype(np.float32)
+    if not np.isfinite(arr).all():
+        raise SpecError(f"{what} contains NaN or infinite values")
+    if ldr and (arr.min() < 0.0 or arr.max() > 1.0):
+        raise SpecError(f"{what} is a float LDR image with values outside [0, 1] "
+                        f"({arr.min():g}..{arr.max():g}); pass sRGB-encoded values in [0, 1] or uint8")
+    if not ldr and arr.min() < 0.0:
+        raise SpecError(f"{what} has negative radiance ({arr.min():g}); HDR FLIP needs values >= 0")
+    return np.ascontiguousarray(arr)
+
+
+def _same_size(test: np.ndarray, ref: np.ndarray) -> None:
+    if test.shape[:2] != ref.shape[:2]:
+        raise SpecError(f"test image is {test.shape[1]}x{test.shape[0]} but the reference is "
+                        f"{ref.shape[1]}x{ref.shape[0]}; they must match")
+
+
+def _mask(mask, shape: tuple[int, int]) -> np.ndarray:
+    """None: every pixel. A dict: an AOV dict, sphere pixels (row >= 0). Else a bool array."""
+    if mask is None:
+        return np.ones(shape, bool)
+    if isinstance(mask, dict):
+        if "row" not in mask:
+            raise SpecError("mask given as an AOV dict must have a 'row' entry")
+        mask = sphere_mask(mask)
+    m = np.asarray(mask)
+    if m.dtype != bool:
+        raise SpecError(f"mask must be a boolean array, got dtype {m.dtype}")
+    if m.shape != tuple(shape):
+        raise SpecError(f"mask has shape {m.shape}, the images are {shape}")
+    if not m.any():
+        raise SpecError("mask selects no pixels")
+    return m
+
+
+def sphere_mask(aov: dict) -> np.ndarray:
+    """Pixels that show a sphere, from a render's AOVs."""
+    row = np.asarray(aov["row"])
+    mask = row >= 0
+    if "col" in aov:
+        mask &= np.asarray(aov["col"]) >= 0
+    return mask
+
+
+def _cells(aov_row, aov_col, rows: int, cols: int, shape) -> tuple[np.ndarray, np.ndarray]:
+    """Flat cell index (row * cols + col) per pixel and the validity mask."""
+    r, c = np.asarray(aov_row), np.asarray(aov_col)
+    if r.shape != tuple(shape) or c.shape != tuple(shape):
+        raise SpecError(f"aov row/col have shapes {r.shape}/{c.shape}, the map is {tuple(shape)}")
+    if not (isinstance(rows, (int, np.integer)) and isinstance(cols, (int, np.integer)) and rows > 0 and cols > 0):
+        raise SpecError(f"rows and cols must be positive whole numbers, got {rows!r}, {cols!r}")
+    r = np.rint(r).astype(np.int64)
+    c = np.rint(c).astype(np.int64)
+    valid = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+    return np.where(valid, r * cols + c, 0), valid
+
+
+def _cell_mean(values: np.ndarray, index: np.ndarray, valid: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    ok = valid & np.isfinite(values)
+    n = np.bincount(index[ok], minlength=rows * cols)
+    s = np.bincount(index[ok], weights=values[ok].astype(np.float64), minlength=rows * cols)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, s / np.maximum(n, 1), np.nan).reshape(rows, cols)
+
+
+# ---------------------------------------------------------------------------------------------
+# Relative RMSE in linear HDR.
+
+def rel_sq_error(test_linear, ref_linear, eps: float = DEFAULT_EPS) -> np.ndarray:
+    """Per-pixel relative squared error, averaged over R, G, B: ((t - r)^2 / (r^2 + eps))."""
+    t = _image(test_linear, "test image")
+    r = _image(ref_linear, "reference image")
+    _same_size(t, r)
+    if not (isinstance(eps, (int, float)) and eps > 0):
+        raise SpecError(f"eps must be a positive number, got {eps!r}")
+    t64, r64 = t.astype(np.float64), r.astype(np.float64)
+    return ((t64 - r64) ** 2 / (r64 ** 2 + eps)).mean(axis=2)
+
+
+def rel_rmse(test_linear, ref_linear, mask=None, eps: float = DEFAULT_EPS) -> float:
+    """Relative RMSE: sqrt(mean over masked pixels and RGB of (t - r)^2 / (r^2 + eps)).
+
+    This is the square root of the relMSE of Rousselle, Knaus and Zwicker (2011), the usual
+    error measure for Monte Carlo renders: a 10% error reads ~0.1 whether the pixel is dim or
+    bright, and ``eps`` keeps near-black reference pixels from dominating. ``mask``: None (all
+    pixels), a boolean (H, W) array, or an AOV dict (sphere pixels: row >= 0 and col >= 0)."""
+    err = rel_sq_error(test_linear, ref_linear, eps)
+    m = _mask(mask, err.shape)
+    return float(np.sqrt(err[m].mean()))
+
+
+def per_cell_rel_rmse(test_linear, ref_linear, aov_row, aov_col, rows: int, cols: int,
+                      eps: float = DEFAULT_EPS) -> np.ndarray:
+    """(rows, cols) relative RMSE of each sphere; NaN for a sphere with no visible pixel."""
+    err = rel_sq_error(test_linear, ref_linear, eps)
+    index, valid = _cells(aov_row, aov_col, rows, cols, err.shape)
+    return np.sqrt(_cell_mean(err, index, valid, rows, cols))
+
+
+def per_cell_mean(error_map, aov_row, aov_col, rows: int, cols: int) -> np.ndarray:
+    """(rows, cols) mean of a per-pixel error map (e.g. FLIP) over each sphere's pixels."""
+    e = np.asarray(error_map, dtype=np.float64)
+    if e.ndim == 3 and e.shape[2] == 1:
+        e = e[..., 0]
+    if e.ndim != 2:
+        raise SpecError(f"error map must have shape (H, W), got {e.shape}")
+    index, valid = _cells(aov_row, aov_col, rows, cols, e.shape)
+    return _cell_mean(e, index, valid, rows, cols)
+
+
+# ---------------------------------------------------------------------------------------------
+# FLIP (flip-evaluator, lazily imported).
+
+def _flip_module():
+    try:
+        import flip_evaluator
+    except ImportError:
+        raise SdfpbrError("FLIP needs the flip-evaluator package: pip install 'sdfpbr[metrics]'") from None
+    return flip_evaluator
+
+
+def _ppd(pixels_per_degree) -> float:
+    if pixels_per_degree is None:
+        return DEFAULT_PPD
+    if isinstance(pixels_per_degree, bool) or not isinstance(pixels_per_degree, (int, float)) \
+            or not np.isfinite(pixels_per_degree) or pixels_per_degree <= 0:
+        raise SpecError(f"pixels_per_degree must be a positive number, got {pixels_per_degree!r}")
+    return float(pixels_per_degree)
+
+
+def _flip(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict, mask) -> tuple[float, np.ndarray]:
+    flip = _flip_module()
+    m = None if mask is None else _mask(mask, ref.shape[:2])
+    error_map, mean, _ = flip.evaluate(ref, test, mode, inputsRGB=(mode == "LDR"), applyMagma=False,
+                                       computeMeanError=True, parameters=parameters)
+    error_map = np.asarray(error_map, np.float32).reshape(ref.shape[:2])
+    if m is not None:
+        mean = error_map[m].mean(dtype=np.float64)
+    return float(mean), error_map
+
+
+def flip_ldr(test_srgb8, ref_srgb8, pixels_per_degree: float | None = None, mask=None) -> tuple[float, np.ndarray]:
+    """LDR-FLIP of two display images: uint8 sRGB (or floats in [0, 1], sRGB-encoded), (H, W, 3|4),
+    alpha ignored. Returns (mean error, (H, W) float32 map in [0, 1]); the mean is over the whole
+    image, or over ``mask`` (bool array or AOV dict) when given."""
+    test = _image(test_srgb8, "test image", ldr=True)
+    ref = _image(ref_srgb8, "reference image", ldr=True)
+    _same_size(test, ref)
+    return _flip(ref, test, "LDR", {"ppd": _ppd(pixels_per_degree)}, mask)
+
+
+def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, mask=None) -> tuple[float, np.ndarray]:
+    """HDR-FLIP of two linear-radiance images (float, >= 0, (H, W, 3|4)); FLIP picks its exposure
+    range from the reference. Returns (mean error, (H, W) float32 map)."""
+    test = _image(test_linear, "test image")
+    ref = _image(ref_linear, "reference image")
+    _same_size(test, ref)
+    parameters = {"ppd": _ppd(pixels_per_degree)}
+    if not (ref.max() > 0.0):
+        # FLIP derives its exposures from the reference luminance; a black reference would make
+        # them infinite and the library aborts the process. Compare at one exposure instead.
+        parameters.update(startExposure=0.0, stopExposure=0.0)
+    return _flip(ref, test, "HDR", parameters, mask)
+
+
+# ---------------------------------------------------------------------------------------------
+# Heat maps.
+
+# 17 evenly spaced samples of matplotlib's perceptually uniform maps (CC0), interpolated linearly.
+_COLORMAPS = {
+    "magma": [(0, 0, 4), (10, 8, 34), (29, 17, 71), (54, 16, 107), (81, 18, 124), (106, 28, 129),
+              (131, 38, 129), (156, 46, 127), (183, 55, 121), (208, 65, 111), (231, 82, 99),
+              (245, 107, 92), (252, 137, 97), (254, 167, 114), (254, 196, 136), (253, 226, 163),
+              (252, 253, 191)],
+    "viridis": [(68, 1, 84), (72, 24, 106), (71, 45, 123), (66, 64, 134), (59, 82, 139), (51, 99, 141),
+                (44, 114, 142), (38, 130, 142), (33, 145, 140), (31, 160, 136), (40, 174, 128),
+                (63, 188, 115), (94, 201, 98), (132, 212, 75), (173, 220, 48), (216, 226, 25),
+                (253, 231, 37)],
+    "gray": [(0, 0, 0), (255, 255, 255)],
+}
+COLORMAPS = tuple(_COLORMAPS)
+
+
+def apply_colormap(values: np.ndarray, colormap: str = "magma") -> np.ndarray:
+    """Values in [0, 1] -> (..., 3) uint8 colours; NaN -> a neutral gray."""
+    if colormap not in _COLORMAPS:
+        raise SpecError(f"colormap {colormap!r} is not allowed; allowed: {', '.join(COLORMAPS)}")
+    table = np.asarray(_COLORMAPS[colormap], np.float64)
+    v = np.asarray(values, np.float64)
+    nan = ~np.isfinite(v)
+    x = np.clip(np.where(nan, 0.0, v), 0.0, 1.0) * (len(table) - 1)
+    out = np.stack([np.interp(x, np.arange(len(table)), table[:, k]) for k in range(3)], axis=-1)
+    out[nan] = _NAN_COLOR
+    return np.rint(out).astype(np.uint8)
+
+
+def _tick_text(v: float) -> str:
+    return f"{v:.3g}"
+
+
+def heatmap_image(error_map, title: str | None = None, vmin: float = 0.0, vmax: float = 1.0,
+                  colormap: str = "magma", ticks: int = 5) -> np.ndarray:
+    """An error map as an (H', W', 4) uint8 image: the map, a vertical colour bar on the right
+    (vmin at the bottom, vmax at the top) with tick labels, and an optional title above.
+    NaN pixels (outside the evaluated region) are drawn gray."""
+    from PIL import Image, ImageDraw
+
+    from .layout import _load_font
+
+    e = np.asarray(error_map, dtype=np.float64)
+    if e.ndim == 3 and e.shape[2] == 1:
+        e = e[..., 0]
+    if e.ndim != 2 or e.size == 0:
+        raise SpecError(f"error map must be a non-empty (H, W) array, got shape {e.shape}")
+    for name, v in (("vmin", vmin), ("vmax", vmax)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+            raise SpecError(f"{name} must be a finite number, got {v!r}")
+    if not vmax > vmin:
+        raise SpecError(f"vmax ({vmax:g}) must be greater than vmin ({vmin:g})")
+    if not (isinstance(ticks, int) and ticks >= 2):
+        raise SpecError(f"ticks must be a whole number >= 2, got {ticks!r}")
+    H, W = e.shape
+    heat = apply_colormap((e - vmin) / (vmax - vmin), colormap)
+
+    font_size = max(10, round(min(H, 1024) / 40))
+    font = _load_font(font_size)
+    pad = max(6, font_size // 2)
+    bar_w = max(10, font_size)
+    labels = [_tick_text(vmin + (vmax - vmin) * i / (ticks - 1)) for i in range(ticks)]
+    measure = ImageDraw.Draw(Image.new("RGBA", (1, 1)))
+    label_w = max(measure.textbbox((0, 0), s, font=font)[2] for s in labels)
+    title_h = 0
+    if title:
+        tb = measure.textbbox((0, 0), title, font=font)
+        title_h = tb[3] + pad
+    top = pad + title_h + font_size // 2        # room for the top tick label's upper half
+    bottom = pad + font_size // 2
+    width = pad + W + 2 * pad + bar_w + pad // 2 + 4 + label_w + pad
+    if title:
+        width = max(width, tb[2] + 2 * pad)
+    height = top + H + bottom
+
+    canvas = Image.new("RGBA", (width, height), (24, 24, 24, 255))
+    canvas.paste(Image.fromarray(heat, "RGB"), (pad, top))
+    bar_x = pad + W + 2 * pad
+    ramp = apply_colormap(np.linspace(1.0, 0.0, H)[:, None].repeat(bar_w, axis=1), colormap)
+    canvas.paste(Image.fromarray(ramp, "RGB"), (bar_x, top))
+    draw = ImageDraw.Draw(canvas)
+    draw.rectangle((bar_x - 1, top - 1, bar_x + bar_w, top + H), outline=(200, 200, 200, 255))
+    for i, text in enumerate(labels):
+        y = top + (H - 1) * (1.0 - i / (ticks - 1))
+        draw.line((bar_x + bar_w, y, bar_x + bar_w + 4, y), fill=(200, 200, 200, 255))
+        draw.text((bar_x + bar_w + pad // 2 + 4, y), text, font=font, fill=(225, 225, 225, 255), anchor="lm")
+    if title:
+        draw.text((pad, pad), title, font=font, fill=(240, 240, 240, 255))
+    return np.asarray(canvas, np.uint8)

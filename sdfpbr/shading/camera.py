@@ -1,0 +1,75 @@
+"""A camera that frames the sphere grid, and the projection the chart labels use.
+Both the shader (through these uniforms) and the layout use this one definition."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..spec.chart_spec import ChartSpec
+
+FOV_Y_DEG = 30.0
+MARGIN = 1.06
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: np.ndarray
+    right: np.ndarray
+    up: np.ndarray
+    forward: np.ndarray
+    half_height: float          # tan(fov/2) (perspective) or half view height (orthographic)
+    orthographic: bool
+    width: int
+    height: int
+
+    def uniforms(self) -> dict:
+        return {"u_cam_position": tuple(self.position), "u_cam_right": tuple(self.right),
+                "u_cam_up": tuple(self.up), "u_cam_forward": tuple(self.forward),
+                "u_cam_half_height": self.half_height, "u_resolution": (self.width, self.height)}
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel coordinates (x right, y down, origin top-left) and the scale in px per world unit."""
+        rel = np.asarray(points, float) - self.position
+        x, y, z = rel @ self.right, rel @ self.up, rel @ self.forward
+        aspect = self.width / self.height
+        scale = np.full_like(z, 1.0) if self.orthographic else z
+        ndc_x = x / (scale * self.half_height * aspect)
+        ndc_y = y / (scale * self.half_height)
+        px = np.stack([(ndc_x + 1) * 0.5 * self.width, (1 - ndc_y) * 0.5 * self.height], axis=-1)
+        return px, 0.5 * self.height / (scale * self.half_height)
+
+
+def sphere_centers(spec: ChartSpec) -> np.ndarray:
+    """(rows, cols, 3) centres, row 0 on top, as in scene.glsl."""
+    s = spec.spacing
+    hx, hy = 0.5 * (spec.cols - 1) * s, 0.5 * (spec.rows - 1) * s
+    cols = np.arange(spec.cols) * s - hx
+    rows = hy - np.arange(spec.rows) * s
+    c = np.zeros((spec.rows, spec.cols, 3))
+    c[..., 0] = cols[None, :]
+    c[..., 1] = rows[:, None]
+    return c
+
+
+def ground_height(spec: ChartSpec) -> float:
+    return -0.5 * (spec.rows - 1) * spec.spacing - spec.sphere_radius
+
+
+def frame_grid(spec: ChartSpec) -> Camera:
+    half_w = 0.5 * (spec.cols - 1) * spec.spacing + spec.sphere_radius
+    half_h = 0.5 * (spec.rows - 1) * spec.spacing + spec.sphere_radius
+    aspect = spec.width / spec.height
+    need = max(half_h, half_w / aspect) * MARGIN
+    elev, azim = math.radians(spec.camera_elevation), math.radians(spec.camera_azimuth)
+    # Azimuth 0 looks down -z at the grid's front; positive azimuth orbits towards +x.
+    forward = np.array([-math.sin(azim) * math.cos(elev), -math.sin(elev), -math.cos(azim) * math.cos(elev)])
+    right = np.array([math.cos(azim), 0.0, -math.sin(azim)])
+    up = np.cross(right, forward)
+    if spec.camera == "orthographic":
+        position = -forward * (need * 4.0 + 4.0 * spec.sphere_radius) * spec.camera_distance_scale
+        return Camera(position, right, up, forward, need, True, spec.width, spec.height)
+    tan_half = math.tan(math.radians(FOV_Y_DEG) / 2)
+    distance = (need / tan_half + spec.sphere_radius) * spec.camera_distance_scale
+    return Camera(-forward * distance, right, up, forward, tan_half, False, spec.width, spec.height)

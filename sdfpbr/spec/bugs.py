@@ -1,0 +1,147 @@
+"""The catalog of classic PBR mistakes, each one compile option away from the correct chart.
+
+A bug named in ``ChartSpec.bugs`` changes exactly one option of one program (the chart program
+or the display program): a ``BUG_*`` define, or an existing option set to the buggy value
+(``TONEMAP = clamp``, ``MULTISCATTER`` off). ``Bug.correct(spec)`` adds what the bug needs to
+be visible (e.g. textured spheres for the texture bugs); ``Bug.apply(spec)`` is that spec with
+the bug switched on."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import SpecError
+
+
+@dataclass(frozen=True)
+class Bug:
+    name: str
+    summary: str                  # one line for `sdfpbr bugs`
+    caption: str                  # what goes wrong, why, the fix
+    program: str                  # "chart" or "display": the program whose source changes
+    option: str                   # the compile option the bug sets ...
+    value: Any = True             # ... and its buggy value
+    requires: dict = field(default_factory=dict)   # spec overrides that make the bug visible
+
+    def correct(self, spec):
+        from .chart_spec import make_spec
+        return make_spec(spec, **self.requires) if self.requires else spec
+
+    def apply(self, spec):
+        from .chart_spec import make_spec
+        base = self.correct(spec)
+        if self.name in base.bugs:
+            return base
+        return make_spec(base, bugs=tuple(base.bugs) + (self.name,))
+
+
+def _bug(name, summary, caption, option, value=True, program="chart", **requires) -> Bug:
+    return Bug(name, summary, caption, program, option, value, requires)
+
+
+_TEXTURED = {"textures": "procedural"}
+
+BUGS: dict[str, Bug] = {b.name: b for b in (
+    _bug("unsquared-roughness", "perceptual roughness used as GGX alpha",
+         "Low and mid roughness already look rough: highlights spread and dim, because alpha = r "
+         "is larger than r * r below 1, so the chart no longer reads linearly (the ends agree). "
+         "Fix: alpha = r * r.",
+         "BUG_UNSQUARED_ROUGHNESS"),
+    _bug("metal-diffuse", "metals keep a Lambert body (no 1 - metallic)",
+         "Metals look milky and plastic-like: a conductor has no diffuse body, but the Lambert "
+         "term was added outside the metallic mix. Fix: weight diffuse by (1 - metallic).",
+         "BUG_METAL_DIFFUSE"),
+    _bug("diffuse-no-fresnel", "diffuse not weighted by 1 - F",
+         "Dielectric rims glow too bright: light reflected by the coat cannot also enter the "
+         "body, so Lambert must be weighted by (1 - F). Fix: mix(diffuse, specular, F).",
+         "BUG_DIFFUSE_NO_FRESNEL"),
+    _bug("clamp-tonemap", "clamp instead of a tone map",
+         "Highlights and bright metals clip to flat white and shift hue: HDR radiance above 1 "
+         "is cut off per channel. Fix: a tone mapper (ACES, Reinhard, Neutral) before encoding.",
+         "TONEMAP", "clamp", program="display"),
+    _bug("no-srgb-encode", "linear values written to an sRGB image",
+         "The whole chart looks too dark and contrasty: the display expects sRGB-encoded "
+         "values but got linear ones. Fix: apply the sRGB OETF last.",
+         "BUG_NO_SRGB_ENCODE", program="display"),
+    _bug("double-gamma", "sRGB encode applied twice",
+         "Everything is washed out and grey: the image was encoded twice (e.g. an sRGB "
+         "framebuffer plus a manual encode). Fix: encode exactly once.",
+         "BUG_DOUBLE_GAMMA", program="display"),
+    _bug("gamma-2.2", "pow(x, 1/2.2) instead of the sRGB curve",
+         "Shadows are slightly lifted and near-black banding differs: pow(1/2.2) is not the "
+         "piecewise sRGB OETF (linear toe below 0.0031308). Fix: the exact sRGB curve.",
+         "BUG_GAMMA_POW", program="display"),
+    _bug("double-tonemap", "Reinhard followed by ACES",
+         "Flat, low-contrast image with dull highlights: the radiance was compressed by "
+         "Reinhard and then again by ACES (as shared seed 002 does). Fix: one tone mapper.",
+         "BUG_DOUBLE_TONEMAP", program="display"),
+    _bug("ibl-direct-k", "IBL LUT built with the direct-light Schlick k",
+         "Environment reflections of metals come out too dark, by up to 15% towards the rims: "
+         "the DFG LUT used G with k = (r+1)^2/8, meant for punctual lights, while shading uses "
+         "height-correlated Smith. Fix: build the LUT with the shading's G.",
+         "BUG_IBL_DIRECT_K"),
+    _bug("single-scatter", "no multiple-scattering compensation",
+         "Rough metals lose up to a third of their energy and look dark: single-scatter GGX "
+         "drops light that bounces between microfacets. Fix: scale specular by 1 + F0 (1/E - 1).",
+         "MULTISCATTER", False),
+    _bug("fresnel-ndotv", "Fresnel of N.V for punctual lights",
+         "Rims light up for every light and highlights lose their angular Fresnel: for a light "
+         "the microfacet Fresnel depends on V.H, not N.V. Fix: F(V.H) for direct light.",
+         "BUG_FRESNEL_NDOTV"),
+    _bug("cosine-twice", "N.L applied twice",
+         "The terminator is too soft and dark, lit sides fall off too fast: the cosine of "
+         "Lambert's law was multiplied in by both the BRDF and the integrand. Fix: once.",
+         "BUG_COSINE_TWICE"),
+    _bug("no-cosine", "N.L missing",
+         "Spheres look flat, lit almost to the terminator: the projected-area cosine of the "
+         "rendering equation was left out. Fix: radiance = f * E * N.L.",
+         "BUG_NO_COSINE"),
+    _bug("unclamped-ndotv", "N.V not clamped at the silhouette",
+         "Black or NaN specks on the rims: where a normal map tilts the shading normal away from "
+         "the camera N.V reaches zero or below, and the textbook D G F / (4 N.V N.L) divides by "
+         "it. Fix: N.V = max(N.V, 1e-4), or the visibility form that never divides.",
+         "BUG_UNCLAMPED_NDOTV", **_TEXTURED),
+    _bug("fewtap-ibl", "a few-tap blur instead of the split sum",
+         "Rough reflections are blotchy and too sharp, diffuse ignores the hemisphere: five taps "
+         "around R cannot integrate a GGX lobe. Fix: prefiltered radiance + DFG LUT + irradiance.",
+         "BUG_FEWTAP_IBL"),
+    _bug("ao-on-direct", "ambient occlusion applied to direct light",
+         "Contact regions stay dark even where the sun hits them: AO approximates blocked "
+         "environment light, not a punctual light (that is what shadows do). Fix: AO on IBL only.",
+         "BUG_AO_ON_DIRECT"),
+    _bug("normal-map-srgb", "normal map sampled as sRGB",
+         "Bumps lean and flatten in one direction: the normal texture was decoded as colour, "
+         "bending the vectors towards -1. Fix: sample normal maps as linear data.",
+         "BUG_NORMAL_MAP_SRGB", **_TEXTURED),
+    _bug("normal-map-green-flip", "DirectX normal map read as OpenGL",
+         "Bumps look dented, lit from the wrong side vertically: the green channel convention "
+         "(Y down in DirectX, up in OpenGL/glTF) is flipped. Fix: invert green on import.",
+         "BUG_NORMAL_MAP_GREEN_FLIP", **_TEXTURED),
+    _bug("orm-srgb", "roughness/metallic texture sampled as sRGB",
+         "Textured spheres turn glossier and less metallic than their factors: the ORM data "
+         "was decoded as colour, darkening mid values (0.5 -> 0.21). Fix: sample ORM as linear.",
+         "BUG_ORM_SRGB", **_TEXTURED),
+)}
+
+# Every define a bug can add, for the composer's option table.
+BUG_DEFINES = tuple(b.option for b in BUGS.values() if b.option.startswith("BUG_"))
+
+
+def get_bug(name: str) -> Bug:
+    try:
+        return BUGS[name]
+    except KeyError:
+        import difflib
+        close = difflib.get_close_matches(name, BUGS, n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise SpecError(f"unknown bug {name!r}{hint}; allowed: {', '.join(BUGS)}") from None
+
+
+def bug_options(names, program: str) -> dict:
+    """The compile options the named bugs set in one program."""
+    out = {}
+    for name in names:
+        bug = get_bug(name)
+        if bug.program == program:
+            out[bug.option] = bug.value
+    return out
