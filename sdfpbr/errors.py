@@ -23,3 +23,11 @@ class GLUnavailable(SdfpbrError):
 
 class ShaderCompileError(SdfpbrError):
     exit_status = 4
+
+
+def did_you_mean(word, choices) -> str:
+    """' (did you mean 'x'?)' for the closest of ``choices``, or '' when none is close: the one
+    suggestion helper every message uses."""
+    import difflib
+    match = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f" (did you mean {match[0]!r}?)" if match else ""

@@ -366,16 +366,8 @@ def spec_from_mapping(data: Mapping[str, Any], base: ChartSpec | None = None, wh
 
 
 def load_spec(path: str | Path, base: ChartSpec | None = None) -> ChartSpec:
-    p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise SpecError(f"spec file {p} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"cannot read spec file {p}: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{p}: malformed TOML: {exc}") from None
-    return spec_from_mapping(data, base, where=str(p))
+    from .toml_file import read_toml
+    return spec_from_mapping(read_toml(path), base, where=str(path))
 
 
 def parse_range(text: str, what: str) -> tuple[float, float]:

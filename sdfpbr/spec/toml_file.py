@@ -1,0 +1,30 @@
+"""The one TOML reader: every spec file, docs entry and Sphinx directive file goes through
+``read_toml``, so a missing, unreadable or malformed file gives the same one-line error."""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from ..errors import SpecError
+
+
+def read_toml(path: str | Path, what: str = "spec file") -> dict:
+    p = Path(path)
+    try:
+        return tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SpecError(f"{what} {p} does not exist") from None
+    except IsADirectoryError:
+        raise SpecError(f"{what} {p} is a directory") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"cannot read {what} {p}: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{p}: malformed TOML: {exc}") from None
+
+
+def parse_toml_text(text: str, where: str) -> dict:
+    """Inline TOML (a Sphinx directive's body) with the same error mapping."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{where}: malformed TOML: {exc}") from None
