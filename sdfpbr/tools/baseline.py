@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ShaderCompileError, SpecError
+from ..shading.compose import ComposedSource, compile_error
 
 # Shadertoy's uniforms and their types; a shader that declares one itself keeps its own type.
 SHADERTOY_UNIFORMS = {
@@ -120,8 +121,12 @@ def extract_glsl(text: str, origin: str = "<text>") -> tuple[str, str, int]:
                     f"or `void main()` with its body)")
 
 
-def wrap_shadertoy(code: str, entry: str) -> str:
-    """A #version 330 core fragment shader around Shadertoy-style ``code``."""
+def wrap_shadertoy(code: str, entry: str, start_line: int = 1) -> str:
+    """A #version 330 core fragment shader around Shadertoy-style ``code``.
+
+    The code is source string 1 and starts at ``start_line`` (``#line start_line 1``), so a
+    driver reports its errors at the input file's own lines; the wrapper around it is source
+    string 0 at its own line numbers (build_program maps both)."""
     # Drop the shader's own #version (ours comes first); keep its precision and uniforms.
     body = re.sub(r"^[ \t]*#version[^\n]*\n?", "", code, flags=re.M)
     declared = set(re.findall(r"\buniform\s+\w+\s+(\w+)", body))
@@ -132,10 +137,11 @@ def wrap_shadertoy(code: str, entry: str) -> str:
         "#define gl_FragColor _sdfpbr_frag_color",
         "#define texture2D texture",
         "#define textureCube texture",
-        "#line 1",
-        body.rstrip() + "\n",
+        f"#line {start_line} 1",
     ]
+    lines += body.rstrip("\n").split("\n")
     if entry == "mainImage":
+        lines.append(f"#line {len(lines) + 2} 0")   # the next line is physical line len + 2
         lines.append("void main() { mainImage(_sdfpbr_frag_color, gl_FragCoord.xy); }")
     return "\n".join(lines) + "\n"
 
@@ -151,21 +157,18 @@ def load_shadertoy(path: str | Path) -> ShadertoySource:
     except OSError as exc:
         raise SpecError(f"cannot read --baseline file {p}: {exc.strerror or exc}") from None
     code, entry, start = extract_glsl(text, str(p))
-    return ShadertoySource(code, wrap_shadertoy(code, entry), entry, str(p), start)
+    return ShadertoySource(code, wrap_shadertoy(code, entry, start), entry, str(p), start)
 
 
 def build_program(ctx, source: ShadertoySource):
-    """Compile and link; a compile error is one line naming the input file and its line."""
+    """Compile and link; a compile error is one line naming the input file and its line, in
+    the log format of any driver (see ComposedSource.locate): the code is source string 1
+    and keeps the input's line numbers; the wrapper's own lines are '<sdfpbr wrapper>:N'."""
     try:
         return ctx.program(vertex_shader=VERTEX_SHADER, fragment_shader=source.text)
     except Exception as exc:   # moderngl raises a bare Error carrying the driver log
-        log = str(exc)
-        errors = [line.strip() for line in log.splitlines() if "error" in line.lower()]
-        first = errors[0] if errors else (log.strip().splitlines() or ["unknown error"])[0]
-        # Mesa reports '0:LINE(COL)'; '#line 1' made LINE count from the extracted code.
-        m = re.search(r"\b\d+:(\d+)\(\d+\)", first)
-        where = f"{source.name}:{source.start_line + int(m.group(1)) - 1}" if m else source.name
-        raise ShaderCompileError(f"baseline shader {where}: {first}") from None
+        message = str(compile_error(ComposedSource(source.text, (source.name,), ()), exc, "baseline shader"))
+        raise ShaderCompileError(message.replace("<composed>", "<sdfpbr wrapper>")) from None
 
 
 def shadertoy_uniforms(width: int, height: int, time_s: float = 0.0, frame: int = 0) -> dict:
