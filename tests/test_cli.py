@@ -5,8 +5,8 @@ import sys
 import numpy as np
 import pytest
 
-from sdfpbr.shading.compose import compose
-from sdfpbr.gpu.render import chart_source
+from sdfpbr.shading.plan import compose_program as compose
+from sdfpbr.shading.plan import render_plan
 from sdfpbr.spec.chart_spec import make_spec
 
 
@@ -15,7 +15,7 @@ def run(*args, cwd=None):
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["chart", "--rowz", "3"], "did you mean --rows"),
+    (["chart", "--rowz", "3"], "did you mean '--rows'"),
     (["chart", "--rows", "0"], "rows must be in [1, 64]"),
     (["chart", "--tonemap", "acse"], "did you mean 'aces'"),
     (["chart", "--roughness", "0-1"], "LO:HI"),
@@ -68,13 +68,13 @@ def test_shader_command_from_another_directory(tmp_path):
 
 
 def test_features_left_out_are_absent_from_the_source():
-    full = chart_source(make_spec()).text
-    bare = chart_source(make_spec(ground=False, ao=False, lights="none")).text
+    full = render_plan(make_spec()).chart.text
+    bare = render_plan(make_spec(ground=False, ao=False, lights="none")).chart.text
     for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light", "brdf_cos(m"):
         assert needle in full and needle not in bare, needle
 
 
-def test_composer_refuses_unknown_options_and_maps_errors(tmp_path, renderer):
+def test_composer_refuses_unknown_options_and_maps_errors(tmp_path, session):
     with pytest.raises(ValueError, match="allowed"):
         compose("display_main.glsl", {"TONEMAP": "filmic"})
     with pytest.raises(ValueError, match="unknown shader option"):
@@ -82,10 +82,11 @@ def test_composer_refuses_unknown_options_and_maps_errors(tmp_path, renderer):
     (tmp_path / "broken.glsl").write_text("void f() {\n  float x = ;\n}\n")
     (tmp_path / "main.glsl").write_text('#include "broken.glsl"\nvoid main() {}\n')
     from sdfpbr.errors import ShaderCompileError
-    with renderer.ctx, pytest.raises(ShaderCompileError, match=r"broken\.glsl:2"):
-        renderer.programs.fragment(compose("main.glsl", root=tmp_path))
+    with session.ctx, pytest.raises(ShaderCompileError, match=r"broken\.glsl:2"):
+        session.programs.fragment(compose("main.glsl", root=tmp_path))
 
 
+@pytest.mark.requires_backend("egl", "osmesa")
 def test_doctor_reports_both_backends():
     r = run("doctor")
     assert r.returncode == 0

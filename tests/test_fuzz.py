@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from sdfpbr.cli.main import build_parser, main
 from sdfpbr.errors import SpecError
+from sdfpbr.spec.fields import FIELD_NAMES, FIELDS
 from sdfpbr.spec.chart_spec import (BACKENDS, BRDF_MODELS, CAMERAS, ENV_PRESETS, INTERSECT_METHODS, MATERIAL_PRESETS,
                          QUALITY_PRESETS, SPEC_KEYS, TONEMAPPERS, load_spec)
 
@@ -115,6 +116,11 @@ INVALID_FLAGS = st.one_of(
               st.one_of(st.tuples(_int_outside(1, 65536), st.integers(1, 64).map(str)).map("x".join),
                         st.tuples(st.integers(1, 64).map(str), _int_outside(1, 65536)).map("x".join),
                         PRINTABLE.filter(lambda t: t.lower().count("x") != 1))),
+    # Every number and choice field of the table, outside what its check allows.
+    st.sampled_from([f for f in FIELDS if f.kind in ("int", "float", "choice")]).flatmap(
+        lambda f: st.tuples(st.just(f.option_strings[-1]),
+                            _word_outside(f.choices) if f.kind == "choice" else
+                            (_int_outside if f.kind == "int" else _float_outside)(*f.bounds))),
     # An option nobody defined (argparse would take an unambiguous prefix of a real one).
     st.from_regex(r"--[a-z][a-z\-]{0,10}", fullmatch=True)
       .filter(lambda o: not any(known.startswith(o) for known in OPTION_NAMES)).map(lambda o: (o, "1")),
@@ -197,7 +203,7 @@ PLAUSIBLE = {
     "camera_distance_scale": st.floats(0, 2000), "hdr_precision": st.sampled_from(["float32", "float16", "half", ""]),
     "size": st.one_of(st.just("64x32"), PRINTABLE, st.lists(st.integers(-1, 99), min_size=1, max_size=3)),
 }
-KEYS = st.sampled_from(sorted(set(SPEC_KEYS) | {"size", "camera-azimuth"}))
+KEYS = st.sampled_from(sorted(set(SPEC_KEYS) | set(FIELD_NAMES) | {"camera-azimuth", "azimuth", "base-color"}))
 
 
 @st.composite
@@ -205,6 +211,7 @@ def spec_documents(draw):
     doc = {}
     for key in draw(st.lists(st.one_of(KEYS, PRINTABLE.filter(bool)), min_size=1, max_size=5, unique=True)):
         name = key.replace("-", "_")
+        name = {"azimuth": "camera_azimuth", "row_materials": "materials"}.get(name, name)
         doc[key] = draw(st.one_of(PLAUSIBLE[name], VALUES) if name in PLAUSIBLE else VALUES)
     # Keep renders small when a document happens to be valid.
     doc.setdefault("width", 8)
@@ -263,7 +270,7 @@ SHADED = st.fixed_dictionaries({}, optional={
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(doc=SHADED)
 @example(doc={"ground_color": [-1.0, 0.0, 0.0]})
-def test_every_spec_the_validator_accepts_renders_finite_non_negative(renderer, tmp_path_factory, doc):
+def test_every_spec_the_validator_accepts_renders_finite_non_negative(session, tmp_path_factory, doc):
     """The other half of validation: what passes it must render. Environment black and no IBL
     keep each example to one small render (no environment bake)."""
     doc = {**doc, "env": "black", "ibl": False, "width": 12, "height": 10, "rows": 2, "cols": 2, "quality": "draft"}
@@ -273,7 +280,7 @@ def test_every_spec_the_validator_accepts_renders_finite_non_negative(renderer, 
         spec = load_spec(path)
     except SpecError:
         return
-    res = renderer.render(spec)
+    res = session.render(spec)
     assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0, doc
 
 

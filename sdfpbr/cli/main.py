@@ -2,16 +2,25 @@
 from __future__ import annotations
 
 import argparse
-import difflib
 import re
 import sys
 import time
 
-from ..errors import SdfpbrError, SpecError
+from ..errors import SdfpbrError, SpecError, did_you_mean
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line with a suggestion, and exit status 2."""
+    """argparse, but a usage error is one line with a suggestion, exit status 2, and '_' in an
+    option name is the same as '-' (``--base_color`` is ``--base-color``), as in TOML keys."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        if "--" in args:
+            cut = args.index("--")
+            args = [_dashed(a) for a in args[:cut]] + args[cut:]
+        else:
+            args = [_dashed(a) for a in args]
+        return super().parse_known_args(args, namespace)
 
     def error(self, message: str):
         m = re.search(r"unrecognized arguments: (\S+)", message)
@@ -20,83 +29,85 @@ class _Parser(argparse.ArgumentParser):
             for sub in self._subparsers._group_actions if self._subparsers else []:
                 for p in getattr(sub, "choices", {}).values():
                     known += [s for a in p._actions for s in a.option_strings]
-            close = difflib.get_close_matches(m.group(1).split("=")[0], known, n=1)
-            if close:
-                message += f" (did you mean {close[0]}?)"
-        raise SpecError(f"{self.prog}: {message}")
+            message += did_you_mean(m.group(1).split("=")[0], known)
+        m = re.search(r"argument (.+?): invalid choice: '(.*?)' \(choose from", message)
+        if m:
+            action = next((a for a in self._actions if m.group(1) in ("/".join(a.option_strings), a.metavar, a.dest)),
+                          None)
+            choices = list(getattr(action, "choices", None) or [])
+            if m.group(1) == "command":
+                message = (f"unknown command {m.group(2)!r}{did_you_mean(m.group(2), choices)}; "
+                           f"commands: {', '.join(choices)}")
+            else:
+                message += did_you_mean(m.group(2), choices)
+        # main() prints "sdfpbr: error: "; a subcommand's messages name the subcommand.
+        sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        raise SpecError(f"{sub}: {message}" if sub else message)
+
+
+def _dashed(arg: str) -> str:
+    if not arg.startswith("--"):
+        return arg
+    name, eq, value = arg.partition("=")
+    return name.replace("_", "-") + eq + value
 
 
 def add_chart_options(p: argparse.ArgumentParser) -> None:
-    """The spec flags every rendering command shares (chart, shader, reference, compare, ...)."""
+    """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
+    one per field of the spec table, named as the field, plus its aliases. A flag the command
+    already defines for itself (compare's --bugs and --labels) is left to the command."""
+    from ..spec.fields import FIELDS
     p.add_argument("--spec", metavar="FILE.toml", help="a TOML spec; flags given here override it")
-    p.add_argument("--rows", type=int)
-    p.add_argument("--cols", type=int)
-    p.add_argument("--size", metavar="WxH", help="render area in pixels (default 1024x1024)")
-    p.add_argument("--roughness", metavar="LO:HI", help="perceptual roughness across the columns (default 0:1)")
-    p.add_argument("--metallic", metavar="LO:HI", help="metallic down the rows (default 0:1)")
-    p.add_argument("--base-color", metavar="R,G,B", help="linear base colour (default 0.75,0.75,0.75)")
-    p.add_argument("--materials", metavar="NAME,...", help="per-row presets: gold, copper, silver, iron, aluminium")
-    p.add_argument("--env", metavar="NAME|FILE", help="studio, sky, uniform, black, or an .exr/.npy equirect map")
-    p.add_argument("--env-intensity", type=float)
-    p.add_argument("--lights", choices=("default", "none"))
-    p.add_argument("--no-shadows", dest="shadows", action="store_false", default=None)
-    p.add_argument("--no-ao", dest="ao", action="store_false", default=None)
-    p.add_argument("--no-ground", dest="ground", action="store_false", default=None)
-    p.add_argument("--no-ibl", dest="ibl", action="store_false", default=None)
-    p.add_argument("--no-multiscatter", dest="multiscatter", action="store_false", default=None)
-    p.add_argument("--no-labels", dest="labels", action="store_false", default=None)
-    p.add_argument("--tonemap", help="none, clamp, reinhard, reinhard-extended, aces, aces-hill, neutral")
-    p.add_argument("--exposure", type=float, metavar="EV")
-    p.add_argument("--spp", type=int, help="samples per pixel")
-    p.add_argument("--brdf", help="gltf (default) or schlick-ggx")
-    p.add_argument("--camera", help="perspective or orthographic")
-    p.add_argument("--intersect", help="auto, analytic or march")
-    p.add_argument("--quality", help="draft, default, high, or seed002 (shared seed 002's approach)")
-    p.add_argument("--bug", dest="bugs", action="append", metavar="NAME",
-                   help="switch on a catalogued PBR mistake (repeatable; `sdfpbr bugs` lists them)")
-    p.add_argument("--textures", help="none or procedural (riveted panels: normal, ORM, base colour maps)")
-    p.add_argument("--base-color-texture", metavar="PNG", help="sRGB base colour map for the spheres")
-    p.add_argument("--orm-texture", metavar="PNG", help="linear occlusion/roughness/metallic map")
-    p.add_argument("--normal-texture", metavar="PNG", help="linear tangent-space normal map, OpenGL +Y")
-    p.add_argument("--transparent", action="store_true", default=None, help="transparent background")
-    p.add_argument("--azimuth", dest="camera_azimuth", type=float, metavar="DEG", help="camera orbit angle around the grid (default 0)")
-    p.add_argument("--elevation", dest="camera_elevation", type=float, metavar="DEG", help="camera elevation (default 8)")
-    p.add_argument("--title")
-    p.add_argument("--backend", help="auto (EGL, then OSMesa), egl or osmesa")
-    p.add_argument("--device-index", type=int, help="EGL device by enumeration order")
+    taken = set(p._option_string_actions)
+    used_dests = {a.dest for a in p._actions}
+    dests = {}
+    for f in FIELDS:
+        dest = f.name if f.name not in used_dests else f"spec_{f.name}"
+        if f.kind == "bool":
+            on = [o for o in f.option_strings if o not in taken]
+            off = [o for o in ("--no-" + o[2:] for o in f.option_strings) if o not in taken]
+            for opts, value in ((on, True), (off, False)):
+                if opts:   # the help goes on the flag that changes the default
+                    p.add_argument(*opts, dest=dest, action="store_const", const=value, default=None,
+                                   help=f"{f.help} ({'on' if f.default else 'off'} by default)"
+                                   if value != f.default else argparse.SUPPRESS)
+        else:
+            opts = [o for o in f.option_strings if o not in taken]
+            if not opts:
+                continue
+            default = "" if f.default in (None, "", ()) or f.kind == "lights" else f" (default {f.to_text(f.default)})"
+            p.add_argument(*opts, dest=dest, metavar=f.metavar, default=None,
+                           action="append" if f.kind == "bugs" else "store",
+                           help=f.help + default + ("; repeatable" if f.kind == "bugs" else ""))
+        dests[f.name] = dest
+    p.set_defaults(spec_dests=dests)
 
 
 def spec_from_args(args: argparse.Namespace):
-    from ..spec.chart_spec import ChartSpec, load_spec, make_spec, parse_color, parse_range, parse_size
+    """The spec the chart flags describe: --spec (or the defaults) with each given flag on top;
+    --bug adds to the spec file's bugs rather than replacing them."""
+    from ..spec.chart_spec import ChartSpec, load_spec, make_spec
+    from ..spec.fields import field_value_from_text, resolve_field
     base = load_spec(args.spec) if args.spec else ChartSpec()
     o = {}
-    for name in ("rows", "cols", "env", "env_intensity", "lights", "shadows", "ao", "ground", "ibl",
-                 "multiscatter", "labels", "tonemap", "exposure", "spp", "brdf", "camera", "intersect",
-                 "quality", "transparent", "title", "backend", "device_index", "camera_azimuth",
-                 "camera_elevation", "textures", "base_color_texture", "orm_texture", "normal_texture"):
-        value = getattr(args, name)
-        if value is not None:
+    for name, dest in getattr(args, "spec_dests", {}).items():
+        value = getattr(args, dest, None)
+        if value is None:   # not given (an explicit empty value is given, and checked)
+            continue
+        if resolve_field(name).kind == "bugs":
+            added = tuple(b for v in value for b in field_value_from_text(name, v))
+            o[name] = tuple(base.bugs) + tuple(b for b in dict.fromkeys(added) if b not in base.bugs)
+        elif isinstance(value, bool):
             o[name] = value
-    if args.size is not None:   # an explicit empty value is an error, not "unset"
-        o["width"], o["height"] = parse_size(args.size)
-    if args.roughness is not None:
-        o["roughness"] = parse_range(args.roughness, "--roughness")
-    if args.metallic is not None:
-        o["metallic"] = parse_range(args.metallic, "--metallic")
-    if args.base_color is not None:
-        o["base_color"] = parse_color(args.base_color)
-    if args.bugs:
-        o["bugs"] = tuple(base.bugs) + tuple(b for b in args.bugs if b not in base.bugs)
-    if args.materials is not None:
-        o["row_materials"] = tuple(m.strip() for m in args.materials.split(","))
-        o.setdefault("rows", len(o["row_materials"]))
+        else:
+            o[name] = field_value_from_text(name, value)
     return make_spec(base, **o)
 
 
 def cmd_chart(args) -> int:
     if args.frames is not None:
         from ..tools.animate import cmd_chart_animation
-        return cmd_chart_animation(args)
+        return cmd_chart_animation(spec_from_args(args), args)
     from ..api import chart
     from ..image.io import HDR_SUFFIXES, check_writable
     spec = spec_from_args(args)
@@ -117,10 +128,9 @@ def cmd_chart(args) -> int:
 
 
 def cmd_shader(args) -> int:
-    from ..gpu.render import chart_source, display_source
-    spec = spec_from_args(args)
-    source = display_source(spec) if args.display else chart_source(spec)
-    sys.stdout.write(source.text)
+    from ..shading.plan import render_plan
+    plan = render_plan(spec_from_args(args))
+    sys.stdout.write((plan.display if args.display else plan.chart).text)
     return 0
 
 

@@ -7,10 +7,11 @@ be visible (e.g. textured spheres for the texture bugs); ``Bug.apply(spec)`` is 
 the bug switched on."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..errors import SpecError
+from ..errors import SpecError, did_you_mean
+from .checks import quote
 
 
 @dataclass(frozen=True)
@@ -23,16 +24,16 @@ class Bug:
     value: Any = True             # ... and its buggy value
     requires: dict = field(default_factory=dict)   # spec overrides that make the bug visible
 
+    # dataclasses.replace re-runs the spec's own validation, so the catalog needs no import of
+    # the spec module (which imports this one for bug names).
     def correct(self, spec):
-        from .chart_spec import make_spec
-        return make_spec(spec, **self.requires) if self.requires else spec
+        """``spec`` with what this bug needs to be visible (e.g. textured spheres)."""
+        return replace(spec, **self.requires) if self.requires else spec
 
     def apply(self, spec):
-        from .chart_spec import make_spec
+        """``spec`` made visible for this bug, with the bug switched on."""
         base = self.correct(spec)
-        if self.name in base.bugs:
-            return base
-        return make_spec(base, bugs=tuple(base.bugs) + (self.name,))
+        return base if self.name in base.bugs else replace(base, bugs=tuple(base.bugs) + (self.name,))
 
 
 def _bug(name, summary, caption, option, value=True, program="chart", **requires) -> Bug:
@@ -128,13 +129,9 @@ BUG_DEFINES = tuple(b.option for b in BUGS.values() if b.option.startswith("BUG_
 
 
 def get_bug(name: str) -> Bug:
-    try:
+    if isinstance(name, str) and name in BUGS:
         return BUGS[name]
-    except KeyError:
-        import difflib
-        close = difflib.get_close_matches(name, BUGS, n=1)
-        hint = f" (did you mean {close[0]}?)" if close else ""
-        raise SpecError(f"unknown bug {name!r}{hint}; allowed: {', '.join(BUGS)}") from None
+    raise SpecError(f"unknown bug {quote(name)}{did_you_mean(name, BUGS)}; allowed: {', '.join(BUGS)}")
 
 
 def bug_options(names, program: str) -> dict:

@@ -27,4 +27,4 @@ def parse_toml_text(text: str, where: str) -> dict:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{where}: malformed TOML: {exc}") from None
+        raise SpecError(f"{where}: malformed inline TOML: {exc}") from None

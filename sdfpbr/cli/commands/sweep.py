@@ -20,9 +20,10 @@ def register(subparsers) -> None:
         description="Render the chart once per value of one spec field and lay the renders out as "
                     "one labeled sheet. Chart flags set everything else.",
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("\n", 1)[1])
+    from ...spec.fields import SWEEP_FIELDS
     p.add_argument("field", help="tonemap, exposure, env, or any other spec field (e.g. brdf, quality)")
-    p.add_argument("--values", metavar="V,...", help="values to show (default for tonemap, exposure, env, "
-                                                     "brdf, camera, quality, multiscatter: all / -2..2 EV)")
+    p.add_argument("--values", metavar="V,...", help=f"values to show (default for {', '.join(SWEEP_FIELDS)}: "
+                                                     f"all / -2..2 EV / 0..90 degrees)")
     p.add_argument("--columns", type=int, metavar="N", help="panels per row (default: at most four)")
     p.add_argument("--panel-size", type=int, metavar="PX",
                    help=f"render each panel with this longer edge "
@@ -41,13 +42,14 @@ def run(args) -> int:
     import time
 
     from ..main import spec_from_args
-    from ...tools.compare import at_panel_size, parse_sweep_values, sweep, sweep_defaults
+    from ...tools.compare import at_panel_size, sweep
     from ...image.io import check_writable
     from ...spec.chart_spec import make_spec
+    from ...spec.fields import resolve_field, sweep_defaults, sweep_values_from_text
 
     start = time.perf_counter()
-    field = args.field.replace("-", "_")
-    values = parse_sweep_values(field, args.values) if args.values is not None else list(sweep_defaults(field))
+    field = resolve_field(args.field).name   # an alias sweeps its field, under the field's name
+    values = sweep_values_from_text(field, args.values) if args.values is not None else list(sweep_defaults(field))
     panel_size = args.panel_size
     if panel_size is None and not (args.size or args.spec):
         panel_size = DEFAULT_PANEL

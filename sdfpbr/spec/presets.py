@@ -1,0 +1,122 @@
+"""The named things a spec can pick: material and quality presets, environments, tone mappers,
+and the light record. Data only; the field table (fields.py) says which spec field takes which."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, Mapping
+
+from ..errors import SpecError, did_you_mean
+from .checks import choice, number, quote, unit, vec3
+
+# Measured reflectance at normal incidence (linear sRGB primaries), as in Filament's material
+# guide and physicallybased.info; metals use these as base colour with metallic = 1.
+MATERIAL_PRESETS: dict[str, tuple[float, float, float]] = {
+    "gold": (1.000, 0.766, 0.336),
+    "copper": (0.955, 0.638, 0.538),
+    "silver": (0.972, 0.960, 0.915),
+    "iron": (0.560, 0.570, 0.580),
+    "aluminium": (0.913, 0.922, 0.924),
+}
+ENV_PRESETS = ("studio", "sky", "uniform", "black")
+TONEMAPPERS = ("none", "clamp", "reinhard", "reinhard-extended", "aces", "aces-hill", "neutral")
+BRDF_MODELS = ("gltf", "schlick-ggx")
+CAMERAS = ("perspective", "orthographic")
+INTERSECT_METHODS = ("auto", "analytic", "march")
+BACKENDS = ("auto", "egl", "osmesa")
+TEXTURE_MODES = ("none", "procedural")
+LIGHT_KINDS = ("directional", "point")
+NORMAL_METHODS = ("tetrahedron", "central")
+HDR_PRECISIONS = ("float32", "float16")   # the float format of the radiance target
+MAX_GRID = 64
+MAX_SIZE = 16384 * 4
+
+
+@dataclass(frozen=True)
+class Light:
+    """A punctual light. Directional: ``direction`` points towards the light, ``intensity`` is
+    illuminance at normal incidence, ``angular_radius_deg`` sets the shadow penumbra and the
+    highlight size. Point: ``position``, ``intensity`` in candela-like units (E = I / d^2)."""
+    kind: str = "directional"
+    direction: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+    angular_radius_deg: float = 0.0
+    range: float = 100.0
+
+    def __post_init__(self):
+        s = object.__setattr__
+        s(self, "kind", choice(self.kind, "light kind", LIGHT_KINDS))
+        if self.kind == "directional":
+            s(self, "direction", unit(self.direction, "light direction"))
+        else:   # unused by point lights, but validated alike so specs compare and round-trip
+            s(self, "direction", vec3(self.direction, "light direction"))
+        # Bounds keep radiance finite in float32 (1e300 became inf on the GPU); intensity
+        # carries the magnitude, color the tint.
+        s(self, "position", vec3(self.position, "light position", -1e12, 1e12))
+        s(self, "color", vec3(self.color, "light color", 0.0, 1e6))
+        s(self, "intensity", number(self.intensity, "light intensity", 0.0, 1e12))
+        s(self, "angular_radius_deg", number(self.angular_radius_deg, "light angular_radius_deg", 0.0, 45.0))
+        s(self, "range", number(self.range, "light range", 1e-6, 1e12))
+
+
+KEY_LIGHT = Light("directional", direction=(-0.55, 0.65, 0.52), color=(1.0, 0.95, 0.88),
+                  intensity=3.0, angular_radius_deg=2.5)
+FILL_LIGHT = Light("point", position=(9.0, 1.5, 7.0), color=(0.85, 0.92, 1.0), intensity=25.0, range=60.0)
+DEFAULT_LIGHTS = (KEY_LIGHT, FILL_LIGHT)
+
+
+@dataclass(frozen=True)
+class Quality:
+    """Knobs that trade time for error; named presets live in QUALITY_PRESETS."""
+    march_steps: int = 96
+    hit_scale: float = 0.5
+    normal_method: str = "tetrahedron"
+    shadow_steps: int = 48
+    ao_method: str = "analytic"     # exact sphere occlusion; "sdf" = taps along the normal
+    ao_taps: int = 5
+    env_bake_size: int = 256
+    ibl_size: int = 128
+    ibl_samples: int = 64
+    dfg_size: int = 64
+    dfg_samples: int = 2048
+    sh_size: int = 32
+    scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
+    hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
+    intersect: str = ""              # forces "march" or "analytic"; "" follows the spec
+    brdf: str = ""                   # forces a BRDF model; "" follows the spec
+    implied_bugs: tuple[str, ...] = ()   # shortcuts a preset takes on purpose (seed002)
+
+
+QUALITY_PRESETS: dict[str, Quality] = {
+    "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
+                     ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16),
+    "default": Quality(),
+    "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
+                    ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048),
+    # The approach of shared seed 002 on our scene: every sphere in the SDF, 100 steps to a fixed
+    # 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
+    # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
+    "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
+                       shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
+                       intersect="march", brdf="schlick-ggx",
+                       implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
+}
+
+LIGHT_SETTINGS = tuple(f.name for f in fields(Light))
+
+
+def light_from_mapping(m: Mapping[str, Any]) -> Light:
+    """A [[lights]] table; '-' and '_' are the same in its keys, as everywhere in a spec."""
+    if isinstance(m, Light):
+        return m
+    if not isinstance(m, Mapping):
+        raise SpecError(f"each light must be a table of settings, got {quote(m)}")
+    values = {}
+    for k, v in m.items():
+        name = str(k).replace("-", "_")
+        if name not in LIGHT_SETTINGS:
+            raise SpecError(f"unknown light setting {quote(k)}{did_you_mean(name, LIGHT_SETTINGS)}; "
+                            f"allowed: {', '.join(LIGHT_SETTINGS)}")
+        values[name] = v
+    return Light(**values)
