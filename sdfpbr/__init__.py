@@ -1,4 +1,8 @@
-"""sdfpbr: physically based material charts rendered headless with OpenGL."""
+"""sdfpbr: physically based material charts rendered headless with OpenGL.
+
+``sdfpbr.chart(...)`` renders on the process's default GL session (created on first use);
+``sdfpbr.Session(backend=...)`` makes one to hand to ``chart(..., session=s)``. GL and image
+modules load on first use, so ``import sdfpbr`` stays cheap."""
 __version__ = "0.1.0"
 
 from .errors import GLUnavailable, OutputError, SdfpbrError, ShaderCompileError, SpecError  # noqa: E402
@@ -6,10 +10,23 @@ from .spec.chart_spec import ChartSpec, Light, load_spec, make_spec  # noqa: E40
 
 
 def chart(spec=None, **options):
-    """Render a labeled chart; see sdfpbr.chart.chart."""
-    from .api import chart as _chart
-    return _chart(spec, **options)
+    """Render a labeled chart; see sdfpbr.api.chart."""
+    from .api import chart as render_chart
+    return render_chart(spec, **options)
 
 
-__all__ = ["ChartSpec", "Light", "chart", "load_spec", "make_spec", "SdfpbrError", "SpecError",
-           "OutputError", "GLUnavailable", "ShaderCompileError", "__version__"]
+# Public names that need GL or the image stack, resolved when first used.
+_LAZY = {"Chart": "sdfpbr.api", "Session": "sdfpbr.gpu.session", "default_session": "sdfpbr.gpu.session",
+         "render_reference": "sdfpbr.tools.reference"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'sdfpbr' has no attribute {name!r}")
+
+
+__all__ = ["Chart", "ChartSpec", "Light", "Session", "chart", "default_session", "load_spec", "make_spec",
+           "render_reference", "SdfpbrError", "SpecError", "OutputError", "GLUnavailable", "ShaderCompileError",
+           "__version__"]

@@ -9,23 +9,13 @@ import numpy as np
 
 from . import __version__
 from .errors import SpecError
-from .gpu.gl import create_context, renderer_string
 from .image.io import HDR_SUFFIXES, check_writable, png_bytes, write_hdr, write_npz, write_png
 from .image.layout import Cell, compose_chart
-from .gpu.render import Renderer, RenderResult
+from .gpu.render import RenderResult
+from .gpu.session import Session, default_session
+from .shading.plan import brdf_model
 from .spec.chart_spec import ChartSpec, load_spec, make_spec
 from .shading.camera import sphere_centers
-
-_renderers: dict[tuple[str, int], Renderer] = {}
-
-
-def get_renderer(backend: str = "auto", device_index: int = 0) -> Renderer:
-    """One renderer (context, programs, IBL) per backend for the process."""
-    key = (backend, device_index)
-    if key not in _renderers:
-        _renderers[key] = Renderer(create_context(backend, device_index))
-    return _renderers[key]
-
 
 @dataclass
 class Chart:
@@ -74,7 +64,7 @@ def footer_scene_parts(spec: ChartSpec, brdf: str) -> list[str]:
 
 
 def footer_text(spec: ChartSpec) -> str:
-    parts = footer_scene_parts(spec, spec.brdf_model()) + [f"{spec.spp} spp"]
+    parts = footer_scene_parts(spec, brdf_model(spec)) + [f"{spec.spp} spp"]
     if spec.quality != "default":
         parts.append(f"quality {spec.quality}")
     if spec.bugs:
@@ -96,14 +86,17 @@ def label(spec: ChartSpec, result, title: str | None = None, footer: str | None 
                          transparent=spec.transparent)
 
 
-def chart(spec: ChartSpec | str | Path | None = None, *, aovs: bool = True, **options) -> Chart:
+def chart(spec: ChartSpec | str | Path | None = None, *, aovs: bool = True, session: Session | None = None,
+          **options) -> Chart:
     """Render a chart. ``spec`` is a ChartSpec or a TOML path; keywords override it.
-    aovs=False skips reading back the AOVs (faster when only the image is wanted)."""
+    aovs=False skips reading back the AOVs (faster when only the image is wanted).
+    ``session``: the GL session to render on (default: the process's for the spec's backend
+    and device, created on first use)."""
     if isinstance(spec, (str, Path)):
         spec = load_spec(spec)
     elif spec is not None and not isinstance(spec, ChartSpec):
         raise SpecError(f"spec must be a ChartSpec or a TOML path, got {type(spec).__name__}")
     spec = make_spec(spec, **options)
-    renderer = get_renderer(spec.backend, spec.device_index)
-    result = renderer.render(spec, aovs=aovs)
-    return Chart(spec, result, label(spec, result), renderer_string(renderer.ctx))
+    session = session or default_session(spec.backend, spec.device_index)
+    result = session.render(spec, aovs=aovs)
+    return Chart(spec, result, label(spec, result), session.renderer)

@@ -11,10 +11,11 @@ import moderngl
 import numpy as np
 
 from ..cache import ArrayCache, content_key
-from ..shading.compose import compose
 from ..errors import SpecError
+from ..shading.compose import ComposedSource
+from ..shading.plan import IBLPlan, RenderPlan, env_option
+from ..spec.chart_spec import ChartSpec
 from .programs import ProgramCache, set_uniforms
-from ..spec.chart_spec import ENV_PRESETS, ChartSpec, Quality
 
 DEFAULT_SUN = (0.55, 0.6, 0.58)
 LOCAL = 8   # compute work-group edge
@@ -55,10 +56,6 @@ def load_env_file(path: str | Path) -> np.ndarray:
     if not np.all(np.isfinite(data)) or data.min() < 0:
         raise SpecError(f"environment {path} has negative, NaN or Inf values")
     return np.ascontiguousarray(data)
-
-
-def env_option(spec: ChartSpec) -> str:
-    return spec.env if spec.env in ENV_PRESETS else "file"
 
 
 def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:
@@ -109,13 +106,10 @@ class IBLBaker:
         self._lighting: dict[str, EnvironmentLighting] = {}
 
     # ---- DFG LUT -------------------------------------------------------------------------
-    def dfg(self, brdf: str, quality: Quality, direct_k_bug: bool = False) -> moderngl.Texture:
-        """direct_k_bug builds the LUT with the direct-light Schlick k (the ibl-direct-k bug)."""
-        opts = {"BRDF_MODEL": brdf.replace("-", "_")}
-        if direct_k_bug:
-            opts["BUG_IBL_DIRECT_K"] = True
-        source = compose("dfg_main.glsl", opts)
-        size, samples = quality.dfg_size, quality.dfg_samples
+    def dfg(self, plan: RenderPlan) -> moderngl.Texture:
+        """The plan's DFG LUT (its source says which model, and whether the ibl-direct-k bug
+        builds it with the direct-light Schlick k)."""
+        source, size, samples = plan.dfg, plan.dfg_size, plan.dfg_samples
         key = content_key(source.text, size, samples)
         if key not in self._dfg:
             cached = self.cache.get("dfg", key)
@@ -143,34 +137,35 @@ class IBLBaker:
         return table
 
     # ---- environment -------------------------------------------------------------------
-    def lighting(self, env: Environment, quality: Quality, brdf: str) -> EnvironmentLighting:
-        opts = {"ENV": env.option, "BRDF_MODEL": brdf.replace("-", "_")}
-        bake_src = compose("bake_env_main.glsl", opts)
-        prefilter_src = compose("prefilter_main.glsl", opts)
-        sh_src = compose("sh_main.glsl")
-        size = quality.ibl_size
+    def lighting(self, env: Environment, plan: IBLPlan) -> EnvironmentLighting:
+        size = plan.size
         levels = max(1, int(math.log2(size)) - 1)      # down to 4 x 4
-        key = content_key(bake_src.text, prefilter_src.text, sh_src.text, env.content,
-                          quality.env_bake_size, size, quality.ibl_samples, quality.sh_size)
+        key = content_key(plan.env_bake.text, plan.prefilter.text, plan.irradiance.text, env.content,
+                          plan.env_bake_size, size, plan.samples, plan.sh_size)
         if key in self._lighting:
             return self._lighting[key]
         cached = self.cache.get("ibl", key)
         if cached is not None:
-            cube = self._cube_from_levels([cached[f"level{k}"] for k in range(levels)])
+            cube = self._cube_from_levels(plan.copy_to_cube, [cached[f"level{k}"] for k in range(levels)])
             result = EnvironmentLighting(cube, levels - 1, cached["sh"])
         else:
-            result = self._bake(env, quality, bake_src, prefilter_src, sh_src, levels)
-            arrays = {f"level{k}": self._read_cube_level(result.prefiltered, k, size >> k) for k in range(levels)}
+            result = self._bake(env, plan, levels)
+            arrays = {f"level{k}": self._read_cube_level(plan.copy_from_cube, result.prefiltered, k, size >> k)
+                      for k in range(levels)}
             arrays["sh"] = result.sh
             self.cache.put("ibl", key, arrays)
         self._lighting[key] = result
         return result
 
-    def _bake(self, env, quality, bake_src, prefilter_src, sh_src, levels) -> EnvironmentLighting:
+    def read_level(self, plan: IBLPlan, lighting: EnvironmentLighting, level: int) -> np.ndarray:
+        """One prefiltered level as (6, size, size, 4) float32, faces in GL order."""
+        return self._read_cube_level(plan.copy_from_cube, lighting.prefiltered, level, plan.size >> level)
+
+    def _bake(self, env: Environment, plan: IBLPlan, levels: int) -> EnvironmentLighting:
         ctx = self.ctx
-        n = quality.env_bake_size
+        n = plan.env_bake_size
         source = ctx.texture_cube((n, n), 4, dtype="f4")
-        bake = self.programs.compute(bake_src)
+        bake = self.programs.compute(plan.env_bake)
         set_uniforms(bake, {**env.uniforms, "u_size": n, "u_env_map": 1})
         if env.texture is not None:
             env.texture.use(1)
@@ -180,23 +175,23 @@ class IBLBaker:
         source.build_mipmaps()
         source.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
 
-        size = quality.ibl_size
+        size = plan.size
         target = ctx.texture_cube((size, size), 4, dtype="f4")
         target.build_mipmaps(0, levels - 1)   # allocates the chain we overwrite below
-        prefilter = self.programs.compute(prefilter_src)
+        prefilter = self.programs.compute(plan.prefilter)
         source.use(0)
         for k in range(levels):
             s = size >> k
             r = k / (levels - 1) if levels > 1 else 0.0   # lod = r (levels - 1), as ibl.glsl reads it
             set_uniforms(prefilter, {"u_source": 0, "u_size": s, "u_source_size": float(n),
-                                     "u_perceptual_roughness": r, "u_samples": quality.ibl_samples})
+                                     "u_perceptual_roughness": r, "u_samples": plan.samples})
             target.bind_to_image(0, read=False, write=True, level=k)
             prefilter.run(_groups(s), _groups(s), 6)
             ctx.memory_barrier()
         target.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
 
-        sh_prog = self.programs.compute(sh_src)
-        sh_size = min(quality.sh_size, n)
+        sh_prog = self.programs.compute(plan.irradiance)
+        sh_size = min(plan.sh_size, n)
         buffer = ctx.buffer(reserve=9 * 16)
         buffer.bind_to_storage_buffer(0)
         set_uniforms(sh_prog, {"u_source": 0, "u_source_lod": int(math.log2(n // sh_size)), "u_size": sh_size})
@@ -207,12 +202,9 @@ class IBLBaker:
         source.release()
         return EnvironmentLighting(target, levels - 1, sh)
 
-    def _copy_program(self, direction: str):
-        return self.programs.compute(compose("copy_cube_main.glsl", {"COPY_DIRECTION": direction}))
-
-    def _read_cube_level(self, cube: moderngl.TextureCube, level: int, size: int) -> np.ndarray:
+    def _read_cube_level(self, copy: ComposedSource, cube: moderngl.TextureCube, level: int, size: int) -> np.ndarray:
         array = self.ctx.texture_array((size, size, 6), 4, dtype="f4")
-        program = self._copy_program("from_cube")
+        program = self.programs.compute(copy)
         cube.bind_to_image(0, read=True, write=False, level=level)
         array.bind_to_image(1, read=False, write=True)
         set_uniforms(program, {"u_size": size})
@@ -222,11 +214,11 @@ class IBLBaker:
         array.release()
         return data
 
-    def _cube_from_levels(self, levels: list[np.ndarray]) -> moderngl.TextureCube:
+    def _cube_from_levels(self, copy: ComposedSource, levels: list[np.ndarray]) -> moderngl.TextureCube:
         size = levels[0].shape[1]
         cube = self.ctx.texture_cube((size, size), 4, dtype="f4")
         cube.build_mipmaps(0, len(levels) - 1)
-        program = self._copy_program("to_cube")
+        program = self.programs.compute(copy)
         for k, data in enumerate(levels):
             s = data.shape[1]
             array = self.ctx.texture_array((s, s, 6), 4, np.ascontiguousarray(data, np.float32).tobytes(), dtype="f4")

@@ -6,14 +6,15 @@ import time
 import moderngl
 import numpy as np
 
-from ..shading.compose import ComposedSource, compile_error, compose
+from ..shading.compose import ComposedSource, compile_error
+from ..shading.plan import compose_program
 
 
 class ProgramCache:
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         self._programs: dict[str, moderngl.Program | moderngl.ComputeShader] = {}
-        self._vertex = compose("fullscreen_vert.glsl")
+        self._vertex = compose_program("fullscreen_vert.glsl")
         self.compile_seconds = 0.0   # total spent compiling, for the benchmark
 
     def fragment(self, source: ComposedSource) -> moderngl.Program:
@@ -26,6 +27,10 @@ class ProgramCache:
                 raise compile_error(source, exc) from None
             self.compile_seconds += time.perf_counter() - start
         return self._programs[key]
+
+    def digests(self) -> list[str]:
+        """The composed sources compiled so far (fragment and compute), by digest."""
+        return [key.split(":", 1)[1] for key in self._programs]
 
     def compute(self, source: ComposedSource) -> moderngl.ComputeShader:
         key = "comp:" + source.digest

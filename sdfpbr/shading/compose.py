@@ -3,8 +3,9 @@
 The composer resolves ``#include`` recursively (each module once) and evaluates every
 ``#if``/``#elif``/``#else`` itself, so a feature the spec leaves out is absent from the
 composed source, not merely disabled. Every name a conditional tests must be an option the
-composer was given, and every option value must be one the OPTIONS table allows: a typo
-fails in Python, before GLSL sees it. ``#line`` directives map compiler messages back to
+composer was given, and every option value must be one the caller's OptionSchema allows: a
+typo fails in Python, before GLSL sees it. The composer knows no option by itself: the schema
+(shading.plan.SCHEMA) is the plan's. ``#line`` directives map compiler messages back to
 ``module.glsl:line``.
 """
 from __future__ import annotations
@@ -17,28 +18,22 @@ from importlib import resources
 from pathlib import Path
 from typing import Mapping
 
-from ..spec.bugs import BUG_DEFINES
 from ..errors import ShaderCompileError
 
 GLSL_VERSION = "#version 450 core"
 
-# Every string-valued option and the values it may take.
-OPTIONS: dict[str, tuple[str, ...]] = {
-    "BRDF_MODEL": ("gltf", "schlick_ggx"),
-    "TONEMAP": ("none", "clamp", "reinhard", "reinhard_extended", "aces", "aces_hill", "neutral"),
-    "ENV": ("studio", "sky", "uniform", "black", "file"),
-    "CAMERA": ("perspective", "orthographic"),
-    "NORMAL_METHOD": ("tetrahedron", "central"),
-    "COPY_DIRECTION": ("to_cube", "from_cube"),
-    "INTERSECT": ("analytic", "march"),
-    "AO_METHOD": ("analytic", "sdf"),
-    "SCENE_SDF": ("nearest_cell", "all_spheres"),
-}
-# Options that are on/off switches or counts, emitted as #define for the GLSL code.
-FLAGS = ("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT", "USE_TEXTURES", "HALF_RADIANCE") + BUG_DEFINES
-COUNTS = ("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS")
-
 Value = str | int | bool
+
+
+@dataclass(frozen=True)
+class OptionSchema:
+    """The options a program family may set: ``choices`` (option -> allowed lower-case words),
+    on/off ``flags`` and ``counts`` (emitted as #define), and ``switches``: flags that are off
+    unless set, so conditions may test them without every caller naming them."""
+    choices: Mapping[str, tuple[str, ...]]
+    flags: tuple[str, ...] = ()
+    counts: tuple[str, ...] = ()
+    switches: tuple[str, ...] = ()
 
 
 def shader_dir() -> Path:
@@ -55,15 +50,15 @@ def shader_dir() -> Path:
     return Path(resources.files("sdfpbr").joinpath("shaders"))
 
 
-def validate_options(options: Mapping[str, Value]) -> dict[str, Value]:
+def validate_options(options: Mapping[str, Value], schema: OptionSchema) -> dict[str, Value]:
     out: dict[str, Value] = {}
     for name, value in options.items():
-        if name in OPTIONS:
-            if value not in OPTIONS[name]:
-                raise ValueError(f"shader option {name}={value!r}: allowed {', '.join(OPTIONS[name])}")
-        elif name in FLAGS:
+        if name in schema.choices:
+            if value not in schema.choices[name]:
+                raise ValueError(f"shader option {name}={value!r}: allowed {', '.join(schema.choices[name])}")
+        elif name in schema.flags or name in schema.switches:
             value = bool(value)
-        elif name in COUNTS:
+        elif name in schema.counts:
             if not isinstance(value, int) or isinstance(value, bool) or value < 0:
                 raise ValueError(f"shader option {name} must be a non-negative int, got {value!r}")
         else:
@@ -83,20 +78,71 @@ class ComposedSource:
         return hashlib.sha256(self.text.encode()).hexdigest()
 
     def locate(self, message: str) -> str:
-        """Rewrite compiler locations (Mesa '0:12(5)', NVIDIA '0(12)') as module.glsl:line."""
+        """Rewrite the location that starts each line of a driver's compile log as
+        ``module.glsl:line``. The drivers' formats (the first number is the source-string
+        index that ``#line LINE INDEX`` set, so module ``modules[INDEX - 1]``; 0 is the header):
+          Mesa (llvmpipe, radeonsi, iris)  ``1:12(5): error: `x' undeclared``
+          NVIDIA                           ``1(12) : error C1503: undefined variable "x"``
+          AMD, Intel (Windows), Apple      ``ERROR: 1:12: 'x' : undeclared identifier``
+        Only a location at the start of a line (after AMD's ``ERROR:``) is rewritten, so
+        numbers in the message text (``vec4(1)``) are left alone.
+
+        Mesa keeps the index for syntax errors but reports 0 for semantic ones (an undeclared
+        name, a type mismatch), with the module's own line and column. Such a location is
+        resolved against the text: the modules that have that line, narrowed to those whose
+        line has the quoted name at that column (or is that long); the header, whose lines are
+        source 0 for every driver, counts as one more candidate."""
+        where: dict[tuple[int, int], str] = {}   # (source index, line) -> the text of that line
+        index, line_no = 0, 1
+        for text_line in self.text.split("\n"):
+            directive = re.match(r"#line\s+(\d+)\s+(\d+)\s*$", text_line.strip())
+            if directive:
+                line_no, index = int(directive.group(1)), int(directive.group(2))
+                continue
+            where[(index, line_no)] = text_line
+            line_no += 1
+
+        def name_of(i: int) -> str:
+            return self.modules[i - 1] if 1 <= i <= len(self.modules) else "<composed>"
+
+        def resolve(line: int, col: int | None, rest: str) -> str:
+            candidates = [i for i in range(len(self.modules) + 1) if (i, line) in where]
+            quoted = re.search(r"[`'\"]([A-Za-z_]\w*)['\"]", rest)
+            for keep in (
+                lambda i: col is not None and quoted is not None
+                and where[(i, line)][col - 1:].startswith(quoted.group(1)),
+                lambda i: quoted is not None and re.search(rf"\b{quoted.group(1)}\b", where[(i, line)]),
+                lambda i: col is None or len(where[(i, line)]) >= col,
+            ):
+                narrowed = [i for i in candidates if keep(i)]
+                if narrowed:
+                    candidates = narrowed
+                    break
+            if not candidates:
+                return f"<composed>:{line}"
+            return " or ".join(f"{name_of(i)}:{line}" for i in candidates)
+
         def sub(m: re.Match) -> str:
-            index, line = int(m.group("file")), m.group("line")
-            name = self.modules[index - 1] if 1 <= index <= len(self.modules) else "<composed>"
-            return f"{name}:{line}"
-        return re.sub(r"(?P<file>\d+)[:(](?P<line>\d+)(?:\(\d+\)|\))", sub, message)
+            i = int(m.group("file"))
+            line = int(m.group("line") or m.group("nv_line"))
+            col = int(m.group("col")) if m.group("col") else None
+            if i == 0 and self.modules:
+                place = resolve(line, col, message[m.end():].split("\n", 1)[0])
+            else:
+                place = f"{name_of(i)}:{line}"
+            return m.group("prefix") + place
+        return re.sub(r"^(?P<prefix>[ \t]*(?:(?:ERROR|WARNING):[ \t]*)?)(?P<file>\d+)"
+                      r"(?::(?P<line>\d+)(?:\((?P<col>\d+)\))?|\((?P<nv_line>\d+)\))",
+                      sub, message, flags=re.M)
 
 
 _TOKEN = re.compile(r"\s*(?:(?P<num>\d+(?:\.\d*)?)|(?P<name>[A-Za-z_]\w*)|(?P<op>==|!=|>=|<=|&&|\|\||[()!<>]))")
 
 
 class _Preprocessor:
-    def __init__(self, options: Mapping[str, Value], root: Path):
+    def __init__(self, options: Mapping[str, Value], schema: OptionSchema, root: Path):
         self.options = dict(options)
+        self.schema = schema
         self.root = root
         self.modules: list[str] = []
         self.out: list[str] = []
@@ -116,17 +162,18 @@ class _Preprocessor:
                 python.append(m.group("num"))
             elif m.group("name"):
                 name = m.group("name")
-                if name in BUG_DEFINES and name not in self.options:
-                    python.append("False")   # a bug is off unless a spec names it
+                if name in self.schema.switches and name not in self.options:
+                    python.append("False")   # a switch is off unless the caller sets it
                 elif name.isupper() or name in self.options:
                     if name not in self.options:
                         raise ValueError(f"{where}: condition uses {name}, which the composer did not define")
                     python.append(repr(self.options[name]))
                     last_option = name
                 else:  # a bare lower-case word is a value of the option it is compared with
-                    if last_option in OPTIONS and name not in OPTIONS[last_option]:
+                    allowed = self.schema.choices.get(last_option)
+                    if allowed is not None and name not in allowed:
                         raise ValueError(f"{where}: {last_option} has no value {name!r} "
-                                         f"(allowed {', '.join(OPTIONS[last_option])})")
+                                         f"(allowed {', '.join(allowed)})")
                     python.append(repr(name))
             else:
                 op = m.group("op")
@@ -182,14 +229,16 @@ class _Preprocessor:
             raise ValueError(f"{name}: unterminated #if")
 
 
-def compose(main: str, options: Mapping[str, Value] | None = None, *, root: Path | None = None) -> ComposedSource:
-    """Compose the program whose entry module is ``main`` (e.g. 'chart_main.glsl')."""
-    opts = validate_options(options or {})
-    pre = _Preprocessor(opts, root or shader_dir())
+def compose(main: str, options: Mapping[str, Value] | None, schema: OptionSchema, *,
+            root: Path | None = None) -> ComposedSource:
+    """Compose the program whose entry module is ``main`` (e.g. 'chart_main.glsl'), with
+    ``options`` checked against ``schema`` (the plan's: shading.plan.SCHEMA)."""
+    opts = validate_options(options or {}, schema)
+    pre = _Preprocessor(opts, schema, root or shader_dir())
     pre.include(main, "<compose>")
     header = [GLSL_VERSION, "// composed by sdfpbr from " + main]
     for name, value in sorted(opts.items()):
-        if name in OPTIONS:
+        if name in schema.choices:
             header.append(f"// option {name} = {value}")
         else:
             header.append(f"#define {name} {int(value)}")
@@ -197,7 +246,9 @@ def compose(main: str, options: Mapping[str, Value] | None = None, *, root: Path
     return ComposedSource(text, tuple(pre.modules), tuple(sorted(opts.items())))
 
 
-def compile_error(source: ComposedSource, exc: Exception) -> ShaderCompileError:
-    lines = [line for line in source.locate(str(exc)).splitlines() if "error" in line.lower()]
-    first = lines[0].strip() if lines else source.locate(str(exc)).strip().splitlines()[0]
-    return ShaderCompileError(f"GLSL compile error: {first}")
+def compile_error(source: ComposedSource, exc: Exception, what: str = "GLSL compile error") -> ShaderCompileError:
+    """One line: the first line of the driver's log that reports an error (Mesa 'error:',
+    NVIDIA 'error C1503:', AMD 'ERROR:'), its location as module.glsl:line."""
+    located = source.locate(str(exc)).strip().splitlines() or ["unknown error"]
+    errors = [line.strip() for line in located if "error" in line.lower()]
+    return ShaderCompileError(f"{what}: {errors[0] if errors else located[0].strip()}")

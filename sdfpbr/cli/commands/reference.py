@@ -55,21 +55,20 @@ def run(args) -> int:
     import json
 
     from ... import __version__
-    from ...api import get_renderer
-    from ...gpu.gl import renderer_string
+    from ...gpu.session import default_session
     from ...image.io import write_hdr, write_npz, write_png
     from ...tools.reference import label, render_reference
 
-    renderer = get_renderer(spec.backend, spec.device_index)
+    session = default_session(spec.backend, spec.device_index)
     result = render_reference(spec, samples=args.samples, target_error=args.target_error, seed=args.seed,
-                              max_bounces=bounces, progress=True, renderer=renderer)
+                              max_bounces=bounces, progress=True, session=session)
     metadata = {"Software": f"sdfpbr {__version__}",
                 "sdfpbr:spec": json.dumps(spec.to_dict(), sort_keys=True),
                 "sdfpbr:reference": json.dumps({"samples": result.samples, "seed": result.seed,
                                                 "max_bounces": result.max_bounces,
                                                 "mean_relative_stderr": result.error}),
                 "sdfpbr:shader-sha256": result.source.digest,
-                "sdfpbr:gl-renderer": renderer_string(renderer.ctx)}
+                "sdfpbr:gl-renderer": session.renderer}
     write_png(args.output, label(spec, result), metadata)
     if args.hdr:
         write_hdr(args.hdr, result.hdr)
@@ -82,5 +81,5 @@ def run(args) -> int:
         print(f"{args.output}: {spec.width}x{spec.height}, {result.samples} spp, {result.max_bounces} bounces, "
               f"mean relative stderr {result.error:.3%} (sphere pixels), render {t['render_s']:.2f} s "
               f"({t['s_per_spp_per_mpx']:.2f} s per spp per Mpx), compile {t['compile_s']:.2f} s, "
-              f"total {time.perf_counter() - start:.2f} s on {renderer_string(renderer.ctx)}")
+              f"total {time.perf_counter() - start:.2f} s on {session.renderer}")
     return 0

@@ -1,0 +1,172 @@
+"""What every renderer on a session shares, whatever its integrator: the tile loop, the scene
+bindings (camera, grid, lights, environment, surface maps), the display pass (exposure, tone
+map, OETF) and the decoding of the AOV targets. The chart's raymarcher and the reference's
+path tracer differ only in how they gather light."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..shading import camera as camera_mod
+from ..spec.chart_spec import ChartSpec, Quality
+from .ibl import Environment, make_environment
+from .programs import set_uniforms
+
+RADIANCE_UNIT = 15   # texture unit the display pass reads the radiance from
+
+
+def tiles(width: int, height: int, edge: int):
+    """(x0, y0, w, h) of each tile, in GL pixel coordinates (y0 counts from the bottom)."""
+    for y0 in range(0, height, edge):
+        for x0 in range(0, width, edge):
+            yield x0, y0, min(edge, width - x0), min(edge, height - y0)
+
+
+def image_slices(height: int, x0: int, y0: int, w: int, h: int) -> tuple[slice, slice]:
+    """Where a GL tile lands in a top-row-first image array."""
+    return slice(height - y0 - h, height - y0), slice(x0, x0 + w)
+
+
+def read_rgba(tex, width: int, height: int, dtype=np.float32) -> np.ndarray:
+    """A texture's RGBA pixels, top row first (GL rows run bottom-up)."""
+    return np.frombuffer(tex.read(), dtype).reshape(height, width, 4)[::-1]
+
+
+def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
+    """The scene's uniforms: camera, grid, materials, ground, lights and the marching budget."""
+    directional = [light for light in spec.lights if light.kind == "directional"]
+    point = [light for light in spec.lights if light.kind == "point"]
+    scene_size = max(spec.rows, spec.cols) * spec.spacing + 2 * spec.sphere_radius
+    u = {
+        **cam.uniforms(),
+        "u_grid": (spec.cols, spec.rows),
+        "u_radius": spec.sphere_radius,
+        "u_spacing": spec.spacing,
+        "u_ground_y": camera_mod.ground_height(spec),
+        "u_roughness_range": spec.roughness,
+        "u_metallic_range": spec.metallic,
+        "u_row_base_color": spec.row_base_colors(),
+        "u_ground_color": spec.ground_color,
+        "u_ground_roughness": spec.ground_roughness,
+        "u_spp": spec.spp,
+        "u_march_steps": q.march_steps,
+        "u_march_far": float(np.linalg.norm(cam.position)) + 4.0 * scene_size,
+        "u_hit_scale": q.hit_scale,
+        "u_hit_epsilon": q.hit_epsilon,
+        "u_shadow_steps": q.shadow_steps,
+        "u_shadow_far": 2.0 * scene_size,
+        "u_ao_taps": q.ao_taps,
+        "u_ao_radius": 0.5 * spec.sphere_radius,
+        "u_env_intensity": spec.env_intensity,
+    }
+    if directional:
+        u["u_dir_light_direction"] = [light.direction for light in directional]
+        u["u_dir_light_illuminance"] = [tuple(c * light.intensity for c in light.color) for light in directional]
+        u["u_dir_light_angular_radius"] = [float(np.radians(light.angular_radius_deg)) for light in directional]
+    if point:
+        u["u_point_light_position"] = [light.position for light in point]
+        u["u_point_light_intensity"] = [tuple(c * light.intensity for c in light.color) for light in point]
+        u["u_point_light_range"] = [light.range for light in point]
+    return u
+
+
+@dataclass
+class SceneBindings:
+    """Uniforms and textures of one render of a scene; ``release`` frees what it uploaded."""
+    camera: camera_mod.Camera
+    environment: Environment
+    uniforms: dict
+    textures: list = field(default_factory=list)     # (sampler name, texture)
+    owned: list = field(default_factory=list)        # textures uploaded for this render
+
+    def add_texture(self, name: str, texture, owned: bool = False) -> None:
+        self.textures.append((name, texture))
+        if owned:
+            self.owned.append(texture)
+
+    def bind(self) -> dict:
+        """Put each texture on a unit; the uniforms with every sampler pointing at its unit."""
+        for unit, (name, tex) in enumerate(self.textures):
+            tex.use(unit)
+            self.uniforms[name] = unit
+        return self.uniforms
+
+    def release(self) -> None:
+        for tex in self.owned:
+            tex.release()
+        self.owned.clear()
+
+
+def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, uses_textures: bool) -> SceneBindings:
+    """Bindings for ``spec``: camera, grid, lights and marching budget (from ``quality``), the
+    environment (a texture for file environments) and the surface maps when the program
+    composes them in."""
+    cam = camera_mod.frame_grid(spec)
+    env = make_environment(ctx, spec)
+    uniforms = chart_uniforms(spec, cam, quality)
+    bindings = SceneBindings(cam, env, {**uniforms, **env.uniforms})
+    if env.texture is not None:
+        bindings.add_texture("u_env_map", env.texture, owned=True)
+    if uses_textures:
+        from .textures import texture_set, upload
+        for name, tex in upload(ctx, texture_set(spec)).items():
+            bindings.add_texture(name, tex, owned=True)
+    return bindings
+
+
+def display_uniforms(spec: ChartSpec) -> dict:
+    return {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white,
+            "u_radiance": RADIANCE_UNIT}
+
+
+def display_pass(ctx: moderngl.Context, program, radiance, spec: ChartSpec, width: int, height: int) -> np.ndarray:
+    """Exposure, tone map and OETF of ``radiance`` (a float RGBA texture) through the display
+    program: (height, width, 4) uint8, top row first."""
+    ldr = ctx.texture((width, height), 4)
+    fbo = ctx.framebuffer(color_attachments=[ldr])
+    vao = ctx.vertex_array(program, [])
+    try:
+        fbo.use()
+        radiance.use(RADIANCE_UNIT)
+        set_uniforms(program, display_uniforms(spec))
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        return read_rgba(ldr, width, height, np.uint8)
+    finally:
+        for obj in (vao, fbo, ldr):
+            obj.release()
+
+
+class AOVBuffers:
+    """The AOV images of a render, filled tile by tile from the two AOV targets every program
+    writes ((normal, depth) and (col, row, NdotV)), decoded into the published layout."""
+
+    def __init__(self, spec: ChartSpec, height: int, width: int):
+        self.spec = spec
+        self.normal = np.empty((height, width, 3), np.float32)
+        self.depth = np.empty((height, width), np.float32)
+        self.col = np.empty((height, width), np.int32)
+        self.row = np.empty((height, width), np.int32)
+        self.ndotv = np.empty((height, width), np.float32)
+
+    def write(self, where: tuple[slice, slice], normal_depth: np.ndarray, cells: np.ndarray) -> None:
+        self.normal[where] = normal_depth[..., :3]
+        self.depth[where] = normal_depth[..., 3]
+        self.col[where] = np.rint(cells[..., 0])
+        self.row[where] = np.rint(cells[..., 1])
+        self.ndotv[where] = cells[..., 2]
+
+    def finish(self) -> dict:
+        """normal, depth, row, col, roughness, metallic, ndotv; -1 / NaN for background."""
+        row, col = self.row, self.col
+        sphere = (row >= 0) & (col >= 0)
+        col[~sphere] = -1
+        row[~sphere] = -1
+        # Filled through the mask, so no full-size temporaries beyond the outputs.
+        roughness = np.full(row.shape, np.nan, np.float32)
+        metallic = np.full(row.shape, np.nan, np.float32)
+        roughness[sphere] = np.asarray(self.spec.column_roughness(), np.float32)[col[sphere]]
+        metallic[sphere] = np.asarray(self.spec.row_metallic(), np.float32)[row[sphere]]
+        return {"normal": self.normal, "depth": self.depth, "row": row, "col": col,
+                "roughness": roughness, "metallic": metallic, "ndotv": self.ndotv}

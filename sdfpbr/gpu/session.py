@@ -1,0 +1,82 @@
+"""A GL session: one context and what lives on it — compiled programs, the IBL and DFG bakes,
+per-session tables, the on-disk array cache — handed explicitly to whatever renders.
+
+A session is used by one thread at a time: entering it (``with session:``) takes its lock and
+makes its context current, so threads may share one session (they take turns) or each make
+their own. ``default_session`` gives the process one per (backend, device), created on first
+use; it is the only module-level GL state in sdfpbr."""
+from __future__ import annotations
+
+import threading
+
+import moderngl
+
+from ..cache import ArrayCache
+from .gl import create_context, renderer_string
+from .ibl import IBLBaker
+from .programs import ProgramCache
+from .render import TILE, RenderResult, render_chart
+
+
+class Session:
+    def __init__(self, ctx: moderngl.Context | None = None, cache: ArrayCache | None = None, *,
+                 tile: int | None = None, backend: str = "auto", device_index: int = 0):
+        self.ctx = ctx if ctx is not None else create_context(backend, device_index)
+        self.backend = getattr(self.ctx, "extra", None) and self.ctx.extra.get("backend") or backend
+        self.device_index = device_index
+        self.lock = threading.RLock()
+        self._depth = 0          # nesting of `with session:` in the thread that holds the lock
+        self.programs = ProgramCache(self.ctx)
+        self.cache = cache or ArrayCache()
+        self.ibl = IBLBaker(self.ctx, self.programs, self.cache)
+        self.tables: dict = {}   # GPU tables other integrators keep per session (the reference's)
+        self.renderer = renderer_string(self.ctx)
+        # Tiles never exceed what the context can render into; images larger than that are tiled.
+        # Tile edges are whole multiples of 4, so every tile starts on the 4x4 pixel blocks of the
+        # untiled render: llvmpipe takes some sampling decisions (cube-map faces) per block, and
+        # tiles at other offsets changed ~1 % of IBL pixels by an ulp (found by `sdfpbr stress`).
+        with self:
+            info = self.ctx.info
+            limit = min(tile or TILE, info["GL_MAX_TEXTURE_SIZE"], *info["GL_MAX_VIEWPORT_DIMS"])
+        self.tile = max(4, limit // 4 * 4)
+
+    def __enter__(self) -> "Session":
+        self.lock.acquire()
+        try:
+            if self._depth == 0:
+                self.ctx.__enter__()   # make current; inner enters keep it current
+            self._depth += 1
+        except BaseException:
+            self.lock.release()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            self._depth -= 1
+            if self._depth == 0:
+                self.ctx.__exit__(*exc)
+        finally:
+            self.lock.release()
+
+    def render(self, spec, aovs: bool = True) -> RenderResult:
+        """Render ``spec`` (see gpu.render.render_chart)."""
+        with self:
+            return render_chart(self, spec, aovs)
+
+    def release(self) -> None:
+        with self.lock:
+            self.ctx.release()
+
+
+_defaults: dict[tuple[str, int], Session] = {}
+_defaults_lock = threading.Lock()
+
+
+def default_session(backend: str = "auto", device_index: int = 0) -> Session:
+    """The process's session for (backend, device), created on first use."""
+    key = (backend, device_index)
+    with _defaults_lock:   # two threads asking at once get one session, not two contexts
+        if key not in _defaults:
+            _defaults[key] = Session(backend=backend, device_index=device_index)
+        return _defaults[key]

@@ -1,0 +1,238 @@
+"""The program plan: from a spec to every GL program a render runs, composed, with its options.
+
+This is the one place that resolves a spec into shader terms: the quality preset, the BRDF
+model it may force, the bugs it implies, tone-map and model names as GLSL words, which
+features are composed in, and which bake programs (environment cubemap, GGX prefilter, SH9
+irradiance, DFG LUT, cache copies) exist. Rendering, the IBL bakes, the build cache key, the
+reference and ``sdfpbr shader`` all read a plan; none decides this again.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+from ..spec.bugs import BUGS, get_bug
+from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
+from .compose import ComposedSource, OptionSchema, Value, compose
+
+# Every shader option, the values it may take, and the switches the bug catalog adds (off
+# unless a plan sets them). The composer checks options against this, so a typo in Python or
+# GLSL fails before the driver sees it.
+SCHEMA = OptionSchema(
+    choices={
+        "BRDF_MODEL": ("gltf", "schlick_ggx"),
+        "TONEMAP": ("none", "clamp", "reinhard", "reinhard_extended", "aces", "aces_hill", "neutral"),
+        "ENV": ("studio", "sky", "uniform", "black", "file"),
+        "CAMERA": ("perspective", "orthographic"),
+        "NORMAL_METHOD": ("tetrahedron", "central"),
+        "COPY_DIRECTION": ("to_cube", "from_cube"),
+        "INTERSECT": ("analytic", "march"),
+        "AO_METHOD": ("analytic", "sdf"),
+        "SCENE_SDF": ("nearest_cell", "all_spheres"),
+    },
+    flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
+           "USE_TEXTURES", "HALF_RADIANCE"),
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS"),
+    switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
+)
+
+
+def glsl_word(name: str) -> str:
+    """A spec value as the GLSL option value: 'aces-hill' -> 'aces_hill'."""
+    return name.replace("-", "_")
+
+
+def compose_program(main: str, options: Mapping[str, Value] | None = None, *, root: Path | None = None) -> ComposedSource:
+    """Compose ``main`` with ``options`` checked against SCHEMA."""
+    return compose(main, options, SCHEMA, root=root)
+
+
+# ---- resolving a spec --------------------------------------------------------------------
+
+def quality(spec: ChartSpec) -> Quality:
+    return QUALITY_PRESETS[spec.quality]
+
+
+def brdf_model(spec: ChartSpec) -> str:
+    """The BRDF the chart shades with: the spec's, unless its quality preset forces one."""
+    return quality(spec).brdf or spec.brdf
+
+
+def active_bugs(spec: ChartSpec) -> tuple[str, ...]:
+    """The spec's bugs plus those its quality preset takes on purpose (seed002)."""
+    implied = quality(spec).implied_bugs
+    return spec.bugs + tuple(b for b in implied if b not in spec.bugs)
+
+
+def bug_options(spec: ChartSpec, program: str) -> dict:
+    """The compile options the spec's bugs set in one program ('chart' or 'display')."""
+    out = {}
+    for name in active_bugs(spec):
+        bug = get_bug(name)
+        if bug.program == program:
+            out[bug.option] = bug.value
+    return out
+
+
+def env_option(spec: ChartSpec) -> str:
+    return spec.env if spec.env in ENV_PRESETS else "file"
+
+
+def uses_analytic_intersection(spec: ChartSpec) -> bool:
+    forced = quality(spec).intersect
+    return forced == "analytic" if forced else spec.intersect in ("auto", "analytic")
+
+
+def chart_options(spec: ChartSpec) -> dict:
+    """The chart program's options: every feature the spec leaves out is absent from the
+    composed source."""
+    directional = sum(1 for light in spec.lights if light.kind == "directional")
+    point = sum(1 for light in spec.lights if light.kind == "point")
+    q = quality(spec)
+    opts = {
+        "BRDF_MODEL": glsl_word(brdf_model(spec)),
+        "ENV": env_option(spec),
+        "CAMERA": spec.camera,
+        "INTERSECT": "analytic" if uses_analytic_intersection(spec) else "march",
+        "HAS_GROUND": spec.ground,
+        "USE_IBL": spec.ibl,
+        "USE_AO": spec.ibl and spec.ao,
+        # The key light (the first directional light) casts shadows onto the ground.
+        "USE_SHADOWS": spec.shadows and spec.ground and directional > 0,
+        "MULTISCATTER": spec.multiscatter,
+        "TRANSPARENT": spec.transparent,
+        "NUM_DIR_LIGHTS": directional,
+        "NUM_POINT_LIGHTS": point,
+        "GRID_ROWS": spec.rows,
+        "HALF_RADIANCE": spec.hdr_precision == "float16",
+        "USE_TEXTURES": spec.uses_textures(),
+        "SCENE_SDF": q.scene_sdf,
+    }
+    if opts["INTERSECT"] == "march":
+        opts["NORMAL_METHOD"] = q.normal_method
+    if opts["USE_AO"]:
+        opts["AO_METHOD"] = q.ao_method
+    opts.update(bug_options(spec, "chart"))
+    return opts
+
+
+def display_options(spec: ChartSpec) -> dict:
+    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": spec.transparent}
+    opts.update(bug_options(spec, "display"))
+    return opts
+
+
+# ---- the plan ------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class IBLPlan:
+    """The environment bakes: cubemap from the env function, GGX prefilter, SH9 irradiance,
+    and the copies that move baked levels to and from the disk cache."""
+    env_bake: ComposedSource
+    prefilter: ComposedSource
+    irradiance: ComposedSource
+    copy_to_cube: ComposedSource
+    copy_from_cube: ComposedSource
+    env_bake_size: int
+    size: int                     # prefiltered cube edge
+    samples: int                  # prefilter samples per texel
+    sh_size: int                  # cube edge the SH projection reads
+
+    def sources(self) -> list[ComposedSource]:
+        return [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
+
+
+@dataclass(frozen=True)
+class RenderPlan:
+    """Every program a chart render runs, composed, and the sizes its bakes use."""
+    spec: ChartSpec
+    quality: Quality
+    brdf_model: str               # spec value ('gltf', 'schlick-ggx') after the preset
+    env: str                      # ENV option: a preset name or 'file'
+    vertex: ComposedSource
+    chart: ComposedSource
+    display: ComposedSource
+    dfg: ComposedSource
+    dfg_size: int
+    dfg_samples: int
+    ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
+
+    @property
+    def options(self) -> dict:
+        return dict(self.chart.options)
+
+    def sources(self) -> list[ComposedSource]:
+        """Every composed program, for cache keys and `sdfpbr shader`."""
+        out = [self.vertex, self.chart, self.display, self.dfg]
+        return out + (self.ibl.sources() if self.ibl else [])
+
+
+def _ibl_plan(spec: ChartSpec, q: Quality, chart: dict) -> IBLPlan:
+    bake = {"ENV": chart["ENV"], "BRDF_MODEL": chart["BRDF_MODEL"]}
+    return IBLPlan(env_bake=compose_program("bake_env_main.glsl", bake),
+                   prefilter=compose_program("prefilter_main.glsl", bake),
+                   irradiance=compose_program("sh_main.glsl"),
+                   copy_to_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "to_cube"}),
+                   copy_from_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "from_cube"}),
+                   env_bake_size=q.env_bake_size, size=q.ibl_size, samples=q.ibl_samples, sh_size=q.sh_size)
+
+
+def dfg_source(brdf: str, direct_k_bug: bool = False) -> ComposedSource:
+    """The DFG LUT bake; ``direct_k_bug`` builds it with the direct-light Schlick k."""
+    opts = {"BRDF_MODEL": glsl_word(brdf)}
+    if direct_k_bug:
+        opts["BUG_IBL_DIRECT_K"] = True
+    return compose_program("dfg_main.glsl", opts)
+
+
+def render_plan(spec: ChartSpec) -> RenderPlan:
+    q = quality(spec)
+    chart = chart_options(spec)
+    chart_source = compose_program("chart_main.glsl", chart)
+    prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
+    return RenderPlan(
+        spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
+        vertex=compose_program("fullscreen_vert.glsl"),
+        chart=chart_source,
+        display=compose_program("display_main.glsl", display_options(spec)),
+        dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False))),
+        dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
+        ibl=_ibl_plan(spec, q, chart) if prefiltered else None)
+
+
+# ---- the reference's plan --------------------------------------------------------------------
+
+def reference_scene(spec: ChartSpec) -> ChartSpec:
+    """The scene the reference renders: ``spec`` without its catalogued bugs and with the
+    default quality preset, since both only describe how the chart approximates (or gets
+    wrong) the scene; a preset's forced BRDF model is one of those, so the reference shades
+    with ``spec.brdf``."""
+    from ..spec.chart_spec import make_spec
+    return make_spec(spec, bugs=(), quality="default")
+
+
+@dataclass(frozen=True)
+class ReferencePlan:
+    scene: ChartSpec              # reference_scene(spec)
+    options: dict                 # the chart options of the scene (the reference modules
+                                  # ignore those for IBL, AO, soft shadows and marching)
+    vertex: ComposedSource
+    integrator: ComposedSource    # reference_main: the path tracer
+    aov: ComposedSource           # reference_aov_main: pixel-centre rays
+    env_table: ComposedSource     # reference_env_main: the env function on an equirect grid
+    display: ComposedSource       # the chart's display program for the scene
+
+    def sources(self) -> list[ComposedSource]:
+        return [self.vertex, self.integrator, self.aov, self.env_table, self.display]
+
+
+def reference_plan(spec: ChartSpec) -> ReferencePlan:
+    scene = reference_scene(spec)
+    options = chart_options(scene)
+    return ReferencePlan(scene=scene, options=options,
+                         vertex=compose_program("fullscreen_vert.glsl"),
+                         integrator=compose_program("reference_main.glsl", options),
+                         aov=compose_program("reference_aov_main.glsl", options),
+                         env_table=compose_program("reference_env_main.glsl", {"ENV": options["ENV"]}),
+                         display=compose_program("display_main.glsl", display_options(scene)))

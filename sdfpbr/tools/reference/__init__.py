@@ -1,0 +1,54 @@
+"""Ground truth for the chart: a progressive Monte Carlo path tracer of exactly the chart's scene.
+
+Same sphere grid, ground, camera, environment function (env.glsl evaluated per ray, not the
+baked cubemap), lights and BRDF module (brdf.glsl, compensation on or off as the spec says)
+as the chart, on the same GL context. What the chart approximates, the reference does exactly:
+analytic ray-sphere/plane visibility for every ray, true shadow rays for every light and
+for the environment (no AO), the sun as a disc of finite radiance, interreflections.
+
+Sampling: GGX visible normals (Heitz 2018) mixed with cosine-weighted diffuse, one light
+sample per light and one environment sample (a tabulated equirect CDF) per surface point,
+combined by multiple importance sampling with the power heuristic. Pixel samples follow the
+R2 sequence under a per-pixel random rotation; all random numbers are hashes of (seed,
+pixel, sample, draw), so a seed gives bit-identical output.
+
+The energy compensation's single-scatter albedo E(NdotV, r) comes from a float64 quadrature
+table (sdfpbr.mirror), not the chart's sampled LUT, so the reference integrates the model
+itself rather than the chart's approximation of it. For the schlick-ggx model the reference
+uses the punctual-light visibility (k = (r+1)^2/8) for every direction, since a path tracer
+needs one BRDF; the chart's IBL uses k = alpha/2 and differs from it by construction.
+
+Error: per pixel, the standard error of the mean of the samples' luminance, from running
+sums kept about a per-pixel shift. The stopping metric is the MEAN RELATIVE STANDARD ERROR
+over sphere pixels (pixels whose centre ray hits a sphere): mean of stderr / max(mean, floor)
+with floor = 1% of the mean luminance of those pixels, so near-black pixels do not dominate.
+Pixel samples are stratified, so the per-pixel estimate is conservative (it assumes
+independent samples).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...api import footer_scene_parts, label as chart_label
+from ...spec.chart_spec import ChartSpec
+from .integrator import (DEFAULT_MAX_BOUNCES, ReferenceResult, batch_size, cell_reach, relative_error,
+                         render_reference, validate_arguments)
+from .tables import compensation_table, environment_cdfs
+
+__all__ = ["DEFAULT_MAX_BOUNCES", "ReferenceResult", "batch_size", "cell_reach", "compensation_table",
+           "environment_cdfs", "footer_text", "label", "relative_error", "render_reference", "validate_arguments"]
+
+
+def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
+    err = f", rel. stderr {result.error:.2%}" if math.isfinite(result.error) else ""
+    parts = footer_scene_parts(spec, spec.brdf) + [
+        f"path-traced reference, {result.samples} spp, {result.max_bounces} bounces{err}"]
+    return "  |  ".join(parts)
+
+
+def label(spec: ChartSpec, result: ReferenceResult) -> np.ndarray:
+    """The chart's labeled layout around the reference render."""
+    return chart_label(spec, result, title=f"Roughness × metallic — {spec.rows}×{spec.cols} (reference)",
+                       footer=footer_text(spec, result))
