@@ -1,4 +1,4 @@
-"""An on-disk cache of arrays keyed by content hashes. Writes are atomic (temp file + rename),
+"""An on-disk cache of arrays keyed by content hashes. Writes are atomic (``sdfpbr.files``),
 so an interrupted process never leaves a corrupt entry, and concurrent writers of one key
 simply write the same bytes."""
 from __future__ import annotations
@@ -6,10 +6,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from .errors import OutputError
+from .files import atomic_file
 
 
 def default_cache_dir() -> Path:
@@ -55,13 +57,7 @@ class ArrayCache:
         path = self._path(kind, key)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "wb") as f:
+            with atomic_file(path) as f:
                 np.savez(f, **arrays)
-            os.replace(tmp, path)
-        except OSError:
-            # A read-only or full cache location only costs speed.
-            try:
-                os.unlink(tmp)
-            except (OSError, UnboundLocalError):
-                pass
+        except (OSError, OutputError):
+            pass    # a read-only or full cache location only costs speed

@@ -27,7 +27,6 @@ changed, and a document whose chart key changed (e.g. a shader module was edited
 from __future__ import annotations
 
 import os
-import tomllib
 from pathlib import Path
 
 from docutils import nodes
@@ -45,33 +44,23 @@ def _entry(directive: "SdfpbrChart") -> tuple[dict, Path, str, list[Path]]:
     """The entry document, the directory its paths are relative to, a name for messages, and
     the files it was read from."""
     from .errors import SpecError
+    from .spec.toml_file import parse_toml_text, read_toml
     env = directive.env
     if directive.arguments:
         if directive.content:
             raise SpecError("give a spec file or inline TOML, not both")
         _, path = env.relfn2path(directive.arguments[0], env.docname)
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text())
-        except FileNotFoundError:
-            raise SpecError(f"spec file {directive.arguments[0]} does not exist") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise SpecError(f"cannot read spec file {path}: {exc}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise SpecError(f"{path}: malformed TOML: {exc}") from None
-        return data, path.parent, str(path), [path]
+        return read_toml(path, "spec file"), path.parent, str(path), [path]
     if not directive.content:
         raise SpecError("needs a spec file argument or inline TOML content")
     where = f"{env.doc2path(env.docname)}:{directive.lineno}"
-    try:
-        data = tomllib.loads("\n".join(directive.content))
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{where}: malformed inline TOML: {exc}") from None
+    data = parse_toml_text("\n".join(directive.content), where)
     return data, Path(env.doc2path(env.docname)).parent, where, []
 
 
 def _one_item(data: dict, base_dir: Path, where: str):
-    from .tools.build import parse_entry
+    from .tools.gallery.entries import parse_entry
     from .errors import SpecError
     items = parse_entry(data, where, base_dir, "chart")
     if len(items) != 1:
@@ -102,7 +91,9 @@ class SdfpbrChart(SphinxDirective):
     }
 
     def run(self) -> list[nodes.Node]:
-        from .tools.build import ImageCache, _write_atomic, ensure_image, gl_renderers
+        from .files import write_bytes
+        from .tools.gallery.images import ImageCache, ensure_image
+        from .tools.gallery.keys import gl_renderers
         from .errors import SdfpbrError
         try:
             data, base_dir, where, files = _entry(self)
@@ -114,7 +105,7 @@ class SdfpbrChart(SphinxDirective):
             target = Path(self.env.app.doctreedir) / "sdfpbr" / f"{key}.png"
             if not (target.is_file() and target.read_bytes() == png):
                 target.parent.mkdir(parents=True, exist_ok=True)
-                _write_atomic(target, png, "sphinx")
+                write_bytes(target, png)
         except SdfpbrError as exc:
             raise self.error(f"sdfpbr-chart: {exc}") from None
         except OSError as exc:
@@ -162,7 +153,7 @@ def _outdated(app, env, added, changed, removed) -> list[str]:
     changed) are read again, so their images are re-rendered. The GL renderer string is the one
     recorded at reading: making a context here, in the process Sphinx forks its parallel
     readers from, would hand them GL state across a fork."""
-    from .tools.build import item_key
+    from .tools.gallery.keys import item_key
     from .errors import SdfpbrError
     stale = []
     for docname, records in getattr(env, "sdfpbr_charts", {}).items():

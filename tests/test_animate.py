@@ -19,7 +19,7 @@ SMALL = dict(width=64, height=64, quality="draft")
 
 @pytest.fixture(autouse=True)
 def _private_cache(cache_dir):
-    """Renders go through chart.get_renderer; point its disk cache at the session's."""
+    """Renders go through the default session; point its disk cache at the test session's."""
 
 
 def read_frames(path):
@@ -68,6 +68,7 @@ def test_light_orbit_gif_reads_back_and_frame_0_is_the_chart(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["orbit.gif"]
 
 
+@pytest.mark.requires_extra("imageio_ffmpeg")
 def test_camera_orbit_webp_is_lossless_and_mp4_has_every_frame(tmp_path):
     spec = make_spec(**SMALL)
     anim = animate(spec, 3, "camera", output=tmp_path / "cam.webp", progress=False)

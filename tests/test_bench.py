@@ -10,11 +10,11 @@ import moderngl
 import numpy as np
 import pytest
 
-from sdfpbr.tools import bench
+from sdfpbr.tools.bench import ablation, cold, suite
 from sdfpbr.tools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
 from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import ShaderCompileError, SpecError
-from sdfpbr.gpu.render import chart_source
+from sdfpbr.shading.plan import render_plan
 
 SEEDS = Path(__file__).resolve().parents[2] / "shared" / "seeds"
 SEED_002 = next(iter(sorted(SEEDS.glob("002_*"))), None)
@@ -35,20 +35,21 @@ def quick_report(tmp_path_factory, cache_dir):
     return out, json.loads(out.read_text()), proc.stdout
 
 
+@pytest.mark.requires_extra("matplotlib", "flip_evaluator")   # the quick run plots and computes FLIP
 def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report):
     path, report, stdout = quick_report
-    cfg = bench.BenchConfig.quick()
+    cfg = suite.BenchConfig.quick()
     rows = {(r["scene"], r["preset"]): r for r in report["rows"] if r["preset"] != "baseline"}
     assert set(rows) == {(s, p) for s in cfg.scenes for p in cfg.presets}
     for (scene, preset), row in rows.items():
-        for key in bench.REQUIRED_KEYS[2:]:
+        for key in suite.REQUIRED_KEYS[2:]:
             assert isinstance(row[key], (int, float)) and math.isfinite(row[key]), (scene, preset, key, row[key])
         assert row["render_ms"] > 0 and row["compile_ms"] > 0 and row["cold_s"] > 0
         assert 0.0 < row["flip_mean"] < 1.0 and row["rel_rmse"] >= 0.0
         assert (row["width"], row["height"]) == (cfg.width, cfg.height)
         # Independently: the composed source the row measured.
-        spec = bench.scene_spec(scene, cfg, preset)
-        assert row["source_bytes"] == len(chart_source(spec).text.encode())
+        spec = suite.scene_spec(scene, cfg, preset)
+        assert row["source_bytes"] == len(render_plan(spec).chart.text.encode())
         assert row["spheres"] == spec.rows * spec.cols
         # The timed draw reproduced the render the errors were computed from.
         assert row["draw_check"] < 1e-4
@@ -60,6 +61,7 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
 
 
 @needs_seed
+@pytest.mark.requires_extra("matplotlib", "flip_evaluator")   # through quick_report
 def test_quick_baseline_row(quick_report):
     _, report, _ = quick_report
     (row,) = [r for r in report["rows"] if r["preset"] == "baseline"]
@@ -150,30 +152,30 @@ def test_baseline_errors_are_one_line(ctx, tmp_path):
 
 # --- scenes, cold flags, ablation --------------------------------------------------------------------
 
-@pytest.mark.parametrize("scene", list(bench.SCENES))
+@pytest.mark.parametrize("scene", list(suite.SCENES))
 def test_cold_flags_give_the_scene_spec(scene):
-    cfg = bench.BenchConfig(width=320, height=200)
-    flags = bench.cli_flags(bench.SCENES[scene], "draft", cfg.width, cfg.height, "auto")
+    cfg = suite.BenchConfig(width=320, height=200)
+    flags = cold.cli_flags(suite.SCENES[scene], "draft", cfg.width, cfg.height, "auto")
     args = build_parser().parse_args(["chart", *flags])
-    assert spec_from_args(args) == bench.scene_spec(scene, cfg, "draft")
+    assert spec_from_args(args) == suite.scene_spec(scene, cfg, "draft")
 
 
 def test_presets_include_seed002_when_defined():
     from sdfpbr.spec.chart_spec import QUALITY_PRESETS
-    assert ("seed002" in bench.available_presets()) == ("seed002" in QUALITY_PRESETS)
-    assert bench.available_presets()[:3] == ("draft", "default", "high")
+    assert ("seed002" in suite.available_presets()) == ("seed002" in QUALITY_PRESETS)
+    assert suite.available_presets()[:3] == ("draft", "default", "high")
 
 
-def test_ablation_removes_each_feature_and_absent_features_cost_no_code(renderer):
-    cfg = bench.BenchConfig(width=64, height=64, repeats=1, warmup=0)
-    rows = {r["preset"]: r for r in bench.ablation_rows(renderer, cfg, lambda line: None)}
+def test_ablation_removes_each_feature_and_absent_features_cost_no_code(session):
+    cfg = suite.BenchConfig(width=64, height=64, repeats=1, warmup=0)
+    rows = {r["preset"]: r for r in ablation.ablation_rows(session, cfg, lambda line: None)}
     assert rows["ablation:full"]["ratio"] == 1.0
     for feature in ("shadows", "ao", "ibl", "lights"):
         row = rows[f"ablation:{feature}"]
         assert row["removed"], feature                  # the composer dropped its code ...
         assert row["absent_ok"], (feature, row["leftover"])   # ... all of it that runs
         assert row["source_bytes"] < rows["ablation:full"]["source_bytes"]
-    for name in bench.ABSENT_PAIRS:
+    for name in suite.ABSENT_PAIRS:
         row = rows[f"absent:{name}"]
         assert row["same_source"], name
         assert row["render_ms"] > 0 and row["without_ms"] > 0
@@ -182,7 +184,7 @@ def test_ablation_removes_each_feature_and_absent_features_cost_no_code(renderer
 
 
 def test_code_identifiers_ignore_comments_and_count_uses():
-    ids = bench.code_identifiers("// shadow_steps\n#define USE_SHADOWS 0\nfloat f(float a) { return a * a; } /* b */\n")
+    ids = ablation.code_identifiers("// shadow_steps\n#define USE_SHADOWS 0\nfloat f(float a) { return a * a; } /* b */\n")
     assert ids == {"float": 2, "f": 1, "a": 3, "return": 1}
 
 

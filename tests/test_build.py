@@ -15,9 +15,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sdfpbr.tools.build import KEY_FIELD, ImageCache, build, collect, png_key, program_sources
+from sdfpbr.tools.gallery.entries import collect
+from sdfpbr.tools.gallery.build import build
+from sdfpbr.tools.gallery.images import KEY_FIELD, ImageCache, png_key
+from sdfpbr.tools.gallery.keys import program_sources
 from sdfpbr.cache import ArrayCache
-from sdfpbr.gpu.render import Renderer, chart_source, display_source
+from sdfpbr.shading.plan import render_plan
+from sdfpbr.gpu.session import Session
 from sdfpbr.spec.chart_spec import make_spec
 
 SMALL = 'size = "48x48"\nrows = 2\ncols = 2\n'
@@ -57,6 +61,7 @@ def images(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(out.glob("*.png"))}
 
 
+@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 def test_rebuild_with_no_change_renders_nothing(env):
     charts = make_charts(env)
     out = env / "out"
@@ -79,9 +84,10 @@ def test_rebuild_with_no_change_renders_nothing(env):
 
 def modules_of(spec) -> set[str]:
     """Shader modules of the chart and display programs, straight from the composer."""
-    return set(chart_source(spec).modules) | set(display_source(spec).modules)
+    return set(render_plan(spec).chart.modules) | set(render_plan(spec).display.modules)
 
 
+@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 @pytest.mark.parametrize("module", ["shadow.glsl", "ao.glsl"])
 def test_editing_a_shader_module_rerenders_exactly_its_users(env, module):
     charts = make_charts(env)
@@ -99,7 +105,7 @@ def test_editing_a_shader_module_rerenders_exactly_its_users(env, module):
     assert build(charts, out)["rendered"] == 0
 
 
-def test_program_sources_cover_every_program_a_render_compiles(renderer, tmp_path):
+def test_program_sources_cover_every_program_a_render_compiles(session, tmp_path):
     """The key hashes program_sources(spec); a real render must compile nothing else, with a
     cold IBL cache (bakes) and a warm one (uploads from the cache)."""
     specs = [make_spec(width=32, height=32, rows=2, cols=2),
@@ -110,12 +116,13 @@ def test_program_sources_cover_every_program_a_render_compiles(renderer, tmp_pat
     for spec in specs:
         allowed = {src.digest for src in program_sources(spec)}
         for _ in ("cold", "warm"):
-            fresh = Renderer(renderer.ctx, ArrayCache(tmp_path / "ibl"))
+            fresh = Session(session.ctx, ArrayCache(tmp_path / "ibl"))
             fresh.render(spec)
             compiled = {key.split(":", 1)[1] for key in fresh.programs._programs}
             assert compiled and compiled <= allowed, spec
 
 
+@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 def test_manifest_and_index_list_every_image_escaped(env):
     charts = make_charts(env)
     out = env / "out"
@@ -164,6 +171,7 @@ def test_manifest_and_index_list_every_image_escaped(env):
     assert "unsquared-roughness" in text and "exposure" in text
 
 
+@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 def test_png_metadata_specs_are_the_keyed_specs(env):
     """Every spec a sheet says it rendered (PNG metadata) is one the key covers."""
     charts = make_charts(env)
@@ -242,7 +250,7 @@ def cli(*args, **kw):
     ("typo.toml", 'roughnes = "0:1"\n', "did you mean 'roughness'"),
     ("bug.toml", '[compare]\nbug = "unsquared-roughnes"\n', "unknown bug"),
     ("both.toml", '[compare]\nbug = "double-gamma"\na = "x.toml"\nb = "y.toml"\n', "exactly one of"),
-    ("sweep.toml", '[sweep]\nfield = "tonemapp"\nvalues = ["aces"]\n', "unknown key 'tonemapp'"),
+    ("sweep.toml", '[sweep]\nfield = "tonemapp"\nvalues = ["aces"]\n', "unknown spec field 'tonemapp'"),
     ("values.toml", '[sweep]\nfield = "tonemap"\nvalues = []\n', "non-empty list"),
     ("extra.toml", 'caption = "x"\nsize = "48x48"\n[spec]\nrows = 2\n', "[spec] belongs to"),
     ("missing.toml", '[compare]\na = "nowhere.toml"\nb = "nowhere.toml"\n', "does not exist"),
@@ -287,7 +295,7 @@ def test_cli_build_reports_progress_and_counts(tmp_path):
 
 
 def test_the_key_follows_the_python_that_makes_images_only():
-    from sdfpbr.tools.build import image_modules
+    from sdfpbr.tools.gallery.keys import image_modules
     names = {p.stem for p in image_modules()}
     assert {"render", "api", "compare", "layout", "ibl", "compose", "bugs", "textures"} <= names
     assert not names & {"cli", "mirror", "build", "sphinxext"}

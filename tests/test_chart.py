@@ -15,8 +15,8 @@ def _interior(res, min_ndotv=0.15):
 
 
 @pytest.mark.parametrize("multiscatter", [True, False])
-def test_furnace_metal_row_matches_reference(renderer, multiscatter):
-    res = renderer.render(make_spec(**FURNACE, multiscatter=multiscatter))
+def test_furnace_metal_row_matches_reference(session, multiscatter):
+    res = session.render(make_spec(**FURNACE, multiscatter=multiscatter))
     m = _interior(res) & (res.aov["metallic"] == 1.0)
     got = res.hdr[m]
     if multiscatter:   # REFERENCE.md §3: a compensated white metal vanishes into the background
@@ -27,22 +27,22 @@ def test_furnace_metal_row_matches_reference(renderer, multiscatter):
         assert got[:, 0].min() < 0.5            # the loss is visible at r = 1
 
 
-def test_furnace_every_row_matches_split_sum_expectation(renderer):
-    res = renderer.render(make_spec(**FURNACE))
+def test_furnace_every_row_matches_split_sum_expectation(session):
+    res = session.render(make_spec(**FURNACE))
     m = _interior(res)
     want = mirror.furnace_expected(res.aov["ndotv"][m].astype(float), np.ones(3),
                                    res.aov["metallic"][m].astype(float), res.aov["roughness"][m].astype(float))
     np.testing.assert_allclose(res.hdr[m], want, atol=8e-3)
 
 
-def test_direct_light_matches_mirror_per_pixel(renderer):
+def test_direct_light_matches_mirror_per_pixel(session):
     """Black environment, one directional light of zero size: every sphere pixel equals
     f(v, l) cos E from the float64 mirror, evaluated with the pixel's own normal."""
     light = Light("directional", direction=(0.6, 0.5, 0.62), intensity=2.0)
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
                      multiscatter=False, camera="orthographic", width=192, height=192, rows=3, cols=4,
                      base_color=(0.8, 0.5, 0.2))
-    res = renderer.render(spec)
+    res = session.render(spec)
     m = _interior(res, 0.05)
     n = res.aov["normal"][m].astype(float)
     v = np.broadcast_to(-res.camera.forward, n.shape)
@@ -52,14 +52,14 @@ def test_direct_light_matches_mirror_per_pixel(renderer):
     np.testing.assert_allclose(res.hdr[m], want, rtol=5e-3, atol=2e-4)
 
 
-def test_metal_row_has_no_diffuse_under_back_light(renderer):
+def test_metal_row_has_no_diffuse_under_back_light(session):
     """Where the float64 mirror puts no specular energy but a Lambert body would be lit, the
     metal row is black and the dielectric row is not."""
     light = Light("directional", direction=(-0.8, 0.3, -0.52), intensity=3.0)   # behind, to the left
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
                      camera="orthographic", rows=2, cols=3, metallic=(0, 1), roughness=(0.2, 0.3),
                      width=240, height=160, base_color=(1.0, 1.0, 1.0))
-    res = renderer.render(spec)
+    res = session.render(spec)
     m = _interior(res, 0.1)
     n = res.aov["normal"][m].astype(float)
     v = np.broadcast_to(-res.camera.forward, n.shape)
@@ -75,12 +75,12 @@ def test_metal_row_has_no_diffuse_under_back_light(renderer):
     assert metal.mean() < 0.05 * dielectric.mean()   # a metal has no body
 
 
-def test_highlight_narrows_and_brightens_towards_smooth(renderer):
+def test_highlight_narrows_and_brightens_towards_smooth(session):
     light = Light("directional", direction=(0.3, 0.4, 0.87), intensity=3.0)
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
                      rows=1, cols=5, roughness=(0.15, 0.95), metallic=(1, 1), width=500, height=120,
                      camera="orthographic")
-    res = renderer.render(spec)
+    res = session.render(spec)
     peaks, areas = [], []
     for col in range(5):
         m = res.aov["col"] == col
@@ -91,8 +91,8 @@ def test_highlight_narrows_and_brightens_towards_smooth(renderer):
     assert all(a < b for a, b in zip(areas, areas[1:])), areas
 
 
-def test_aov_ndotv_matches_normals_and_view(renderer):
-    res = renderer.render(make_spec(width=160, height=160, rows=2, cols=2))
+def test_aov_ndotv_matches_normals_and_view(session):
+    res = session.render(make_spec(width=160, height=160, rows=2, cols=2))
     m = res.aov["row"] >= 0
     h, w = res.hdr.shape[:2]
     ys, xs = np.nonzero(m)
@@ -111,10 +111,10 @@ def test_aov_ndotv_matches_normals_and_view(renderer):
     assert np.isinf(res.aov["depth"][res.aov["ndotv"] == -1]).all()
 
 
-def test_marched_and_analytic_paths_agree(renderer):
+def test_marched_and_analytic_paths_agree(session):
     base = dict(width=200, height=200, rows=3, cols=3)
-    a = renderer.render(make_spec(**base, intersect="analytic"))
-    b = renderer.render(make_spec(**base, intersect="march"))
+    a = session.render(make_spec(**base, intersect="analytic"))
+    b = session.render(make_spec(**base, intersect="march"))
     same_cell = (a.aov["row"] == b.aov["row"]) & (a.aov["col"] == b.aov["col"])
     # The marcher's hit threshold (half a pixel footprint) fattens silhouettes; every
     # disagreement must be a grazing pixel.
@@ -130,38 +130,39 @@ def test_marched_and_analytic_paths_agree(renderer):
     assert np.median(rel) < 2e-2 and np.percentile(rel, 99) < 0.3
 
 
-def test_no_nan_or_inf_at_the_edges(renderer):
+def test_no_nan_or_inf_at_the_edges(session):
     spec = make_spec(width=128, height=128, roughness=(0, 1), metallic=(0, 1), rows=3, cols=3, spp=2,
                      base_color=(0, 0, 0))
     for s in (spec, make_spec(spec, base_color=(1, 1, 1), brdf="schlick-ggx"), make_spec(spec, multiscatter=False)):
-        res = renderer.render(s)
+        res = session.render(s)
         assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0
 
 
-def test_same_spec_same_pixels(renderer):
+def test_same_spec_same_pixels(session):
     spec = make_spec(width=96, height=96, spp=2)
-    assert np.array_equal(renderer.render(spec).image, renderer.render(spec).image)
+    assert np.array_equal(session.render(spec).image, session.render(spec).image)
 
 
-def test_osmesa_backend_renders_the_same_chart(renderer, osmesa_renderer):
+@pytest.mark.requires_backend("osmesa")
+def test_osmesa_backend_renders_the_same_chart(session, osmesa_session):
     spec = make_spec(width=96, height=96, rows=2, cols=2)
-    a, b = renderer.render(spec), osmesa_renderer.render(spec)
-    assert osmesa_renderer.ctx.extra["backend"] == "osmesa"
+    a, b = session.render(spec), osmesa_session.render(spec)
+    assert osmesa_session.ctx.extra["backend"] == "osmesa"
     assert np.abs(a.image.astype(int) - b.image.astype(int)).max() <= 1
 
 
-def test_transparent_background_has_zero_alpha(renderer):
-    res = renderer.render(make_spec(width=96, height=96, transparent=True, ground=False))
+def test_transparent_background_has_zero_alpha(session):
+    res = session.render(make_spec(width=96, height=96, transparent=True, ground=False))
     assert res.image[0, 0, 3] == 0
     assert (res.image[..., 3][res.aov["ndotv"] > 0.3] == 255).all()
 
 
-def test_ibl_cache_on_disk_reproduces_the_bake(renderer, cache_dir):
+def test_ibl_cache_on_disk_reproduces_the_bake(session, cache_dir):
     from sdfpbr.cache import ArrayCache
     from sdfpbr.gpu.gl import create_context
-    from sdfpbr.gpu.render import Renderer
+    from sdfpbr.gpu.session import Session
     spec = make_spec(width=64, height=64, env="sky")
-    first = renderer.render(spec)
+    first = session.render(spec)
     assert any((cache_dir / "ibl").glob("*.npz"))
-    again = Renderer(create_context("egl"), ArrayCache(cache_dir)).render(spec)   # loads from disk
+    again = Session(create_context("egl"), ArrayCache(cache_dir)).render(spec)   # loads from disk
     assert np.array_equal(first.image, again.image)

@@ -7,13 +7,16 @@ import sys
 
 import numpy as np
 import pytest
+
+from sdfpbr.spec.fields import sweep_values_from_text
 from PIL import Image
 
 from sdfpbr.spec.bugs import BUGS
 from sdfpbr.shading.camera import sphere_centers
 from sdfpbr.api import chart
-from sdfpbr.tools.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs, flatten,
-                            parse_sweep_values, sweep)
+from sdfpbr.tools.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs,
+                                  sweep)
+from sdfpbr.image.sheet import flatten
 from sdfpbr.errors import SpecError
 from sdfpbr.image.metrics import apply_colormap, flip_ldr, per_cell_mean
 from sdfpbr.spec.chart_spec import make_spec
@@ -23,7 +26,7 @@ SMALL = dict(width=96, height=96, quality="draft")
 
 @pytest.fixture(autouse=True)
 def _private_cache(cache_dir):
-    """Renders go through chart.get_renderer; point its disk cache at the session's."""
+    """Renders go through the default session; point its disk cache at the test session's."""
 
 
 def display(spec):
@@ -40,6 +43,7 @@ def background_far_from_spheres(spec, margin_px):
     return dist > margin_px
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_identical_specs_give_a_zero_difference_and_exact_panels():
     spec = make_spec(**SMALL)
     sheet = compare_specs(spec, spec, labels=("left", "right"))
@@ -66,6 +70,7 @@ def test_identical_specs_give_a_zero_difference_and_exact_panels():
     assert "same spec" in sheet.caption
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_exposure_difference_is_large_on_spheres_and_nil_far_from_them():
     """+3 EV over a black, groundless scene: every lit sphere changes a lot, the black
     background (identical in both) does not, beyond FLIP's few-pixel filter footprint."""
@@ -81,6 +86,7 @@ def test_exposure_difference_is_large_on_spheres_and_nil_far_from_them():
     assert d.mean == pytest.approx(flip_ldr(display(brighter), display(spec))[0], abs=1e-6)
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
     spec = make_spec(**{**SMALL, "width": 160, "height": 160})
     test = make_spec(spec, tonemap="clamp")
@@ -102,6 +108,7 @@ def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
         assert (patch == 255).all(axis=-1).any()
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_bug_comparison_is_captioned_and_differs_where_alpha_changes():
     """unsquared-roughness uses r instead of r^2: identical at r = 1, different in between."""
     spec = make_spec(**{**SMALL, "width": 128, "height": 128})
@@ -126,6 +133,7 @@ def test_bug_pair_for_a_spec_that_already_has_the_bug():
     assert correct.bugs == () and buggy.bugs == ("clamp-tonemap",)
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_sheet_saves_png_with_specs_and_digests(tmp_path):
     spec = make_spec(**SMALL)
     sheet = compare_bug(spec, "clamp-tonemap")
@@ -146,6 +154,7 @@ def test_sheet_saves_png_with_specs_and_digests(tmp_path):
     assert not (tmp_path / "cmp.jpg").exists()
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_contact_sheet_has_one_row_per_bug():
     spec = make_spec(**SMALL)
     names = ["clamp-tonemap", "double-gamma"]
@@ -188,9 +197,9 @@ def test_sweep_grid_and_values():
     sheet = sweep(spec, "exposure", [-2, -1, 0, 1, 2], columns=2)
     ys = sorted({p.box.y for p in sheet.panels})
     assert len(ys) == 3 and [p.label for p in sheet.panels][0] == "exposure -2 EV"
-    assert parse_sweep_values("exposure", "-2,0,2.5") == [-2.0, 0.0, 2.5]
-    assert parse_sweep_values("multiscatter", "on,off") == [True, False]
-    assert parse_sweep_values("roughness", "0:0.5;0.5:1") == [(0.0, 0.5), (0.5, 1.0)]
+    assert sweep_values_from_text("exposure", "-2,0,2.5") == [-2.0, 0.0, 2.5]
+    assert sweep_values_from_text("multiscatter", "on,off") == [True, False]
+    assert sweep_values_from_text("roughness", "0:0.5;0.5:1") == [(0.0, 0.5), (0.5, 1.0)]
     with pytest.raises(SpecError, match="did you mean 'tonemap'"):
         sweep(spec, "tonemapp", ["aces"])
     with pytest.raises(SpecError, match="allowed"):
@@ -210,7 +219,7 @@ def run(*args, cwd=None):
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["compare", "--bug", "unsquared-rougness"], "did you mean unsquared-roughness"),
+    (["compare", "--bug", "unsquared-rougness"], "did you mean 'unsquared-roughness'"),
     (["compare", "--bugs", "clamp-tonemap,nope"], "allowed: unsquared-roughness"),
     (["compare", "missing-a.toml", "missing-b.toml"], "does not exist"),
     (["compare", "one.toml"], "two spec files"),
@@ -240,6 +249,7 @@ def test_bad_output_suffix_is_refused(tmp_path, args):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_compare_and_sweep_commands_write_sheets(tmp_path):
     a, b = tmp_path / "a.toml", tmp_path / "b.toml"
     a.write_text('size = "64x64"\nquality = "draft"\n')

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sdfpbr.tools.build import KEY_FIELD, png_key
+from sdfpbr.tools.gallery.images import KEY_FIELD, png_key
 
 SMALL = 'size = "48x48"\nrows = 2\ncols = 2\n'
 ENTRIES = {

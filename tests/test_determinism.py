@@ -9,7 +9,8 @@ import numpy as np
 
 from sdfpbr.api import chart
 from sdfpbr.spec.chart_spec import Light, make_spec
-from sdfpbr.tools.stress import generate_cases, spec_to_toml
+from sdfpbr.tools.stress.cases import generate_cases
+from sdfpbr.spec.fields import spec_to_toml
 
 # Supersampled (R2 offsets), both light kinds, IBL, AO, shadows, a tone map with a knee.
 SPEC = make_spec(width=96, height=72, rows=2, cols=3, spp=3, quality="draft", tonemap="neutral",
@@ -57,11 +58,11 @@ def test_stress_configurations_are_a_function_of_the_seed():
     assert [c.spec for c in generate_cases(21, 300)] != [c.spec for c in generate_cases(22, 300)]
 
 
-def test_reference_is_reproducible_from_its_seed(renderer):
+def test_reference_is_reproducible_from_its_seed(session):
     from sdfpbr.tools.reference import render_reference
     spec = make_spec(width=32, height=24, rows=1, cols=2, quality="draft")
-    a = render_reference(spec, samples=4, seed=7, renderer=renderer)
-    b = render_reference(spec, samples=4, seed=7, renderer=renderer)
-    c = render_reference(spec, samples=4, seed=8, renderer=renderer)
+    a = render_reference(spec, samples=4, seed=7, session=session)
+    b = render_reference(spec, samples=4, seed=7, session=session)
+    c = render_reference(spec, samples=4, seed=8, session=session)
     assert np.array_equal(a.hdr, b.hdr) and np.array_equal(a.image, b.image)
     assert not np.array_equal(a.hdr, c.hdr)

@@ -15,9 +15,9 @@ from sdfpbr.spec.chart_spec import make_spec
 
 
 @pytest.fixture(scope="module")
-def report(renderer):
+def report(session):
     spec = furnace_spec(make_spec(width=150, height=150, rows=3, cols=3))
-    res = renderer.render(spec)
+    res = session.render(spec)
     return spec, res, cell_energy(res, spec)
 
 
@@ -45,7 +45,7 @@ def test_mixed_metallic_row_is_the_mix_of_its_lobes(report):
     m = res.aov["metallic"] == 0.5
     n_dot_v = res.aov["ndotv"][m].astype(float)
     rough = res.aov["roughness"][m].astype(float)
-    from sdfpbr.tools.stress import FurnaceTable
+    from sdfpbr.oracle.furnace import FurnaceTable
     table = FurnaceTable()
     zeros, ones = np.zeros_like(rough), np.ones_like(rough)
     half = 0.5 * (table.expected(n_dot_v, rough, 1.0, zeros) + table.expected(n_dot_v, rough, 1.0, ones))
@@ -74,9 +74,9 @@ def test_smooth_dielectric_gains_energy_at_grazing_angles(report):
     assert abs(smooth_dielectric.grazing_rendered_max / smooth_dielectric.grazing_exp_max - 1) < 5e-2
 
 
-def test_single_scatter_metal_loses_what_the_albedo_says(renderer):
+def test_single_scatter_metal_loses_what_the_albedo_says(session):
     spec = furnace_spec(make_spec(width=120, height=60, rows=1, cols=3, metallic=(1, 1), multiscatter=False))
-    cells = cell_energy(renderer.render(spec), spec)
+    cells = cell_energy(session.render(spec), spec)
     rough = next(c for c in cells if c.roughness == 1.0)
     # REFERENCE §2: E(mu = 1, r = 1) = 1 - ln 2 exactly; the cell's darkest pixel faces the camera.
     assert rough.exp_min == pytest.approx(1 - math.log(2), abs=2e-3)

@@ -11,9 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from sdfpbr.shading.compose import compose, shader_dir
+from sdfpbr.shading.compose import shader_dir
+from sdfpbr.shading.plan import compose_program as compose
 from sdfpbr.errors import ShaderCompileError
-from sdfpbr.gpu.render import chart_options
+from sdfpbr.shading.plan import chart_options
 from sdfpbr.spec.chart_spec import make_spec
 
 KEEP = b"pre-existing output, must survive"
@@ -38,6 +39,7 @@ def listing(d: Path) -> dict:
 
 # ---- no EGL, no OSMesa --------------------------------------------------------------------------
 
+@pytest.mark.requires_backend("osmesa")   # the fallback under test
 def test_missing_egl_falls_back_to_osmesa(tmp_path):
     out = tmp_path / "chart.png"
     r = sdfpbr("chart", "--size", "48x48", "--rows", "2", "--cols", "2", "-o", out, env=NO_EGL)
@@ -87,11 +89,11 @@ def broken_shaders(tmp_path):
     return root, at + 1
 
 
-def test_compile_error_names_the_module_and_line(renderer, broken_shaders):
+def test_compile_error_names_the_module_and_line(session, broken_shaders):
     root, line = broken_shaders
     source = compose("chart_main.glsl", chart_options(make_spec()), root=root)
-    with renderer.ctx, pytest.raises(ShaderCompileError) as err:
-        renderer.programs.fragment(source)
+    with session.ctx, pytest.raises(ShaderCompileError) as err:
+        session.programs.fragment(source)
     assert f"brdf.glsl:{line}" in str(err.value)
 
 

@@ -82,6 +82,7 @@ def _ldr(h=48, w=64):
     return (rng.random((h, w, 3)) * 255).astype(np.uint8)
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_ldr_identical_is_zero_and_alpha_is_ignored():
     a = _ldr()
     rgba = np.concatenate([a, np.zeros(a.shape[:2] + (1,), np.uint8)], axis=2)
@@ -90,6 +91,7 @@ def test_flip_ldr_identical_is_zero_and_alpha_is_ignored():
     assert emap.shape == a.shape[:2] and emap.dtype == np.float32
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_ldr_black_vs_white_is_large_and_grows_with_the_difference():
     black = np.zeros((32, 32, 3), np.uint8)
     white = np.full((32, 32, 3), 255, np.uint8)
@@ -101,6 +103,7 @@ def test_flip_ldr_black_vs_white_is_large_and_grows_with_the_difference():
     assert emap.min() >= 0.0 and emap.max() <= 1.0
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_mask_mean_is_the_mean_of_the_map_over_the_mask():
     a, b = _ldr(), _ldr()
     mask = np.zeros(a.shape[:2], bool)
@@ -111,6 +114,7 @@ def test_flip_mask_mean_is_the_mean_of_the_map_over_the_mask():
     assert whole == pytest.approx(float(emap.mean()), rel=1e-4)
 
 
+@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_hdr_identical_zero_different_positive_black_reference_survives():
     r = _ref() * 4.0
     assert M.flip_hdr(r, r)[0] == 0.0
@@ -145,6 +149,7 @@ def test_flip_ldr_guard_raises_one_clear_line(test, ref, match):
     (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"mask": np.zeros((8, 8), bool)}, "no pixels"),
     (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"mask": np.ones((4, 4), bool)}, "mask has shape"),
 ])
+@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_hdr_guard(test, ref, kwargs, match):
     with pytest.raises(SpecError, match=match):
         M.flip_hdr(test, ref, **kwargs)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import mirror
-from sdfpbr.gpu.render import chart_source
+from sdfpbr.shading.plan import render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
 
 HALF = np.float16
@@ -163,9 +163,8 @@ def test_the_tone_map_input_cap_changes_no_display_value(name):
 
 
 def test_the_cap_is_in_the_display_program():
-    from sdfpbr.gpu.render import display_source
     import re
-    text = display_source(make_spec()).text
+    text = render_plan(make_spec()).display.text
     assert float(re.search(r"#define TONEMAP_INPUT_MAX (\S+)", text).group(1)) == mirror.TONEMAP_INPUT_MAX
     assert "x = min(x, vec3(TONEMAP_INPUT_MAX));" in text
 
@@ -178,13 +177,13 @@ BLINDING = dict(env="black", ibl=False, ao=False, ground=False, shadows=False, r
 
 
 def test_the_half_clamp_is_composed_only_for_half_targets():
-    assert "65504.0" in chart_source(make_spec(hdr_precision="float16")).text
-    assert "65504.0" not in chart_source(make_spec()).text
+    assert "65504.0" in render_plan(make_spec(hdr_precision="float16")).chart.text
+    assert "65504.0" not in render_plan(make_spec()).chart.text
 
 
-def test_half_targets_stay_finite_and_saturate_at_half_max(renderer):
-    full = renderer.render(make_spec(**BLINDING))
-    half = renderer.render(make_spec(**BLINDING, hdr_precision="float16"))
+def test_half_targets_stay_finite_and_saturate_at_half_max(session):
+    full = session.render(make_spec(**BLINDING))
+    half = session.render(make_spec(**BLINDING, hdr_precision="float16"))
     assert full.hdr.max() > 4 * HALF_MAX           # the highlight really is beyond half range
     assert np.isfinite(half.hdr).all() and half.hdr.min() >= 0
     assert half.hdr.max() == HALF_MAX
@@ -195,19 +194,19 @@ def test_half_targets_stay_finite_and_saturate_at_half_max(renderer):
     np.testing.assert_allclose(half.hdr[~over], expected, rtol=2.0 ** -10, atol=2.0 ** -24)
 
 
-def test_half_target_display_is_the_tone_mapped_half_values(renderer):
-    from sdfpbr.tools.stress import display_error
+def test_half_target_display_is_the_tone_mapped_half_values(session):
+    from sdfpbr.tools.stress.checks import display_error
     spec = make_spec(**BLINDING, hdr_precision="float16", exposure=-18.0, tonemap="reinhard")
-    res = renderer.render(spec)
+    res = session.render(spec)
     assert display_error(res.hdr, res.alpha, res.image, spec) [1] == 0
 
 
-def test_half_targets_cost_at_most_one_lsb_below_half_max(renderer):
+def test_half_targets_cost_at_most_one_lsb_below_half_max(session):
     """A half target rounds radiance to 11 bits; through tone map and sRGB that moves no
     display value by more than 1 LSB, wherever the float32 radiance is within half range."""
     spec = make_spec(**{**BLINDING, "lights": (Light("directional", direction=(0.2, 0.3, 0.93), intensity=3.0),)},
                      exposure=1.0, tonemap="aces")
-    full = renderer.render(spec)
-    half = renderer.render(make_spec(spec, hdr_precision="float16"))
+    full = session.render(spec)
+    half = session.render(make_spec(spec, hdr_precision="float16"))
     assert full.hdr.max() < HALF_MAX
     assert np.abs(full.image.astype(int) - half.image.astype(int)).max() <= 1

@@ -90,12 +90,12 @@ def furnace_curve(mu, metallic, roughness, multiscatter):
 
 @pytest.mark.parametrize("metallic, roughness, multiscatter", [
     (1.0, 0.3, True), (1.0, 0.7, False), (0.0, 0.5, True), (0.0, 0.2, False)])
-def test_uniform_environment_converges_to_directional_albedo(renderer, metallic, roughness, multiscatter):
+def test_uniform_environment_converges_to_directional_albedo(session, metallic, roughness, multiscatter):
     """max_bounces = 1 on a lone sphere: each pixel integrates f cos over the hemisphere, i.e.
     the directional albedo at its NdotV (1 for a compensated white metal)."""
     spec = make_spec(**FURNACE, roughness=(roughness, roughness), metallic=(metallic, metallic),
                      multiscatter=multiscatter)
-    res = render_reference(spec, samples=256, max_bounces=1, seed=1, renderer=renderer)
+    res = render_reference(spec, samples=256, max_bounces=1, seed=1, session=session)
     hits = primary_hits(spec)
     m = interior(spec, hits, 0.15)
     assert m.sum() > 500 and res.non_finite == 0
@@ -107,31 +107,31 @@ def test_uniform_environment_converges_to_directional_albedo(renderer, metallic,
         np.testing.assert_allclose(want[m], 1.0, atol=1e-9)   # REFERENCE.md §3: the sphere vanishes
 
 
-def test_white_lambert_sphere_converges_to_its_albedo(renderer):
+def test_white_lambert_sphere_converges_to_its_albedo(session):
     for albedo in (1.0, 0.5):
         spec = make_spec(**{**FURNACE, "base_color": (albedo,) * 3})
-        res = render_reference(spec, samples=128, max_bounces=4, seed=2, renderer=renderer, lambert=True)
+        res = render_reference(spec, samples=128, max_bounces=4, seed=2, session=session, lambert=True)
         m = interior(spec, primary_hits(spec), 0.05)
         check_converged(res.hdr[..., 1][m], np.full(m.sum(), albedo), res.stderr[m], bias=1e-4)
 
 
-def test_interreflection_between_white_lambert_spheres_conserves_energy(renderer):
+def test_interreflection_between_white_lambert_spheres_conserves_energy(session):
     """Two white Lambert spheres in a white furnace: with enough bounces every pixel reads 1
     (light only changes direction); with direct light only, the faces that see the other
     sphere go dark. A path survives 12 bounces between them with probability < 1e-10."""
     spec = make_spec(**{**FURNACE, "cols": 2, "spacing": 2.2, "width": 64, "height": 32})
     m = interior(spec, primary_hits(spec), 0.05)
-    full = render_reference(spec, samples=96, max_bounces=12, seed=3, renderer=renderer, lambert=True)
+    full = render_reference(spec, samples=96, max_bounces=12, seed=3, session=session, lambert=True)
     check_converged(full.hdr[..., 1][m], np.ones(m.sum()), full.stderr[m], bias=1e-4)
-    direct = render_reference(spec, samples=32, max_bounces=1, seed=3, renderer=renderer, lambert=True)
+    direct = render_reference(spec, samples=32, max_bounces=1, seed=3, session=session, lambert=True)
     assert direct.hdr[..., 1][m].min() < 0.85
 
 
-def test_same_seed_is_bit_identical_and_another_seed_is_not(renderer):
+def test_same_seed_is_bit_identical_and_another_seed_is_not(session):
     spec = make_spec(width=32, height=32)   # the default scene: ground, sun, point light, studio
-    a = render_reference(spec, samples=6, seed=7, renderer=renderer)
-    b = render_reference(spec, samples=6, seed=7, renderer=renderer)
-    c = render_reference(spec, samples=6, seed=8, renderer=renderer)
+    a = render_reference(spec, samples=6, seed=7, session=session)
+    b = render_reference(spec, samples=6, seed=7, session=session)
+    c = render_reference(spec, samples=6, seed=8, session=session)
     assert np.array_equal(a.hdr, b.hdr) and np.array_equal(a.stderr, b.stderr, equal_nan=True)
     assert np.array_equal(a.image, b.image)
     assert not np.array_equal(a.hdr, c.hdr)
@@ -139,14 +139,14 @@ def test_same_seed_is_bit_identical_and_another_seed_is_not(renderer):
     assert a.non_finite == 0 and np.isfinite(a.hdr).all()
 
 
-def test_stderr_shrinks_as_one_over_sqrt_n_and_is_honest(renderer):
+def test_stderr_shrinks_as_one_over_sqrt_n_and_is_honest(session):
     spec = make_spec(**FURNACE, roughness=(0.5, 0.5), metallic=(0.0, 0.0))
     hits = primary_hits(spec)
     m = interior(spec, hits, 0.15)
     want = furnace_curve((hits[3] * hits[4]).sum(-1), 0.0, 0.5, True).mean(-1)[m]
     se = {}
     for n in (16, 64):
-        res = render_reference(spec, samples=n, max_bounces=1, seed=4, renderer=renderer)
+        res = render_reference(spec, samples=n, max_bounces=1, seed=4, session=session)
         se[n] = res.stderr[m]
         # The error actually made against the float64 albedo is what the stderr says, or less
         # (pixel samples are stratified, the estimate assumes independent ones).
@@ -156,9 +156,9 @@ def test_stderr_shrinks_as_one_over_sqrt_n_and_is_honest(renderer):
     assert 1.75 < ratio < 2.25   # sqrt(64 / 16) = 2
 
 
-def test_target_error_stops_early_and_reports_what_it_reached(renderer):
+def test_target_error_stops_early_and_reports_what_it_reached(session):
     spec = make_spec(**FURNACE, roughness=(0.5, 0.5), metallic=(1.0, 1.0))
-    res = render_reference(spec, target_error=0.01, samples=4096, max_bounces=1, seed=5, renderer=renderer)
+    res = render_reference(spec, target_error=0.01, samples=4096, max_bounces=1, seed=5, session=session)
     assert res.error <= 0.01 and res.samples < 4096
     assert res.samples % batch_size(spec.width, spec.height) == 0
     m = res.aov["row"] >= 0
@@ -181,7 +181,7 @@ def cone_average(f, axis, theta, rings=3, spokes=8):
     return total / (rings * spokes)
 
 
-def test_small_sun_converges_to_closed_form(renderer):
+def test_small_sun_converges_to_closed_form(session):
     """Black environment, no ground, one sun of angular radius 0.25 deg, direct light only:
     a pixel reads the disc's radiance E / (pi sin^2) integrated over the disc,
     E 2 / (1 + cos theta) x mean over the disc of f(v, l) NdotL, from the float64 BRDF."""
@@ -191,7 +191,7 @@ def test_small_sun_converges_to_closed_form(renderer):
     base = np.array([0.9, 0.6, 0.3])
     spec = make_spec(env="black", lights=(sun,), ground=False, rows=2, cols=2, roughness=(0.4, 0.8),
                      metallic=(0.0, 1.0), base_color=tuple(base), multiscatter=False, width=48, height=48)
-    res = render_reference(spec, samples=64, max_bounces=1, seed=6, renderer=renderer)
+    res = render_reference(spec, samples=64, max_bounces=1, seed=6, session=session)
     hits = primary_hits(spec)
     hit, row, col, normal, view = hits
     m = interior(spec, hits, 0.1)
@@ -234,11 +234,11 @@ def test_small_sun_converges_to_closed_form(renderer):
     dict(rows=3, cols=3, spacing=1.6, camera_elevation=35.0),   # overlapping spheres
     dict(rows=10, cols=10, camera="orthographic"),
 ])
-def test_aovs_match_the_chart(renderer, grid):
+def test_aovs_match_the_chart(session, grid):
     """The reference traces the chart's scene: same cells, normals and NdotV per pixel."""
     spec = make_spec(width=64, height=48, **grid)
-    ref = render_reference(spec, samples=1, renderer=renderer)
-    chart = renderer.render(spec)
+    ref = render_reference(spec, samples=1, session=session)
+    chart = session.render(spec)
     same = (ref.aov["row"] == chart.aov["row"]) & (ref.aov["col"] == chart.aov["col"])
     assert same.mean() > 0.995 and set(ref.aov) == set(chart.aov)
     sphere = same & (ref.aov["row"] >= 0)

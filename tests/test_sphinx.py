@@ -10,7 +10,10 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from sdfpbr.tools.build import KEY_FIELD, ImageCache, ensure_image, parse_entry
+from sdfpbr.tools.gallery.entries import parse_entry
+from sdfpbr.tools.gallery.images import KEY_FIELD, ImageCache, ensure_image
+
+pytestmark = pytest.mark.requires_extra("sphinx")   # every test runs `python -m sphinx`
 
 FILE_SPEC = 'rows = 2\ncols = 2\nsize = "64x48"\nlabels = false\ncaption = "From the <file> & its caption"\n'
 INLINE_SPEC = 'rows = 1\ncols = 3\nsize = "96x32"\nlabels = false\ntonemap = "neutral"'

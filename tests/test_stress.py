@@ -14,7 +14,9 @@ import pytest
 
 from sdfpbr.oracle import mirror
 
-from sdfpbr.tools import stress
+from sdfpbr.oracle import furnace
+from sdfpbr.tools.stress import cases as stress_cases, checks, runner
+from sdfpbr.tools.stress import report as stress_report
 from sdfpbr.shading.camera import frame_grid
 from sdfpbr.cli.main import main
 from sdfpbr.spec.chart_spec import Light, load_spec, make_spec
@@ -23,16 +25,16 @@ SMALL = dict(width=144, height=128, rows=2, cols=3, quality="draft", roughness=(
 
 
 @pytest.fixture(scope="module")
-def clean(renderer):
+def clean(session):
     spec = make_spec(**SMALL, lights=(Light("directional", direction=(0.3, 0.5, 0.8), intensity=2.0),))
-    return spec, renderer.render(spec)
+    return spec, session.render(spec)
 
 
 def test_checks_pass_a_clean_render(clean):
     spec, res = clean
-    assert stress.check_finite(res.hdr, res.alpha) == []
-    assert stress.display_error(res.hdr, res.alpha, res.image, spec)[1] == 0
-    worst, flagged, tested = stress.isolated_outliers(res.hdr, res.aov, spec, frame_grid(spec))
+    assert checks.check_finite(res.hdr, res.alpha) == []
+    assert checks.display_error(res.hdr, res.alpha, res.image, spec)[1] == 0
+    worst, flagged, tested = checks.isolated_outliers(res.hdr, res.aov, spec, frame_grid(spec))
     assert flagged == 0 and tested > 200 and worst < 2
 
 
@@ -42,7 +44,7 @@ def test_finite_check_catches_nan_inf_and_negative(clean):
     hdr[3, 4, 1] = np.nan
     hdr[5, 6, 0] = np.inf
     hdr[7, 8, 2] = -1e-3
-    found = " ".join(stress.check_finite(hdr, res.alpha))
+    found = " ".join(checks.check_finite(hdr, res.alpha))
     assert "1 NaN and 1 Inf" in found and "1 pixels with negative radiance" in found
 
 
@@ -50,37 +52,37 @@ def test_display_check_catches_a_two_lsb_error(clean):
     spec, res = clean
     image = res.image.copy()
     image[10, 10, 0] = np.uint8((int(image[10, 10, 0]) + 2) % 256)
-    assert stress.display_error(res.hdr, res.alpha, image, spec)[1] == 1
+    assert checks.display_error(res.hdr, res.alpha, image, spec)[1] == 1
 
 
-def test_firefly_check_flags_a_planted_spike_but_not_highlights(clean, renderer):
+def test_firefly_check_flags_a_planted_spike_but_not_highlights(clean, session):
     spec, res = clean
-    region = stress.smooth_region(res.aov, spec, frame_grid(spec))
+    region = checks.smooth_region(res.aov, spec, frame_grid(spec))
     ys, xs = np.nonzero(region)
     y, x = ys[len(ys) // 2], xs[len(xs) // 2]
     hdr = res.hdr.copy()
     hdr[y, x] = hdr[y, x] * 6 + 6 * hdr[y - 1:y + 2, x - 1:x + 2].max()
-    worst, flagged, _ = stress.isolated_outliers(hdr, res.aov, spec, frame_grid(spec))
-    assert flagged == 1 and worst > stress.FIREFLY_RATIO
+    worst, flagged, _ = checks.isolated_outliers(hdr, res.aov, spec, frame_grid(spec))
+    assert flagged == 1 and worst > checks.FIREFLY_RATIO
     # A smooth sphere lit by a point light: its one-pixel highlight is real and not tested.
     shiny = make_spec(**{**SMALL, "roughness": (0.0, 0.045)}, env="black", ibl=False,
                       lights=(Light("point", position=(2.0, 3.0, 9.0), intensity=500.0),))
-    r = renderer.render(shiny)
+    r = session.render(shiny)
     assert r.hdr.max() > 20 * np.median(r.hdr[r.aov["row"] >= 0])   # a real, narrow highlight
-    assert stress.isolated_outliers(r.hdr, r.aov, shiny, frame_grid(shiny))[1] == 0
+    assert checks.isolated_outliers(r.hdr, r.aov, shiny, frame_grid(shiny))[1] == 0
 
 
-def test_furnace_check_passes_the_renderer_and_catches_one_percent(renderer):
+def test_furnace_check_passes_the_renderer_and_catches_one_percent(session):
     spec = make_spec(env="uniform", lights=(), ao=False, ground=False, width=96, height=96, rows=3, cols=3,
                      quality="default", base_color=(1, 1, 1))
-    res = renderer.render(spec)
-    table = stress.FurnaceTable()
-    worst, bad, tested = stress.furnace_error(res.hdr, res.aov, spec, table)
+    res = session.render(spec)
+    table = furnace.FurnaceTable()
+    worst, bad, tested = checks.furnace_error(res.hdr, res.aov, spec, table)
     assert bad == 0 and tested > 3000 and worst < 5e-3
     hdr = res.hdr.copy()
-    m = np.argwhere(stress.interior_mask(stress.surface_ids(res.aov, 3)) & (res.aov["ndotv"] > 0.5))[0]
+    m = np.argwhere(checks.interior_mask(checks.surface_ids(res.aov, 3)) & (res.aov["ndotv"] > 0.5))[0]
     hdr[tuple(m)] *= 1.02
-    assert stress.furnace_error(hdr, res.aov, spec, table)[1] == 1
+    assert checks.furnace_error(hdr, res.aov, spec, table)[1] == 1
 
 
 def test_furnace_table_matches_direct_integration():
@@ -90,50 +92,50 @@ def test_furnace_table_matches_direct_integration():
     base = rng.random((40, 3))
     metal = rng.choice([0.0, 0.5, 1.0], 40)
     for model in ("gltf", "schlick-ggx"):
-        got = stress.FurnaceTable().expected(mu, r, base, metal, model, True)
+        got = furnace.FurnaceTable().expected(mu, r, base, metal, model, True)
         want = mirror.furnace_expected(mu, base, metal, r, model=model)
         np.testing.assert_allclose(got, want, atol=1e-5)
 
 
-def test_monotonic_cases_pass_and_a_swapped_column_fails(renderer):
-    cases = [c for c in stress.generate_cases(seed=11, count=60, quick=True) if c.kind == "monotonic"]
+def test_monotonic_cases_pass_and_a_swapped_column_fails(session):
+    cases = [c for c in stress_cases.generate_cases(seed=11, count=60, quick=True) if c.kind == "monotonic"]
     assert cases
     for case in cases[:3]:
-        res = renderer.render(case.spec)
-        failures, rise, mirror_err = stress.monotonic_error(res.hdr, res.aov, case.spec, case.probe)
+        res = session.render(case.spec)
+        failures, rise, mirror_err = checks.monotonic_error(res.hdr, res.aov, case.spec, case.probe)
         assert failures == [], failures
     # Swap the probe pixels of the smoothest and the roughest column: the peak now rises.
     case = cases[0]
-    res = renderer.render(case.spec)
+    res = session.render(case.spec)
     row, x0, step, _ = case.probe
     rough = np.asarray(case.spec.column_roughness())
     a, b = int(np.argmin(rough)), int(np.argmax(rough))
     hdr = res.hdr.copy()
     hdr[row, x0 + a * step], hdr[row, x0 + b * step] = res.hdr[row, x0 + b * step], res.hdr[row, x0 + a * step]
-    assert stress.monotonic_error(hdr, res.aov, case.spec, case.probe)[0]
+    assert checks.monotonic_error(hdr, res.aov, case.spec, case.probe)[0]
 
 
-def test_tiles_check_sees_a_changed_pixel(renderer):
-    from sdfpbr.gpu.render import Renderer
+def test_tiles_check_sees_a_changed_pixel(session):
+    from sdfpbr.gpu.session import Session
     spec = make_spec(**SMALL)
-    tiled = Renderer(renderer.ctx, renderer.cache, tile=stress.TILED_TILE).render(spec)
-    plain = renderer.render(spec)
-    assert stress.tiles_equal(tiled, plain)
+    tiled = Session(session.ctx, session.cache, tile=stress_cases.TILED_TILE).render(spec)
+    plain = session.render(spec)
+    assert checks.tiles_equal(tiled, plain)
     plain.hdr[0, 0, 0] += 1e-6
-    assert not stress.tiles_equal(tiled, plain)
+    assert not checks.tiles_equal(tiled, plain)
 
 
 def test_generation_is_seeded_and_covers_the_edges():
-    a = stress.generate_cases(seed=5, count=10_000)
+    a = stress_cases.generate_cases(seed=5, count=10_000)
     assert len(a) == 10_000
-    b = stress.generate_cases(seed=5, count=10_000)
+    b = stress_cases.generate_cases(seed=5, count=10_000)
     assert all(x.spec == y.spec and x.backend == y.backend for x, y in zip(a[::7], b[::7]))
-    assert [x.spec for x in stress.generate_cases(seed=6, count=50)] != [x.spec for x in a[:50]]
+    assert [x.spec for x in stress_cases.generate_cases(seed=6, count=50)] != [x.spec for x in a[:50]]
     seen = {}
     for c in a:
         for dim, v in c.labels.items():
             seen.setdefault(dim, set()).update(v if isinstance(v, list) else [v])
-    assert seen["roughness"] >= {f"{r:g}" for r in stress.EDGE_ROUGHNESS}
+    assert seen["roughness"] >= {f"{r:g}" for r in stress_cases.EDGE_ROUGHNESS}
     assert seen["metallic"] >= {"0", "0.5", "1"}
     assert {"grey 0", "grey 0.5", "grey 1"} <= seen["base colour"]
     assert seen["precision"] == {"float32", "float16"}
@@ -142,7 +144,7 @@ def test_generation_is_seeded_and_covers_the_edges():
         {"1e-6", "1e+6"} <= seen["light intensity"]
     assert {"1e-3", "1e+3"} <= seen["camera distance"]
     assert {"-20..-10", "+10..+20"} <= seen["exposure EV"]
-    assert set(stress.GEOMETRY) == seen["geometry"]
+    assert set(stress_cases.GEOMETRY) == seen["geometry"]
     assert {"1x1", "<=32"} <= seen["grid"]
     sizes = [max(c.spec.width, c.spec.height) for c in a]
     assert min(sizes) == 1 and max(sizes) >= 8192
@@ -150,25 +152,27 @@ def test_generation_is_seeded_and_covers_the_edges():
 
 
 def test_failing_configurations_round_trip_as_toml(tmp_path):
-    for case in stress.generate_cases(seed=2, count=80)[::3]:
-        path = stress.write_failure(tmp_path, stress.Outcome(case, ["planted"]))
+    for case in stress_cases.generate_cases(seed=2, count=80)[::3]:
+        path = stress_report.write_failure(tmp_path, runner.Outcome(case, ["planted"]))
         assert load_spec(path) == case.spec
         assert "planted" in path.read_text().splitlines()[1]
 
 
+@pytest.mark.requires_backend("egl", "osmesa")
 def test_small_sweep_over_both_backends_passes(cache_dir):
     from sdfpbr.cache import ArrayCache
-    cases = stress.generate_cases(seed=1, count=40, quick=True)
+    cases = stress_cases.generate_cases(seed=1, count=40, quick=True)
     cases = [c for c in cases if max(c.spec.width, c.spec.height) <= 256]
-    renderers, notes = stress.make_renderers(cases, ArrayCache(cache_dir))
-    assert {"egl", "osmesa"} <= set(renderers) and not notes
-    report = stress.run_sweep(cases, renderers, notes, seed=1, progress=False)
+    sessions, notes = runner.make_sessions(cases, ArrayCache(cache_dir))
+    assert {"egl", "osmesa"} <= set(sessions) and not notes
+    report = runner.run_sweep(cases, sessions, notes, seed=1, progress=False)
     assert report.failures == [], report.format()
     assert len(report.outcomes) == len(cases)
     text = report.format()
     assert "roughness" in text and f"{len(cases)} configurations" in text
 
 
+@pytest.mark.requires_backend("egl", "osmesa")   # the default --backend all sweeps both
 def test_cli_sweep_exit_status_and_summary(tmp_path):
     out = io.StringIO()
     with redirect_stdout(out):
@@ -177,7 +181,7 @@ def test_cli_sweep_exit_status_and_summary(tmp_path):
     assert status == 0, out.getvalue()
     import json
     summary = json.loads((tmp_path / "s.json").read_text())
-    assert summary["failures"] == 0 and summary["configs"] == len(stress.generate_cases(4, 8, quick=True))
+    assert summary["failures"] == 0 and summary["configs"] == len(stress_cases.generate_cases(4, 8, quick=True))
     assert not any((tmp_path / "fail").iterdir())
 
 

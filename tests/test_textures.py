@@ -26,7 +26,7 @@ def _interior(result):
     return (result.aov["row"] >= 0) & (result.aov["ndotv"] > 0.5)
 
 
-def test_base_color_map_is_decoded_as_srgb(renderer, tmp_path):
+def test_base_color_map_is_decoded_as_srgb(session, tmp_path):
     flat_normal = _png(tmp_path / "n.png", (128, 128, 255))
     white_orm = _png(tmp_path / "orm.png", (255, 255, 255))
     textured = make_spec(FURNACE, base_color_texture=_png(tmp_path / "c.png", (128, 128, 128)),
@@ -35,13 +35,13 @@ def test_base_color_map_is_decoded_as_srgb(renderer, tmp_path):
     # Same maps except base colour: white texel, the decoded value as the factor instead.
     plain = make_spec(textured, base_color=(decoded,) * 3,
                       base_color_texture=_png(tmp_path / "w.png", (255, 255, 255)))
-    a, b = renderer.render(textured), renderer.render(plain)
+    a, b = session.render(textured), session.render(plain)
     m = _interior(a)
     # llvmpipe decodes sRGB texels with a polynomial fit (measured 0.3% off the curve at 128).
     np.testing.assert_allclose(a.hdr[m], b.hdr[m], rtol=6e-3, atol=1e-4)
 
 
-def test_orm_map_is_linear_and_scales_the_factors(renderer, tmp_path):
+def test_orm_map_is_linear_and_scales_the_factors(session, tmp_path):
     flat_normal = _png(tmp_path / "n.png", (128, 128, 255))
     orm = _png(tmp_path / "orm.png", (255, 128, 191))
     textured = make_spec(FURNACE, orm_texture=orm, normal_texture=flat_normal,
@@ -51,15 +51,15 @@ def test_orm_map_is_linear_and_scales_the_factors(renderer, tmp_path):
     # Same maps except ORM: white texels, the linear texel values folded into the factors.
     plain = make_spec(textured, roughness=(0.5 * 128 / 255,) * 2, metallic=(0.0, 191 / 255),
                       orm_texture=_png(tmp_path / "w.png", (255, 255, 255)))
-    a, b = renderer.render(textured), renderer.render(plain)
+    a, b = session.render(textured), session.render(plain)
     m = _interior(a)
     np.testing.assert_allclose(a.hdr[m], b.hdr[m], rtol=2e-3, atol=1e-4)
     # The orm-srgb bug decodes 128 as 0.216: a glossier result, measurably different.
-    c = renderer.render(make_spec(textured, bugs=("orm-srgb",)))
+    c = session.render(make_spec(textured, bugs=("orm-srgb",)))
     assert np.abs(c.hdr[m] - b.hdr[m]).max() > 0.1
 
 
-def test_normal_map_tilts_toward_plus_y_up(renderer, tmp_path):
+def test_normal_map_tilts_toward_plus_y_up(session, tmp_path):
     # A map tilted towards +Y (green 200) must make the spheres face up: under a sky-only light
     # (uniform upper hemisphere is approximated by a key light from straight above) they get
     # brighter than with the flat map; the green-flip bug makes them darker.
@@ -72,8 +72,8 @@ def test_normal_map_tilts_toward_plus_y_up(renderer, tmp_path):
     white = _png(tmp_path / "w.png", (255, 255, 255))
     specs = {name: make_spec(top_lit, normal_texture=path, orm_texture=white, base_color_texture=white)
              for name, path in (("up", up), ("flat", flat))}
-    r_up, r_flat = renderer.render(specs["up"]), renderer.render(specs["flat"])
-    r_flip = renderer.render(make_spec(specs["up"], bugs=("normal-map-green-flip",)))
+    r_up, r_flat = session.render(specs["up"]), session.render(specs["flat"])
+    r_flip = session.render(make_spec(specs["up"], bugs=("normal-map-green-flip",)))
     m = _interior(r_flat) & (r_flat.aov["normal"][..., 1] < 0.5)   # the front, not the lit cap
     lum = lambda r: r.hdr[m].mean()
     assert lum(r_up) > 1.2 * lum(r_flat) > 1.2 * lum(r_flip)

@@ -6,7 +6,8 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from sdfpbr.gpu.render import TILE, Renderer
+from sdfpbr.gpu.render import TILE
+from sdfpbr.gpu.session import Session
 from sdfpbr.spec.chart_spec import Light, make_spec
 
 BASE = dict(width=90, height=70, rows=2, cols=3, quality="draft")
@@ -26,50 +27,50 @@ def same(a, b) -> bool:
 
 @pytest.mark.parametrize("tile", [16, 36])
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_tiled_render_equals_untiled(renderer, variant, tile):
+def test_tiled_render_equals_untiled(session, variant, tile):
     spec = make_spec(**BASE, **variant)
-    tiled = Renderer(renderer.ctx, renderer.cache, tile=tile)
+    tiled = Session(session.ctx, session.cache, tile=tile)
     assert tiled.tile == tile and spec.width > 2 * tile
-    assert same(tiled.render(spec), renderer.render(spec))
+    assert same(tiled.render(spec), session.render(spec))
 
 
-def test_no_step_at_tile_borders(renderer):
+def test_no_step_at_tile_borders(session):
     """Independently of the untiled render: across a tile border neighbouring columns differ no
     more than neighbouring columns elsewhere in the same smooth region."""
     spec = make_spec(width=128, height=64, rows=1, cols=1, env="sky", ground=False, lights="none", quality="draft")
-    res = Renderer(renderer.ctx, renderer.cache, tile=32).render(spec)
+    res = Session(session.ctx, session.cache, tile=32).render(spec)
     steps = np.abs(np.diff(res.hdr.mean(-1), axis=1))[20:44]      # rows through the sphere and sky
     border = steps[:, [31, 63, 95]].mean()
     inside = np.delete(steps, [31, 63, 95], axis=1).mean()
     assert border <= 2 * inside
 
 
-def test_tiles_follow_the_gl_limits_in_multiples_of_four(renderer):
-    info = renderer.ctx.info
+def test_tiles_follow_the_gl_limits_in_multiples_of_four(session):
+    info = session.ctx.info
     limit = min(info["GL_MAX_TEXTURE_SIZE"], *info["GL_MAX_VIEWPORT_DIMS"])
-    assert renderer.tile == min(TILE, limit)
-    assert Renderer(renderer.ctx, renderer.cache, tile=10 ** 9).tile == limit // 4 * 4
-    assert Renderer(renderer.ctx, renderer.cache, tile=7).tile == 4    # 4x4 blocks line up (see render.py)
+    assert session.tile == min(TILE, limit)
+    assert Session(session.ctx, session.cache, tile=10 ** 9).tile == limit // 4 * 4
+    assert Session(session.ctx, session.cache, tile=7).tile == 4    # 4x4 blocks line up (see render.py)
 
 
-def test_wider_than_the_gl_limit_renders_in_tiles(renderer):
+def test_wider_than_the_gl_limit_renders_in_tiles(session):
     """An image wider than GL_MAX_TEXTURE_SIZE (and the viewport) cannot be one target; it
     renders in tiles and equals a render cut at other tile borders."""
-    limit = renderer.ctx.info["GL_MAX_TEXTURE_SIZE"]
+    limit = session.ctx.info["GL_MAX_TEXTURE_SIZE"]
     spec = make_spec(width=limit + 100, height=3, rows=1, cols=9, quality="draft", labels=False)
-    wide = Renderer(renderer.ctx, renderer.cache, tile=limit).render(spec)
+    wide = Session(session.ctx, session.cache, tile=limit).render(spec)
     assert wide.hdr.shape == (3, limit + 100, 3) and np.isfinite(wide.hdr).all()
     assert set(np.unique(wide.aov["col"])) >= set(range(9))       # every sphere made it in
-    assert same(wide, Renderer(renderer.ctx, renderer.cache, tile=4000).render(spec))
+    assert same(wide, Session(session.ctx, session.cache, tile=4000).render(spec))
 
 
 @pytest.mark.parametrize("aovs, bytes_per_pixel", [(True, 64), (False, 24)])
-def test_host_memory_is_a_fixed_number_of_bytes_per_pixel(renderer, aovs, bytes_per_pixel):
+def test_host_memory_is_a_fixed_number_of_bytes_per_pixel(session, aovs, bytes_per_pixel):
     """The result holds hdr (12 B), alpha (4), image (4) and, with AOVs, normal (12), depth,
     row, col, roughness, metallic, ndotv (4 each): 56 B/pixel; tiles are read straight into
     those arrays, so the peak is that plus the AOVs' masks (~7 B) and one tile's staging."""
     spec = make_spec(width=384, height=384, rows=3, cols=3, quality="draft")
-    small_tiles = Renderer(renderer.ctx, renderer.cache, tile=64)
+    small_tiles = Session(session.ctx, session.cache, tile=64)
     small_tiles.render(spec, aovs=aovs)                           # compile and bake outside the measurement
     tracemalloc.start()
     try:

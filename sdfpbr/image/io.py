@@ -1,17 +1,16 @@
-"""Writing outputs atomically: every file is written beside its destination under a temporary
-name and renamed into place, so a failure never leaves a half-written or clobbered file."""
+"""Writing images and arrays (PNG, EXR, NPY, NPZ), each committed all-or-nothing through
+``sdfpbr.files``, and checking an output location before anything is rendered."""
 from __future__ import annotations
 
 import io as _io
 import os
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, PngImagePlugin
 
 from ..errors import OutputError, SpecError
+from ..files import atomic_file, atomic_path, write_bytes
 
 HDR_SUFFIXES = (".npy", ".exr")
 
@@ -31,42 +30,6 @@ def check_writable(path: str | Path, suffixes: tuple[str, ...] | None = None, wh
     return p
 
 
-@contextmanager
-def atomic_path(path: str | Path, suffix: str = ".tmp"):
-    """Yield a temporary path beside ``path``; rename it into place only if the block succeeds."""
-    p = Path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.", suffix=suffix)
-        os.close(fd)
-    except OSError as exc:
-        raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
-    try:
-        yield tmp
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, p)
-    except OSError as exc:
-        _unlink(tmp)
-        raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
-    except BaseException:
-        _unlink(tmp)
-        raise
-
-
-@contextmanager
-def atomic_file(path: str | Path):
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        yield f
-        f.flush()
-        os.fsync(f.fileno())
-
-
-def _unlink(path: str) -> None:
-    try:
-        os.unlink(path)
-    except OSError:
-        pass
-
-
 def png_bytes(rgba: np.ndarray, metadata: dict[str, str] | None = None) -> bytes:
     info = PngImagePlugin.PngInfo()
     for key, value in (metadata or {}).items():
@@ -81,9 +44,7 @@ def png_bytes(rgba: np.ndarray, metadata: dict[str, str] | None = None) -> bytes
 
 
 def write_png(path: str | Path, rgba: np.ndarray, metadata: dict[str, str] | None = None) -> None:
-    data = png_bytes(rgba, metadata)
-    with atomic_file(path) as f:
-        f.write(data)
+    write_bytes(path, png_bytes(rgba, metadata))
 
 
 def write_hdr(path: str | Path, hdr: np.ndarray) -> None:

@@ -10,16 +10,13 @@ into a larger canvas whose margins hold every piece of text:
   and centred on the mean ``cy`` of its row's spheres;
 * bottom: a footer line (tone mapper, exposure, environment ...).
 
-Text is set in Pillow's built-in scalable font (``ImageFont.load_default(size=...)``),
-sized from the render height; margins are sized from measured text extents.
-The embedded font covers little beyond ASCII, so characters it cannot draw are
-replaced by ASCII spellings ("α" -> "alpha", "²" -> "^2", "é" -> "e").
+Text is set in the font of :mod:`sdfpbr.image.text`, sized from the render height;
+margins are sized from measured text extents.
 """
 
 from __future__ import annotations
 
 import math
-import unicodedata
 from dataclasses import dataclass
 from decimal import ROUND_HALF_UP, Decimal
 from typing import Sequence
@@ -27,12 +24,14 @@ from typing import Sequence
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from .text import drawable_text, load_font
+
 __all__ = ["Cell", "compose_chart", "render_area_offset", "label_text"]
 
 DEFAULT_COLUMN_AXIS_TITLE = "roughness r (α = r²)"
 DEFAULT_ROW_AXIS_TITLE = "metallic"
 
-_BACKGROUND = (24, 24, 24, 255)
+BACKGROUND = (24, 24, 24, 255)   # of charts, sheets and heat maps
 _TRANSPARENT = (0, 0, 0, 0)
 _OUTLINE = (16, 16, 16, 255)  # drawn around text only in transparent mode
 _TITLE_COLOR = (240, 240, 240, 255)
@@ -40,8 +39,6 @@ _LABEL_COLOR = (225, 225, 225, 255)
 _AXIS_COLOR = (175, 175, 175, 255)
 _FOOTER_COLOR = (150, 150, 150, 255)
 _ROW_LABEL_RESERVE = "0.00"  # widest plain value label; reserved even when the labels are not known
-_ASCII_FALLBACK = {"²": "^2", "³": "^3", "–": "-", "—": "-", "−": "-", "×": "x",
-                   "→": "->", "≈": "~", "µ": "u", "…": "..."}
 
 
 @dataclass(frozen=True)
@@ -72,22 +69,8 @@ class _Style:
     stroke: int  # outline width; reserved in the layout, drawn only in transparent mode
 
 
-# DejaVu Sans (Debian's fonts-dejavu-core, which .ci/run installs) draws α and ²; Pillow's
-# embedded font is the fallback when it is absent.
-_SYSTEM_FONTS = ("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "DejaVuSans.ttf")
-
-
-def _load_font(size: int) -> ImageFont.FreeTypeFont:
-    for name in _SYSTEM_FONTS:
-        try:
-            return ImageFont.truetype(name, size)
-        except OSError:
-            continue
-    return ImageFont.load_default(size=size)
-
-
 def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
-    return _Style(size, color, _load_font(size), max(1, round(size / 16)))
+    return _Style(size, color, load_font(size), max(1, round(size / 16)))
 
 
 def _styles(render_height: int) -> dict[str, _Style]:
@@ -100,30 +83,6 @@ def _styles(render_height: int) -> dict[str, _Style]:
         "axis": _style(label, _AXIS_COLOR),
         "footer": _style(max(11, round(17 * scale)), _FOOTER_COLOR),
     }
-
-
-def _drawable(text: str, font: ImageFont.FreeTypeFont) -> str:
-    """Replace characters the font has no glyph for by ASCII spellings."""
-    missing = font.getmask("\U0010fffd")
-    missing_key = (missing.size, bytes(missing))
-
-    def has_glyph(ch: str) -> bool:
-        if ch.isspace():
-            return True
-        mask = font.getmask(ch)
-        return (mask.size, bytes(mask)) != missing_key
-
-    def fallback(ch: str) -> str:
-        if ch in _ASCII_FALLBACK:
-            return _ASCII_FALLBACK[ch]
-        name = unicodedata.name(ch, "")
-        if name.startswith("GREEK") and " LETTER " in name:
-            word = name.split()[-1].lower()
-            return word.capitalize() if "CAPITAL" in name else word
-        base = "".join(c for c in unicodedata.normalize("NFKD", ch) if not unicodedata.combining(c))
-        return base if base and base != ch and all(has_glyph(c) for c in base) else "?"
-
-    return "".join(ch if has_glyph(ch) else fallback(ch) for ch in text)
 
 
 def _ink(style: _Style, text: str) -> tuple[int, int, int, int]:
@@ -170,7 +129,7 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     styles = _styles(rh)
     text = {"title": title, "footer": footer, "col": column_axis_title, "row": row_axis_title}
     font_of = {"title": "title", "footer": "footer", "col": "axis", "row": "axis"}
-    text = {k: _drawable(v, styles[font_of[k]].font) for k, v in text.items()}
+    text = {k: drawable_text(v, styles[font_of[k]].font) for k, v in text.items()}
     label, axis = styles["label"], styles["axis"]
     pad, gap = label.size, max(4, label.size // 2)
 
@@ -186,7 +145,7 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     top = y + _line_height(label) + max(2, gap // 2)
 
     # Left margin: rotated row axis title, right-aligned row labels.
-    labels = [_drawable(t, label.font) for t in row_labels]
+    labels = [drawable_text(t, label.font) for t in row_labels]
     label_w = max(_width(label, t) for t in [_ROW_LABEL_RESERVE, *labels])
     left = pad + (_line_height(axis) + gap if text["row"] else 0) + label_w + gap
     bottom = (gap + _line_height(styles["footer"]) if text["footer"] else 0) + pad
@@ -275,13 +234,13 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
     label = styles["label"]
     col_centres = _mean_centres(cells, len(column_values), "cx", "col", rw)
     for value, cx in zip(column_values, col_centres):
-        put_centred(label, _drawable(label_text(value), label.font), x0 + cx, _baseline(label, lay.labels_top))
+        put_centred(label, drawable_text(label_text(value), label.font), x0 + cx, _baseline(label, lay.labels_top))
 
     # Row labels: right-aligned against the render area, digits centred on the row's cy.
     _, digit_top, _, digit_bottom = label.font.getbbox("0123456789", anchor="ls")
     row_centres = _mean_centres(cells, len(row_values), "cy", "row", rh)
     for text, cy in zip(row_labels, row_centres):
-        text = _drawable(text, label.font)
+        text = drawable_text(text, label.font)
         _, top, right, bottom = _ink(label, text)
         baseline = min(max(y0 + cy - (digit_top + digit_bottom) / 2, -top), height - bottom)
         put(label, text, x0 - lay.gap - right, baseline)
@@ -296,7 +255,7 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
         strip = strip.transpose(Image.Transpose.ROTATE_90)
         layer.alpha_composite(strip, (lay.pad, max(0, round(y0 + rh / 2 - strip.height / 2))))
 
-    background = Image.new("RGBA", (width, height), _TRANSPARENT if transparent else _BACKGROUND)
+    background = Image.new("RGBA", (width, height), _TRANSPARENT if transparent else BACKGROUND)
     chart = np.array(Image.alpha_composite(background, layer))
     chart[y0:y0 + rh, x0:x0 + rw] = render
     return chart

@@ -6,9 +6,12 @@
   ``metrics``). Its Python API calls ``sys.exit`` on bad arguments and aborts on a black HDR
   reference, so every input is checked here first and a bad one raises SpecError instead.
 * ``per_cell_mean``: the mean of any per-pixel error map per sphere cell.
-* ``heatmap_image``: an error map as an RGBA image with a labeled colour bar (numpy + Pillow).
+* ``heatmap_image``: an error map as an RGBA image with a labeled colour bar (numpy + Pillow);
+  ``heatmap`` also says where in that image it put the map.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -238,14 +241,28 @@ def _tick_text(v: float) -> str:
     return f"{v:.3g}"
 
 
+@dataclass(frozen=True)
+class HeatMap:
+    image: np.ndarray       # (H', W', 4) uint8
+    x: int                  # where the map's top-left pixel lies in ``image``
+    y: int
+
+
 def heatmap_image(error_map, title: str | None = None, vmin: float = 0.0, vmax: float = 1.0,
                   colormap: str = "magma", ticks: int = 5) -> np.ndarray:
     """An error map as an (H', W', 4) uint8 image: the map, a vertical colour bar on the right
     (vmin at the bottom, vmax at the top) with tick labels, and an optional title above.
     NaN pixels (outside the evaluated region) are drawn gray."""
+    return heatmap(error_map, title, vmin, vmax, colormap, ticks).image
+
+
+def heatmap(error_map, title: str | None = None, vmin: float = 0.0, vmax: float = 1.0,
+            colormap: str = "magma", ticks: int = 5) -> HeatMap:
+    """heatmap_image, and where in it the map's pixels lie (unscaled)."""
     from PIL import Image, ImageDraw
 
-    from .layout import _load_font
+    from .layout import BACKGROUND
+    from .text import load_font
 
     e = np.asarray(error_map, dtype=np.float64)
     if e.ndim == 3 and e.shape[2] == 1:
@@ -263,7 +280,7 @@ def heatmap_image(error_map, title: str | None = None, vmin: float = 0.0, vmax: 
     heat = apply_colormap((e - vmin) / (vmax - vmin), colormap)
 
     font_size = max(10, round(min(H, 1024) / 40))
-    font = _load_font(font_size)
+    font = load_font(font_size)
     pad = max(6, font_size // 2)
     bar_w = max(10, font_size)
     labels = [_tick_text(vmin + (vmax - vmin) * i / (ticks - 1)) for i in range(ticks)]
@@ -280,7 +297,7 @@ def heatmap_image(error_map, title: str | None = None, vmin: float = 0.0, vmax: 
         width = max(width, tb[2] + 2 * pad)
     height = top + H + bottom
 
-    canvas = Image.new("RGBA", (width, height), (24, 24, 24, 255))
+    canvas = Image.new("RGBA", (width, height), BACKGROUND)
     canvas.paste(Image.fromarray(heat, "RGB"), (pad, top))
     bar_x = pad + W + 2 * pad
     ramp = apply_colormap(np.linspace(1.0, 0.0, H)[:, None].repeat(bar_w, axis=1), colormap)
@@ -293,4 +310,4 @@ def heatmap_image(error_map, title: str | None = None, vmin: float = 0.0, vmax: 
         draw.text((bar_x + bar_w + pad // 2 + 4, y), text, font=font, fill=(225, 225, 225, 255), anchor="lm")
     if title:
         draw.text((pad, pad), title, font=font, fill=(240, 240, 240, 255))
-    return np.asarray(canvas, np.uint8)
+    return HeatMap(np.asarray(canvas, np.uint8), pad, top)

@@ -10,13 +10,16 @@ import math
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Iterable
 
 import numpy as np
 
 from ..errors import SpecError
-from ..image.io import atomic_path, check_writable
+from ..files import atomic_path
+from ..image.io import check_writable
+from ..image.sheet import assemble, flatten, sheet_text_size
+from ..progress import Progress
 from ..spec.chart_spec import ChartSpec, make_spec
+from .compare import as_spec, bug_pair, chart_panel, render_chart
 
 __all__ = ["Animation", "animate", "animate_compare", "orbit_specs", "check_animation_output",
            "write_animation", "ANIMATION_SUFFIXES", "ORBITS"]
@@ -94,23 +97,17 @@ def orbit_specs(spec: ChartSpec, frames: int, orbit: str = "light") -> list[Char
 # ---------------------------------------------------------------------------------------------
 # Rendering.
 
-def _progress(items: Iterable, total: int, desc: str, enabled: bool | None):
-    """A tqdm bar on stderr (extra ``progress``); None: only on a terminal. Quiet without tqdm."""
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return items
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return items
-    return tqdm(items, total=total, desc=desc, unit="frame", file=sys.stderr)
+def _frames(specs: list, desc: str, enabled: bool | None):
+    """``specs`` one by one, reporting progress; None: only on a terminal."""
+    with Progress(len(specs), desc, "frames", enabled=sys.stderr.isatty() if enabled is None else enabled) as bar:
+        for spec in specs:
+            yield spec
+            bar.update(1)
 
 
 def _chart_frame(spec: ChartSpec) -> np.ndarray:
-    from ..api import get_renderer, label
-    result = get_renderer(spec.backend, spec.device_index).render(spec, aovs=False)   # labels need the camera only
-    return label(spec, result)
+    from ..api import label
+    return label(spec, render_chart(spec).result)   # labels need the camera only, no AOVs
 
 
 def _stack(frames: list[np.ndarray]) -> np.ndarray:
@@ -124,13 +121,12 @@ def animate(spec: ChartSpec | str | Path | None = None, frames: int = 36, orbit:
             output: str | Path | None = None, fps: float = DEFAULT_FPS, progress: bool | None = None) -> Animation:
     """Render ``frames`` charts of one orbit (see orbit_specs); write them to ``output`` (.gif,
     .webp or .mp4) when given, checked before the first frame is rendered."""
-    from .compare import _as_spec
-    spec = _as_spec(spec, "spec")
+    spec = as_spec(spec, "spec")
     specs = orbit_specs(spec, frames, orbit)
     if output is not None:
         check_animation_output(output, fps)
     _check_fps(fps)
-    images = [_chart_frame(s) for s in _progress(specs, len(specs), f"orbit {orbit}", progress)]
+    images = [_chart_frame(s) for s in _frames(specs, f"orbit {orbit}", progress)]
     animation = Animation(_stack(images), float(fps), specs)
     if output is not None:
         write_animation(output, animation.frames, animation.fps)
@@ -142,21 +138,19 @@ def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: 
                     axes: bool | None = None) -> Animation:
     """The correct chart and the same chart with ``bug_name`` on, side by side, both orbiting
     in step; titled with the bug's name and summary, captioned with its explanation."""
-    from .compare import _as_spec, _assemble, _panel, _render, _text_size, bug_pair
-    spec = _as_spec(spec, "spec")
+    spec = as_spec(spec, "spec")
     bug, correct, buggy = bug_pair(spec, bug_name)
     pairs = list(zip(orbit_specs(correct, frames, orbit), orbit_specs(buggy, frames, orbit)))
     if output is not None:
         check_animation_output(output, fps)
     _check_fps(fps)
     axes = correct.labels if axes is None else axes
-    text_size = _text_size(correct.height)
+    text_size = sheet_text_size(correct.height)
     images, specs = [], []
-    for c, b in _progress(pairs, len(pairs), f"{bug.name} orbit {orbit}", progress):
-        rc, rb = _render(c), _render(b)
-        panels = [_panel("correct", rc.display, c, rc.result.camera, axes, text_size),
-                  _panel(f"buggy: {bug.name}", rb.display, b, rb.result.camera, axes, text_size)]
-        sheet = _assemble([panels], title=f"{bug.name}: {bug.summary}", caption=bug.caption, text_size=text_size)
+    for c, b in _frames(pairs, f"{bug.name} orbit {orbit}", progress):
+        panels = [chart_panel("correct", render_chart(c), axes, text_size),
+                  chart_panel(f"buggy: {bug.name}", render_chart(b), axes, text_size)]
+        sheet = assemble([panels], title=f"{bug.name}: {bug.summary}", caption=bug.caption, text_size=text_size)
         images.append(np.array(sheet))
         specs += [c, b]
     animation = Animation(_stack(images), float(fps), specs)
@@ -170,7 +164,6 @@ def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: 
 
 def _opaque(frames: np.ndarray) -> np.ndarray:
     """RGB frames for formats without alpha: transparent pixels over the chart background."""
-    from .compare import flatten
     if frames[..., 3].min() == 255:
         return np.ascontiguousarray(frames[..., :3])
     return np.stack([flatten(f)[..., :3] for f in frames])
@@ -206,12 +199,12 @@ def write_animation(path: str | Path, frames: np.ndarray, fps: float = DEFAULT_F
 
 
 # ---------------------------------------------------------------------------------------------
-# Command line: `sdfpbr chart --frames N` (cli.cmd_chart hands over here).
+# Command line: `sdfpbr chart --frames N` (cli.main.cmd_chart hands its spec over here).
 
-def cmd_chart_animation(args) -> int:
+def cmd_chart_animation(spec: ChartSpec, args) -> int:
+    """The chart command's --frames: ``spec`` parsed from the chart flags, ``args`` for the
+    outputs, frames, orbit, fps and -v."""
     import time
-    from ..cli.main import spec_from_args
-    spec = spec_from_args(args)
     if args.hdr or args.aov:
         raise SpecError("--hdr and --aov write single images; leave them out with --frames")
     orbit_specs(spec, args.frames, args.orbit)          # frames and orbit checked before rendering

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..oracle.furnace import FurnaceTable
 from ..spec.chart_spec import ChartSpec, make_spec
 
 GRAZING_N_DOT_V = 0.2
@@ -50,7 +51,6 @@ class CellEnergy:
 
 def cell_energy(result, spec: ChartSpec, table=None) -> list[CellEnergy]:
     """Per cell statistics of the mean over RGB of rendered and expected radiance."""
-    from .stress import FurnaceTable
     table = table or FurnaceTable()
     aov = result.aov
     cells = []

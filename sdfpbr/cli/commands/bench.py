@@ -64,7 +64,9 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from ...tools.bench import BenchConfig, format_table, run_bench, write_json, write_plot
+    from ...tools.bench.report import format_table, write_json, write_plot
+    from ...tools.bench.run import run_bench
+    from ...tools.bench.suite import BenchConfig
     from ...errors import SdfpbrError
     from ...image.io import check_writable
     from ...spec.chart_spec import parse_size

@@ -20,9 +20,12 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...tools.build import build, main_progress
-    manifest = build(args.charts, args.output, jobs=args.jobs, force=args.force,
-                     progress=None if args.quiet else main_progress, verbose=args.verbose)
+    import functools
+    import sys
+
+    from ...tools.gallery.build import build
+    log = None if args.quiet else functools.partial(print, file=sys.stderr, flush=True)
+    manifest = build(args.charts, args.output, jobs=args.jobs, force=args.force, log=log, verbose=args.verbose)
     n = len(manifest["images"])
     print(f"{args.output}: {n} images ({manifest['rendered']} rendered, {manifest['cached']} cached) "
           f"in {manifest['elapsed_s']:.1f} s")

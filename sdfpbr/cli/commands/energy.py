@@ -16,10 +16,11 @@ def register(sub) -> None:
 def run(args) -> int:
     import json
 
-    from ...api import get_renderer
+    from ...gpu.session import default_session
     from ..main import spec_from_args
     from ...tools.energy import cell_energy, format_table, furnace_spec, model_summary, to_json
-    from ...image.io import atomic_file, check_writable
+    from ...files import atomic_file
+    from ...image.io import check_writable
     from ...spec.chart_spec import ChartSpec
 
     spec = spec_from_args(args)
@@ -28,7 +29,7 @@ def run(args) -> int:
     if args.json and args.json != "-":
         check_writable(args.json, (".json",), "--json")
     spec = furnace_spec(spec, white=white)
-    result = get_renderer(spec.backend, spec.device_index).render(spec)
+    result = default_session(spec.backend, spec.device_index).render(spec)
     cells = cell_energy(result, spec)
     if args.json == "-":
         print(json.dumps(to_json(spec, cells, white), indent=1))

@@ -1,4 +1,4 @@
-"""``sdfpbr stress``: seeded sweeps over the edges (see sdfpbr/stress.py for the checks)."""
+"""``sdfpbr stress``: seeded sweeps over the edges (see sdfpbr/tools/stress/ for the checks)."""
 import argparse
 
 FULL_COUNT = 10_000
@@ -41,8 +41,10 @@ def run(args) -> int:
     from ...cache import ArrayCache
 
     from ...errors import OutputError
-    from ...image.io import atomic_file, check_writable
-    from ...tools.stress import generate_cases, make_renderers, run_sweep
+    from ...files import atomic_file
+    from ...image.io import check_writable
+    from ...tools.stress.cases import generate_cases
+    from ...tools.stress.runner import make_sessions, run_sweep
 
     failures_dir = None
     if args.failures:
@@ -58,11 +60,11 @@ def run(args) -> int:
     backends = ("egl", "osmesa") if args.backend == "all" else (args.backend,)
     cases = generate_cases(args.seed, count, quick=args.quick, backends=backends)
     with tempfile.TemporaryDirectory(prefix="sdfpbr-stress-") as tmp:
-        renderers, notes = make_renderers(cases, ArrayCache(Path(args.cache_dir or tmp)))
-        if not renderers:
+        sessions, notes = make_sessions(cases, ArrayCache(Path(args.cache_dir or tmp)))
+        if not sessions:
             from ...errors import GLUnavailable
             raise GLUnavailable("no backend could start: " + "; ".join(notes))
-        report = run_sweep(cases, renderers, notes, seed=args.seed, failures_dir=failures_dir,
+        report = run_sweep(cases, sessions, notes, seed=args.seed, failures_dir=failures_dir,
                            progress=args.progress)
     print(report.format())
     if failures_dir is not None and report.failures:

@@ -1,0 +1,96 @@
+"""The one way sdfpbr writes a file: under a temporary name beside the destination, fsynced, then
+renamed into place. A rename is atomic on one filesystem, so a reader sees no file or a
+complete one, never a torn one, and a failure never clobbers the old file.
+
+Temporary names carry the writer's pid (``.<name>.<random>.<pid>.tmp[<suffix>]``), so the
+temporaries of a killed writer can be told from a live writer's and removed
+(``remove_stale_temps``)."""
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Callable
+
+from .errors import OutputError
+
+# Matches the names atomic_path makes; group 1 is the writer's pid.
+TEMP_NAME = re.compile(r"^\..+\.(\d+)\.tmp(\.\w+)?$")
+
+
+@contextmanager
+def atomic_path(path: str | Path, suffix: str = ""):
+    """Yield a temporary path beside ``path`` (ending in ``suffix``, for writers that pick a
+    format by extension); rename it into place only if the block succeeds."""
+    p = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
+                                   suffix=f".{os.getpid()}.tmp{suffix}")
+        os.close(fd)
+    except OSError as exc:
+        raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+    try:
+        yield tmp
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, p)
+    except OSError as exc:
+        _unlink(tmp)
+        raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+    except BaseException:
+        _unlink(tmp)
+        raise
+
+
+@contextmanager
+def atomic_file(path: str | Path, before_rename: Callable[[], None] | None = None):
+    """A binary file object on a temporary beside ``path``, fsynced and renamed into place when
+    the block succeeds. ``before_rename`` runs between the fsync and the rename (a test hook)."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        if before_rename is not None:
+            before_rename()
+
+
+def write_bytes(path: str | Path, data: bytes, before_rename: Callable[[], None] | None = None) -> None:
+    with atomic_file(path, before_rename) as f:
+        f.write(data)
+
+
+def _unlink(path: str | Path) -> bool:
+    try:
+        os.unlink(path)
+        return True
+    except OSError:
+        return False
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:          # exists, owned by someone else
+        return True
+    return True
+
+
+def remove_stale_temps(directory: str | Path) -> int:
+    """Delete temporary files of writers that no longer run (a killed process); a live writer's
+    temporaries are left alone, so processes sharing a directory cannot hurt each other."""
+    try:
+        names = os.listdir(directory)
+    except OSError:
+        return 0
+    removed = 0
+    for name in names:
+        m = TEMP_NAME.match(name)
+        if m and not _alive(int(m.group(1))):
+            removed += _unlink(Path(directory) / name)
+    return removed

@@ -1,0 +1,65 @@
+"""Text for images: the font every chart, sheet and heat map is set in, and what it can draw.
+
+DejaVu Sans (Debian's fonts-dejavu-core, which .ci/run installs) draws α and ²; Pillow's
+embedded scalable font is the fallback when it is absent. That font covers little beyond
+ASCII, so characters it cannot draw are replaced by ASCII spellings ("α" -> "alpha",
+"²" -> "^2", "é" -> "e")."""
+from __future__ import annotations
+
+import unicodedata
+
+from PIL import ImageFont
+
+SYSTEM_FONTS = ("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "DejaVuSans.ttf")
+ASCII_FALLBACK = {"²": "^2", "³": "^3", "–": "-", "—": "-", "−": "-", "×": "x",
+                  "→": "->", "≈": "~", "µ": "u", "…": "..."}
+
+
+def load_font(size: int) -> ImageFont.FreeTypeFont:
+    for name in SYSTEM_FONTS:
+        try:
+            return ImageFont.truetype(name, int(size))
+        except OSError:
+            continue
+    return ImageFont.load_default(size=int(size))
+
+
+def drawable_text(text: str, font: ImageFont.FreeTypeFont) -> str:
+    """``text`` with the characters ``font`` has no glyph for replaced by ASCII spellings."""
+    missing = font.getmask("\U0010fffd")
+    missing_key = (missing.size, bytes(missing))
+
+    def has_glyph(ch: str) -> bool:
+        if ch.isspace():
+            return True
+        mask = font.getmask(ch)
+        return (mask.size, bytes(mask)) != missing_key
+
+    def fallback(ch: str) -> str:
+        if ch in ASCII_FALLBACK:
+            return ASCII_FALLBACK[ch]
+        name = unicodedata.name(ch, "")
+        if name.startswith("GREEK") and " LETTER " in name:
+            word = name.split()[-1].lower()
+            return word.capitalize() if "CAPITAL" in name else word
+        base = "".join(c for c in unicodedata.normalize("NFKD", ch) if not unicodedata.combining(c))
+        return base if base and base != ch and all(has_glyph(c) for c in base) else "?"
+
+    return "".join(ch if has_glyph(ch) else fallback(ch) for ch in text)
+
+
+def wrap_text(text: str, font: ImageFont.FreeTypeFont, width: float) -> list[str]:
+    """Greedy word wrap to ``width`` pixels (drawable text); explicit newlines start new
+    paragraphs."""
+    lines: list[str] = []
+    for paragraph in drawable_text(text, font).split("\n"):
+        line = ""
+        for word in paragraph.split():
+            trial = f"{line} {word}" if line else word
+            if not line or font.getlength(trial) <= width:
+                line = trial
+            else:
+                lines.append(line)
+                line = word
+        lines.append(line)
+    return lines

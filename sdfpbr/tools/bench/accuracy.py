@@ -1,0 +1,111 @@
+"""Accuracy: reference renders (cached on disk by scene, samples, seed, version and reference
+code) and the error columns of a chart against its reference."""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ... import __version__
+from ...spec.chart_spec import ChartSpec
+
+
+@dataclass
+class Reference:
+    hdr: np.ndarray
+    image: np.ndarray
+    stderr: np.ndarray
+    row: np.ndarray
+    col: np.ndarray
+    samples: int
+    seconds: float
+    cached: bool
+
+
+REFERENCE_MODULE = "sdfpbr.tools.reference"
+
+
+def reference_available() -> bool:
+    return importlib.util.find_spec(REFERENCE_MODULE) is not None
+
+
+def _reference_code_digest() -> str:
+    """The reference's code: its module (or every module of its package) and every shader (a
+    change re-renders references)."""
+    from ...shading.compose import shader_dir
+    found = importlib.util.find_spec(REFERENCE_MODULE)
+    if found.submodule_search_locations:
+        files = sorted(p for d in found.submodule_search_locations for p in Path(d).rglob("*.py"))
+    else:
+        files = [Path(found.origin)]
+    files += sorted(Path(str(shader_dir())).glob("*.glsl"))
+    h = hashlib.sha256()
+    for p in files:
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def reference_key(spec: ChartSpec, samples: int, seed: int) -> str:
+    from ...cache import content_key
+    d = spec.to_dict()
+    for k in ("quality", "backend", "device_index", "labels", "title"):
+        d.pop(k, None)
+    return content_key("bench-reference", d, samples, seed, __version__, _reference_code_digest())
+
+
+def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
+    from ..reference import render_reference
+    key = reference_key(spec, samples, seed)
+    cached = session.cache.get("bench-reference", key)
+    if cached is not None:
+        return Reference(cached["hdr"], cached["image"], cached["stderr"], cached["row"], cached["col"],
+                         int(cached["samples"]), float(cached["seconds"]), True)
+    if log:
+        log(f"reference: {spec.rows}x{spec.cols} {spec.width}x{spec.height}, {samples} samples/pixel ...")
+    start = time.perf_counter()
+    ref = render_reference(spec, samples=samples, seed=seed, session=session)
+    seconds = time.perf_counter() - start
+    aov = ref.aov
+    out = Reference(np.asarray(ref.hdr, np.float32), np.asarray(ref.image, np.uint8),
+                    np.asarray(ref.stderr, np.float32), np.asarray(aov["row"]), np.asarray(aov["col"]),
+                    int(np.max(ref.samples)), seconds, False)
+    session.cache.put("bench-reference", key, {"hdr": out.hdr, "image": out.image, "stderr": out.stderr,
+                                                "row": out.row, "col": out.col, "samples": np.array(out.samples),
+                                                "seconds": np.array(seconds)})
+    return out
+
+
+def error_columns(result, ref: Reference, spec: ChartSpec, heatmap_path: Path | None = None,
+                  heatmap_title: str = "") -> dict:
+    from ...image import metrics
+    mask = (ref.row >= 0) & (ref.col >= 0)
+    flip_mean, flip_map = metrics.flip_ldr(result.image, ref.image)
+    hdr_flip, _ = metrics.flip_hdr(np.maximum(result.hdr, 0.0), np.maximum(ref.hdr, 0.0))
+    cols = {
+        "flip_mean": flip_mean,
+        "flip_sphere_mean": float(flip_map[mask].mean()) if mask.any() else None,
+        "hdr_flip_mean": hdr_flip,
+        "rel_rmse": metrics.rel_rmse(result.hdr, ref.hdr, mask=mask if mask.any() else None),
+        "flip_cells": metrics.per_cell_mean(flip_map, ref.row, ref.col, spec.rows, spec.cols).tolist(),
+        "rel_rmse_cells": metrics.per_cell_rel_rmse(result.hdr, ref.hdr, ref.row, ref.col,
+                                                    spec.rows, spec.cols).tolist(),
+        "ref_samples": ref.samples,
+        "ref_seconds": ref.seconds,
+    }
+    # The reference's own noise: its mean standard error and the rel RMSE that noise alone gives.
+    err = ref.stderr if ref.stderr.ndim == 3 else ref.stderr[..., None]
+    if err.shape[:2] == ref.hdr.shape[:2] and mask.any():
+        e2 = (err.astype(np.float64) ** 2 / (ref.hdr.astype(np.float64) ** 2 + metrics.DEFAULT_EPS)).mean(axis=2)
+        cols["ref_stderr"] = float(err[mask].mean())
+        cols["ref_rel_noise"] = float(np.sqrt(e2[mask].mean()))
+    if heatmap_path is not None:
+        from ...image.io import write_png
+        # A fixed 0..1 scale, FLIP's own range, so heat maps of different presets compare.
+        title = f"LDR FLIP vs reference: {heatmap_title}  (mean {flip_mean:.4f}, {ref.samples} spp reference)"
+        write_png(heatmap_path, metrics.heatmap_image(flip_map, title=title, vmin=0.0, vmax=1.0))
+    return cols

@@ -1,0 +1,42 @@
+"""Cold starts: wall time of fresh ``python -m sdfpbr chart`` processes with Mesa's shader
+cache off, with an empty and then a filled sdfpbr disk cache."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+from ...errors import SdfpbrError
+from ...spec.chart_spec import make_spec
+from ...spec.fields import spec_to_flags
+from .suite import BenchConfig
+
+
+def cli_flags(overrides: dict, preset: str, width: int, height: int, backend: str) -> list[str]:
+    """`sdfpbr chart` flags for a scene's overrides, written by the field table."""
+    return spec_to_flags(make_spec(width=width, height=height, quality=preset, backend=backend, **overrides))
+
+
+def cold_chart_seconds(flags: list[str], cache_dir: str, workdir: str) -> float:
+    """Wall time of a fresh `python -m sdfpbr chart` with Mesa's shader cache off."""
+    env = dict(os.environ, MESA_SHADER_CACHE_DISABLE="true", SDFPBR_CACHE_DIR=cache_dir)
+    cmd = [sys.executable, "-m", "sdfpbr", "chart", "-o", os.path.join(workdir, "chart.png"), *flags]
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or ["no message"])[-1]
+        raise SdfpbrError(f"bench: cold `sdfpbr chart {' '.join(flags)}` failed: {last}")
+    return seconds
+
+
+def cold_times(overrides: dict, preset: str, cfg: BenchConfig) -> tuple[float, float]:
+    """(empty sdfpbr cache, filled sdfpbr cache) seconds, both with Mesa's cache off."""
+    flags = cli_flags(overrides, preset, cfg.width, cfg.height, cfg.backend)
+    with tempfile.TemporaryDirectory(prefix="sdfpbr-bench-") as tmp:
+        cache = os.path.join(tmp, "cache")
+        cold = cold_chart_seconds(flags, cache, tmp)
+        warm = cold_chart_seconds(flags, cache, tmp)
+    return cold, warm

@@ -1,0 +1,210 @@
+"""Gallery entries: a TOML document (a chart spec, a [compare] or a [sweep]) -> the images it
+makes, fully resolved and validated before anything is rendered."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...errors import SpecError
+from ...spec.chart_spec import ENV_PRESETS, ChartSpec, load_spec, spec_from_mapping
+from ...spec.fields import ENTRY_SECTIONS, field_value, resolve_field, split_entry
+from ...spec.toml_file import read_toml
+
+
+@dataclass(frozen=True)
+class Item:
+    """One image of a gallery, fully resolved: what to render and everything its key covers."""
+    name: str                       # output stem: OUT/<name>.png
+    entry: str                      # where it came from (file name, or docname:line)
+    kind: str                       # chart, compare, compare-specs, bug-sheet or sweep
+    document: dict                  # the entry document this image is made from
+    specs: tuple[ChartSpec, ...]    # every spec the image renders
+    caption: str
+    params: dict                    # what the gallery prints beside the image
+    base: ChartSpec | None = None   # comparisons and sweeps: the [spec] base
+    bug: str = ""                   # compare: the bug
+    bug_names: tuple[str, ...] = ()
+    labels: tuple[str, ...] = ()
+    sweep_field: str = ""
+    sweep_values: tuple = ()
+
+    @property
+    def canonical(self) -> str:
+        return json.dumps(self.document, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
+
+
+def _catalog():
+    try:
+        from ...spec import bugs
+    except ImportError:
+        raise SpecError("comparison entries need the bug catalog (sdfpbr.bugs), which this install lacks") from None
+    return bugs
+
+
+def _spec_overrides(spec: ChartSpec) -> dict:
+    """The keys where ``spec`` differs from the defaults: a short parameter list for people."""
+    default = ChartSpec().to_dict()
+    return {k: v for k, v in spec.to_dict().items() if default.get(k) != v}
+
+
+def _resolve_env(mapping: dict, base_dir: Path) -> dict:
+    """A relative env file in an entry is relative to the entry, not to the working directory."""
+    env = mapping.get("env")
+    if isinstance(env, str) and env not in ENV_PRESETS and not Path(env).is_absolute():
+        candidate = base_dir / env
+        if candidate.exists():
+            return {**mapping, "env": str(candidate)}
+    return mapping
+
+
+def _table(data: dict, key: str, where: str) -> dict:
+    value = data.get(key, {})
+    if not isinstance(value, dict):
+        raise SpecError(f"{where}: {key} must be a table ([{key}]), got {value!r}")
+    return value
+
+
+def _text(value, what: str, where: str) -> str:
+    if not isinstance(value, str):
+        raise SpecError(f"{where}: {what} must be text, got {value!r}")
+    return value
+
+
+def parse_entry(data: dict, where: str, base_dir: Path, stem: str) -> list[Item]:
+    """The images one entry document describes. Raises SpecError naming ``where``."""
+    spec_keys, entry = split_entry(data, where)
+    caption = _text(entry.get("caption", ""), "caption", where)
+    section = next((k for k in ENTRY_SECTIONS if k in entry), None)
+    if section is None:
+        spec = spec_from_mapping(_resolve_env(spec_keys, base_dir), where=where)
+        return [Item(stem, where, "chart", data, (spec,), caption or spec.title,
+                     {"spec": _spec_overrides(spec)})]
+    base = spec_from_mapping(_resolve_env(spec_keys, base_dir), where=f"{where} [spec]")
+    table = _table(entry, section, where)
+    if section == "sweep":
+        return [_sweep_item(data, table, base, caption, where, stem)]
+    return _compare_items(data, table, base, caption, where, base_dir, stem)
+
+
+def _sweep_item(data, table, base, caption, where, stem) -> Item:
+    unknown = sorted(set(table) - {"field", "values"})
+    if unknown:
+        raise SpecError(f"{where}: unknown [sweep] key {unknown[0]!r}; allowed: field, values")
+    name = _text(table.get("field"), "[sweep] field", where)
+    values = table.get("values")
+    if not isinstance(values, list) or not values:
+        raise SpecError(f"{where}: [sweep] values must be a non-empty list, got {values!r}")
+    try:
+        attr = resolve_field(name).name
+    except SpecError as exc:
+        raise SpecError(f"{where}: [sweep] {exc}") from None
+    if attr == "size":
+        raise SpecError(f"{where}: sweep width or height, not size")
+    specs, parsed = [], []
+    for value in values:
+        spec = spec_from_mapping({name: value}, base, where=f"{where} [sweep]")
+        specs.append(spec)
+        parsed.append(field_value(spec, attr))
+    default = caption or f"The same chart across {attr.replace('_', ' ')}: {', '.join(map(str, values))}."
+    return Item(stem, where, "sweep", data, tuple(specs), default,
+                {"sweep": attr, "values": values, "spec": _spec_overrides(base)}, base,
+                sweep_field=attr, sweep_values=tuple(parsed))
+
+
+def _compare_items(data, table, base, caption, where, base_dir, stem) -> list[Item]:
+    unknown = sorted(set(table) - {"bug", "bugs", "a", "b", "labels"})
+    if unknown:
+        raise SpecError(f"{where}: unknown [compare] key {unknown[0]!r}; allowed: bug, bugs, a, b, labels")
+    forms = [k for k in ("bug", "bugs", "a") if k in table]
+    if len(forms) != 1 or (("a" in table) != ("b" in table)):
+        raise SpecError(f"{where}: [compare] needs exactly one of bug = NAME, bugs = \"all\"|\"each\"|[NAMES], "
+                        f"or a = FILE and b = FILE")
+    overrides = _spec_overrides(base)
+    if "a" in table:
+        paths = [_text(table[k], f"[compare] {k}", where) for k in ("a", "b")]
+        labels = table.get("labels", [Path(p).stem for p in paths])
+        if not (isinstance(labels, list) and len(labels) == 2 and all(isinstance(s, str) for s in labels)):
+            raise SpecError(f"{where}: [compare] labels must be two strings, got {labels!r}")
+        specs = tuple(load_spec(_resolve_file(p, base_dir, where), base) for p in paths)
+        default = caption or f"{labels[0]} vs {labels[1]}."
+        return [Item(stem, where, "compare-specs", data, specs, default,
+                     {"a": paths[0], "b": paths[1], "spec": overrides}, base, labels=tuple(labels))]
+    if "labels" in table:
+        raise SpecError(f"{where}: [compare] labels go with a and b")
+    bugs = _catalog()
+    if "bug" in table:
+        bug = _bug(bugs, table["bug"], where)
+        return [_bug_item(stem, where, data, base, bug, caption, overrides)]
+    names = table["bugs"]
+    if names == "each":
+        items = []
+        for bug in bugs.BUGS.values():
+            doc = {**data, "compare": {"bug": bug.name}}
+            items.append(_bug_item(f"{stem}-{bug.name}", where, doc, base, bug, caption, overrides))
+        return items
+    if names == "all":
+        chosen = list(bugs.BUGS.values())
+    elif isinstance(names, list) and names:
+        chosen = [_bug(bugs, n, where) for n in names]
+    else:
+        raise SpecError(f"{where}: [compare] bugs must be \"all\", \"each\" or a list of bug names, got {names!r}")
+    specs = [s for bug in chosen for s in _bug_specs(base, bug.name)]
+    unique = tuple({json.dumps(s.to_dict(), sort_keys=True, default=str): s for s in specs}.values())
+    default = caption or "Every bug of the catalog against the correct chart."
+    return [Item(stem, where, "bug-sheet", data, unique, default,
+                 {"bugs": [b.name for b in chosen], "spec": overrides}, base,
+                 bug_names=tuple(b.name for b in chosen))]
+
+
+def _bug(bugs, name, where):
+    if not isinstance(name, str):
+        raise SpecError(f"{where}: a bug name must be text, got {name!r}")
+    try:
+        return bugs.get_bug(name)
+    except SpecError as exc:
+        raise SpecError(f"{where}: {exc}") from None
+
+
+def _bug_specs(base: ChartSpec, name: str) -> tuple[ChartSpec, ChartSpec]:
+    """(correct, buggy) exactly as the comparison renders them."""
+    from ..compare import bug_pair
+    _, correct, buggy = bug_pair(base, name)
+    return correct, buggy
+
+
+def _bug_item(name, where, doc, base, bug, caption, overrides) -> Item:
+    specs = _bug_specs(base, bug.name)
+    return Item(name, where, "compare", doc, specs, caption or bug.caption,
+                {"bug": bug.name, "summary": bug.summary, "spec": overrides}, base, bug=bug.name)
+
+
+def _resolve_file(path: str, base_dir: Path, where: str) -> Path:
+    p = Path(path)
+    p = p if p.is_absolute() else base_dir / p
+    if not p.is_file():
+        raise SpecError(f"{where}: [compare] file {path} does not exist (relative to {base_dir})")
+    return p
+
+
+def load_entry(path: Path) -> list[Item]:
+    return parse_entry(read_toml(path, "entry"), str(path), path.parent, path.stem)
+
+
+def collect(chart_dir: str | Path) -> list[Item]:
+    """Every image of the gallery in ``chart_dir``, validated before anything is rendered."""
+    root = Path(chart_dir)
+    if not root.is_dir():
+        raise SpecError(f"chart directory {root} does not exist" if not root.exists()
+                        else f"{root} is not a directory of chart entries")
+    files = sorted(p for p in root.glob("*.toml") if p.is_file())
+    if not files:
+        raise SpecError(f"{root} holds no *.toml chart entries")
+    items, seen = [], {}
+    for path in files:
+        for item in load_entry(path):
+            if item.name in seen:
+                raise SpecError(f"{path}: image {item.name}.png is also made by {seen[item.name]}")
+            seen[item.name] = path.name
+            items.append(item)
+    return items

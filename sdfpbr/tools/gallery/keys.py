@@ -1,0 +1,112 @@
+"""An image's cache key: everything that decides its pixels (entry, specs, composed programs,
+the Python that makes images, the GL renderer), hashed."""
+from __future__ import annotations
+
+import hashlib
+import re
+from pathlib import Path
+from typing import Sequence
+
+from ... import __version__
+from ...cache import content_key
+from ...spec.chart_spec import ENV_PRESETS, ChartSpec
+from .entries import Item
+
+# The modules that make an image; the key hashes them and every sdfpbr module they import.
+IMAGE_MODULES = ("sdfpbr.api", "sdfpbr.tools.compare")
+FORMAT = "sdfpbr-build-1"    # bump when the build changes what it writes into an image
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]     # the sdfpbr package directory
+
+
+def program_sources(spec: ChartSpec) -> list:
+    """The composed source of every GL program a render of ``spec`` runs: the render plan's."""
+    from ...shading.plan import render_plan
+    return render_plan(spec).sources()
+
+
+def item_modules(item: Item) -> set[str]:
+    """Every shader module the item's renders include."""
+    return {m for spec in item.specs for src in program_sources(spec) for m in src.modules}
+
+
+def _file_digest(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _spec_for_key(spec: ChartSpec) -> dict:
+    """to_dict, with each named file (env, textures) replaced by its content hash, so the key
+    follows what a file holds, not where the checkout lives."""
+    out = {}
+    for k, v in spec.to_dict().items():
+        names_file = k == "env" and v not in ENV_PRESETS or k.endswith("_texture")
+        if names_file and isinstance(v, str) and v and Path(v).is_file():
+            v = "sha256:" + _file_digest(v)
+        out[k] = v
+    return out
+
+
+_IMPORT = re.compile(r"^\s*from (\.+)([\w.]*) import ([\w, ()]+)", re.M)
+
+
+def image_modules() -> list[Path]:
+    """The Python sources an image depends on: IMAGE_MODULES and, transitively, every sdfpbr
+    module they import (relative imports, resolved across subpackages). A change to any of
+    them re-renders; other modules (the CLI, the numpy mirror, benchmarks) do not."""
+    from importlib.util import resolve_name
+    package = PACKAGE_ROOT
+
+    def source(dotted: str) -> Path | None:
+        base = package.joinpath(*dotted.split(".")[1:])
+        for path in (base.with_suffix(".py"), base / "__init__.py"):
+            if path.is_file():
+                return path
+        return None
+
+    seen: dict[str, Path] = {}
+    todo = list(IMAGE_MODULES)
+    while todo:
+        name = todo.pop()
+        path = source(name)
+        if name in seen or path is None:
+            continue
+        seen[name] = path
+        anchor = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        for dots, module, names in _IMPORT.findall(path.read_text()):
+            if module:
+                todo.append(resolve_name(dots + module, anchor))
+            else:   # "from . import a, b": the names may be modules of that package
+                pkg = resolve_name(dots, anchor)
+                todo += [f"{pkg}.{n.strip(' ()').split(' as ')[0]}" for n in names.split(",") if n.strip(" ()")]
+    return [seen[name] for name in sorted(seen)]
+
+
+_code_digest_memo: str | None = None
+
+
+def code_digest() -> str:
+    """sha256 of image_modules(), computed once per process."""
+    global _code_digest_memo
+    if _code_digest_memo is None:
+        h = hashlib.sha256()
+        for path in image_modules():
+            h.update(path.relative_to(PACKAGE_ROOT).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+        _code_digest_memo = h.hexdigest()
+    return _code_digest_memo
+
+
+def gl_renderers(items: Sequence[Item]) -> dict[tuple[str, int], str]:
+    """The GL renderer string of every (backend, device) the items use; makes the contexts."""
+    from ...gpu.session import default_session
+    pairs = sorted({(s.backend, s.device_index) for item in items for s in item.specs})
+    return {p: default_session(*p).renderer for p in pairs}
+
+
+def item_key(item: Item, renderers: dict[tuple[str, int], str]) -> str:
+    specs = [_spec_for_key(s) for s in item.specs]
+    sources = [[src.text for src in program_sources(s)] for s in item.specs]
+    gl = sorted({renderers[(s.backend, s.device_index)] for s in item.specs})
+    return content_key(FORMAT, __version__, code_digest(), gl, item.kind, item.canonical, specs, sources)
