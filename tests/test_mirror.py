@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import display, mirror
 
 # REFERENCE §2: (r, mu, E, A, B), height-correlated visibility, F = 1.
 DFG_TABLE = [
@@ -322,68 +322,68 @@ def test_brdf_no_nan_at_edges():
 @pytest.mark.parametrize("x, rein, nark, hill, neutral", TONE_TABLE)
 def test_tonemap_reference_values(x, rein, nark, hill, neutral):
     g = np.full(3, x)
-    assert mirror.tonemap(g, "reinhard") == pytest.approx([rein] * 3, abs=1e-6)
-    assert mirror.tonemap(g, "aces") == pytest.approx([nark] * 3, abs=1e-6)
-    assert mirror.tonemap(g, "neutral") == pytest.approx([neutral] * 3, abs=1e-6)
+    assert display.tonemap(g, "reinhard") == pytest.approx([rein] * 3, abs=1e-6)
+    assert display.tonemap(g, "aces") == pytest.approx([nark] * 3, abs=1e-6)
+    assert display.tonemap(g, "neutral") == pytest.approx([neutral] * 3, abs=1e-6)
     # Hill: R and G rows of the published matrices sum exactly to 1; the last output row
     # sums to 0.99999, so B sits up to ~6e-6 lower (checked in the gray test below).
-    assert mirror.tonemap(g, "aces-hill")[:2] == pytest.approx([hill] * 2, abs=1e-6)
+    assert display.tonemap(g, "aces-hill")[:2] == pytest.approx([hill] * 2, abs=1e-6)
 
 
 def test_aces_hill_gray_stays_gray():
     for x in (0.0, 0.01, 0.18, 1.0, 4.0, 16.0):
-        out = mirror.tonemap(np.full(3, x), "aces-hill")
+        out = display.tonemap(np.full(3, x), "aces-hill")
         assert np.ptp(out) < 1e-5, (x, out)  # a transposed (column-major) matrix gives ~0.1
     # And it is not a per-channel curve: a saturated red bleeds into G and B.
-    red = mirror.tonemap(np.array([1.0, 0.0, 0.0]), "aces-hill")
+    red = display.tonemap(np.array([1.0, 0.0, 0.0]), "aces-hill")
     assert red[1] > 0.0 or red[2] > 0.0
     # Stacked pixels (..., 3) work.
-    assert mirror.tonemap(np.full((4, 5, 3), 0.18), "aces-hill").shape == (4, 5, 3)
+    assert display.tonemap(np.full((4, 5, 3), 0.18), "aces-hill").shape == (4, 5, 3)
 
 
 def test_other_tonemappers():
     x = np.array([-0.5, 0.5, 5.0])
-    assert mirror.tonemap(x, "none").tolist() == [-0.5, 0.5, 5.0]
-    assert mirror.tonemap(x, "clamp").tolist() == [0.0, 0.5, 1.0]
+    assert display.tonemap(x, "none").tolist() == [-0.5, 0.5, 5.0]
+    assert display.tonemap(x, "clamp").tolist() == [0.0, 0.5, 1.0]
     # Extended Reinhard maps the white point (4.0 by default) to exactly 1.
-    assert mirror.tonemap(np.full(3, 4.0), "reinhard-extended") == pytest.approx([1.0] * 3)
-    assert mirror.tonemap(np.full(3, 2.0), "reinhard-extended", white=2.0) == pytest.approx([1.0] * 3)
-    assert mirror.tonemap(np.full(3, 1.0), "reinhard-extended") == pytest.approx([1 * (1 + 1 / 16) / 2] * 3)
-    assert set(mirror.TONEMAPPERS) == {"none", "clamp", "reinhard", "reinhard-extended",
+    assert display.tonemap(np.full(3, 4.0), "reinhard-extended") == pytest.approx([1.0] * 3)
+    assert display.tonemap(np.full(3, 2.0), "reinhard-extended", white=2.0) == pytest.approx([1.0] * 3)
+    assert display.tonemap(np.full(3, 1.0), "reinhard-extended") == pytest.approx([1 * (1 + 1 / 16) / 2] * 3)
+    assert set(display.TONEMAPPERS) == {"none", "clamp", "reinhard", "reinhard-extended",
                                        "aces", "aces-hill", "neutral"}
-    for name in mirror.TONEMAPPERS:
-        assert mirror.tonemap(np.full((2, 3), 0.5), name).shape == (2, 3)
+    for name in display.TONEMAPPERS:
+        assert display.tonemap(np.full((2, 3), 0.5), name).shape == (2, 3)
     with pytest.raises(ValueError):
-        mirror.tonemap(x, "filmic")
+        display.tonemap(x, "filmic")
 
 
 def test_neutral_below_knee_is_offset_only():
     # Below the knee only the toe offset applies: x - (m - 6.25 m^2) for min channel m < 0.08.
     c = np.array([0.05, 0.3, 0.5])
     m = 0.05
-    assert mirror.tonemap(c, "neutral") == pytest.approx(c - (m - 6.25 * m * m), abs=1e-12)
+    assert display.tonemap(c, "neutral") == pytest.approx(c - (m - 6.25 * m * m), abs=1e-12)
 
 
 def test_srgb_and_gamma():
-    assert mirror.srgb_oetf([0.18, 0.01, 0.001]) == pytest.approx([0.461356, 0.099853, 0.012920], abs=1e-6)
-    assert mirror.gamma_oetf([0.18, 0.01, 0.001]) == pytest.approx([0.458656, 0.123285, 0.043288], abs=1e-6)
-    assert mirror.srgb_oetf([-1.0, 2.0]) == pytest.approx([0.0, 1.0], abs=1e-15)
+    assert display.srgb_oetf([0.18, 0.01, 0.001]) == pytest.approx([0.461356, 0.099853, 0.012920], abs=1e-6)
+    assert display.gamma_oetf([0.18, 0.01, 0.001]) == pytest.approx([0.458656, 0.123285, 0.043288], abs=1e-6)
+    assert display.srgb_oetf([-1.0, 2.0]) == pytest.approx([0.0, 1.0], abs=1e-15)
     x = np.linspace(0, 1, 1001)
-    assert mirror.srgb_eotf(mirror.srgb_oetf(x)) == pytest.approx(x, abs=1e-12)
-    assert mirror.srgb_eotf(0.461356) == pytest.approx(0.18, abs=1e-6)
+    assert display.srgb_eotf(display.srgb_oetf(x)) == pytest.approx(x, abs=1e-12)
+    assert display.srgb_eotf(0.461356) == pytest.approx(0.18, abs=1e-6)
 
 
 def test_encode_srgb8():
-    out = mirror.encode_srgb8(np.array([0.18, 0.0, 4.0]), tonemap="none")
+    out = display.encode_srgb8(np.array([0.18, 0.0, 4.0]), tonemap="none")
     assert out.dtype == np.uint8
     assert out.tolist() == [round(0.461356 * 255), 0, 255]
     # Exposure comes before the tone map: 0.09 at +1 EV reads as 0.18.
-    assert mirror.encode_srgb8(np.full(3, 0.09), exposure_ev=1.0, tonemap="none").tolist() == [118] * 3
+    assert display.encode_srgb8(np.full(3, 0.09), exposure_ev=1.0, tonemap="none").tolist() == [118] * 3
     # Default ACES (Narkowicz): 1.0 -> 0.803797 -> sRGB.
     expect = round(srgb_formula(0.803797) * 255)
-    assert mirror.encode_srgb8(np.ones((2, 2, 3))).tolist() == [[[expect] * 3] * 2] * 2
+    assert display.encode_srgb8(np.ones((2, 2, 3))).tolist() == [[[expect] * 3] * 2] * 2
     # Reinhard at 1.0 -> 0.5 -> 0.735357 -> 188.
-    assert mirror.encode_srgb8(np.ones(3), tonemap="reinhard").tolist() == [round(srgb_formula(0.5) * 255)] * 3
+    assert display.encode_srgb8(np.ones(3), tonemap="reinhard").tolist() == [round(srgb_formula(0.5) * 255)] * 3
 
 
 # --- helpers ------------------------------------------------------------------

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import display, mirror
 from sdfpbr.shading.plan import render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
 
@@ -139,14 +139,14 @@ def test_narkowicz_aces_overflows_in_half_but_its_curve_is_flat_there():
     curve is exactly 1 (clamped) from x = 7.3 on, so capping the input loses nothing."""
     x = np.array([[100.0] * 3, [200.0] * 3, [1e4] * 3])
     with np.errstate(all="ignore"):
-        half = mirror.tonemap(x, "aces", dtype=HALF)
+        half = display.tonemap(x, "aces", dtype=HALF)
     assert np.isfinite(half[0]).all() and np.isnan(half[2]).all()
-    exact = mirror.tonemap(x, "aces")
+    exact = display.tonemap(x, "aces")
     assert np.all(exact == 1.0)
-    assert mirror.tonemap(np.array([7.3] * 3), "aces")[0] == 1.0
+    assert display.tonemap(np.array([7.3] * 3), "aces")[0] == 1.0
 
 
-@pytest.mark.parametrize("name", mirror.TONEMAPPERS)
+@pytest.mark.parametrize("name", display.TONEMAPPERS)
 def test_the_tone_map_input_cap_changes_no_display_value(name):
     """tonemap.glsl caps its input at TONEMAP_INPUT_MAX so the ACES fits cannot overflow fp32;
     every curve is display white long before, so the 8-bit sRGB output is bit-identical for
@@ -157,15 +157,15 @@ def test_the_tone_map_input_cap_changes_no_display_value(name):
     dark = rng.random(20000) < 0.3                       # saturated colours: one channel at 0
     x[dark, rng.integers(0, 3, 20000)[dark]] = 0.0
     for white in (make_spec().reinhard_white, 1e-3, 1e6):
-        capped = np.minimum(x, mirror.TONEMAP_INPUT_MAX)
-        enc = [np.rint(mirror.srgb_oetf(mirror.tonemap(v, name, white=white)) * 255) for v in (x, capped)]
+        capped = np.minimum(x, display.TONEMAP_INPUT_MAX)
+        enc = [np.rint(display.srgb_oetf(display.tonemap(v, name, white=white)) * 255) for v in (x, capped)]
         np.testing.assert_array_equal(enc[0], enc[1])
 
 
 def test_the_cap_is_in_the_display_program():
     import re
     text = render_plan(make_spec()).display.text
-    assert float(re.search(r"#define TONEMAP_INPUT_MAX (\S+)", text).group(1)) == mirror.TONEMAP_INPUT_MAX
+    assert float(re.search(r"#define TONEMAP_INPUT_MAX (\S+)", text).group(1)) == display.TONEMAP_INPUT_MAX
     assert "x = min(x, vec3(TONEMAP_INPUT_MAX));" in text
 
 

@@ -4,7 +4,7 @@ import shutil
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import display, mirror
 from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program as compose, render_plan
 from sdfpbr.gpu.programs import set_uniforms
@@ -145,9 +145,9 @@ def test_display_program_matches_reference(ctx, session, name):
     set_uniforms(program, {"u_radiance": 0, "u_exposure_scale": 1.0, "u_reinhard_white": 4.0})
     ctx.vertex_array(program, []).render(moderngl.TRIANGLES, vertices=3)
     out = np.frombuffer(target.read(), np.float32).reshape(len(values), 4)[:, :3]
-    linear_out = mirror.srgb_eotf(out)
-    want = mirror.tonemap(hdr[0, :, :3].astype(np.float64), name)
-    np.testing.assert_allclose(out, mirror.srgb_oetf(want), atol=2e-5)
+    linear_out = display.srgb_eotf(out)
+    want = display.tonemap(hdr[0, :, :3].astype(np.float64), name)
+    np.testing.assert_allclose(out, display.srgb_oetf(want), atol=2e-5)
     if name in TONEMAP_TABLE:
         np.testing.assert_allclose(linear_out[:3, 1], TONEMAP_TABLE[name], atol=2e-5)
         assert np.ptp(linear_out[:3], axis=1).max() < 2e-5        # gray stays gray

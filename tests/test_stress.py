@@ -7,7 +7,6 @@ import shutil
 import subprocess
 import sys
 from contextlib import redirect_stdout
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -153,7 +152,7 @@ def test_generation_is_seeded_and_covers_the_edges():
 
 def test_failing_configurations_round_trip_as_toml(tmp_path):
     for case in stress_cases.generate_cases(seed=2, count=80)[::3]:
-        path = stress_report.write_failure(tmp_path, runner.Outcome(case, ["planted"]))
+        path = stress_report.write_failure(tmp_path, stress_cases.Outcome(case, ["planted"]))
         assert load_spec(path) == case.spec
         assert "planted" in path.read_text().splitlines()[1]
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.oracle.mirror import srgb_eotf
+from sdfpbr.oracle.display import srgb_eotf
 from sdfpbr.spec.chart_spec import ChartSpec, make_spec
 from sdfpbr.gpu.textures import procedural_set
 

@@ -9,30 +9,65 @@ import time
 from ..errors import SdfpbrError, SpecError, did_you_mean
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
     """argparse, but a usage error is one line with a suggestion, exit status 2, and '_' in an
-    option name is the same as '-' (``--base_color`` is ``--base-color``), as in TOML keys."""
+    option name is the same as '-' (``--base_color`` is ``--base-color``), as in TOML keys.
+    It keeps its own record of the arguments it was given (``arguments``, ``subcommands``) so
+    that suggestions and generated options never read argparse's internals."""
+
+    def __init__(self, *args, **kwargs):
+        self.arguments: list[argparse.Action] = []   # before argparse adds --help through add_argument
+        super().__init__(*args, **kwargs)
+        self.subcommands: dict[str, "Parser"] = {}
+        self.dash_values: set[str] = set()   # options whose value may start with '-' (sweep --values -2,0,2)
+
+    def add_argument(self, *args, **kwargs):
+        action = super().add_argument(*args, **kwargs)
+        self.arguments.append(action)
+        return action
+
+    def add_subparsers(self, **kwargs):
+        action = super().add_subparsers(**kwargs)
+        self.arguments.append(action)
+        add_parser = action.add_parser
+
+        def record(name, **kw):
+            parser = add_parser(name, **kw)
+            self.subcommands[name] = parser
+            return parser
+        action.add_parser = record
+        return action
+
+    def option_strings(self) -> set[str]:
+        return {s for a in self.arguments for s in a.option_strings}
 
     def parse_known_args(self, args=None, namespace=None):
         args = sys.argv[1:] if args is None else list(args)
-        if "--" in args:
-            cut = args.index("--")
-            args = [_dashed(a) for a in args[:cut]] + args[cut:]
-        else:
-            args = [_dashed(a) for a in args]
-        return super().parse_known_args(args, namespace)
+        cut = args.index("--") if "--" in args else len(args)
+        args = [_dashed(a) for a in args[:cut]] + args[cut:]
+        # "--values -2,0,2" -> "--values=-2,0,2": argparse reads a value that starts with '-'
+        # as an option unless it is a plain negative number.
+        joined, i = [], 0
+        while i < len(args):
+            if args[i] in self._dash_value_options() and i + 1 < len(args) and args[i + 1].startswith("-"):
+                joined.append(f"{args[i]}={args[i + 1]}")
+                i += 2
+            else:
+                joined.append(args[i])
+                i += 1
+        return super().parse_known_args(joined, namespace)
+
+    def _dash_value_options(self) -> set[str]:
+        return self.dash_values.union(*(p.dash_values for p in self.subcommands.values()))
 
     def error(self, message: str):
         m = re.search(r"unrecognized arguments: (\S+)", message)
         if m:
-            known = [s for a in self._actions for s in a.option_strings]
-            for sub in self._subparsers._group_actions if self._subparsers else []:
-                for p in getattr(sub, "choices", {}).values():
-                    known += [s for a in p._actions for s in a.option_strings]
-            message += did_you_mean(m.group(1).split("=")[0], known)
+            known = self.option_strings().union(*(p.option_strings() for p in self.subcommands.values()))
+            message += did_you_mean(m.group(1).split("=")[0], sorted(known))
         m = re.search(r"argument (.+?): invalid choice: '(.*?)' \(choose from", message)
         if m:
-            action = next((a for a in self._actions if m.group(1) in ("/".join(a.option_strings), a.metavar, a.dest)),
+            action = next((a for a in self.arguments if m.group(1) in ("/".join(a.option_strings), a.metavar, a.dest)),
                           None)
             choices = list(getattr(action, "choices", None) or [])
             if m.group(1) == "command":
@@ -52,14 +87,14 @@ def _dashed(arg: str) -> str:
     return name.replace("_", "-") + eq + value
 
 
-def add_chart_options(p: argparse.ArgumentParser) -> None:
+def add_chart_options(p: Parser) -> None:
     """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
     one per field of the spec table, named as the field, plus its aliases. A flag the command
     already defines for itself (compare's --bugs and --labels) is left to the command."""
     from ..spec.fields import FIELDS
     p.add_argument("--spec", metavar="FILE.toml", help="a TOML spec; flags given here override it")
-    taken = set(p._option_string_actions)
-    used_dests = {a.dest for a in p._actions}
+    taken = p.option_strings()
+    used_dests = {a.dest for a in p.arguments}
     dests = {}
     for f in FIELDS:
         dest = f.name if f.name not in used_dests else f"spec_{f.name}"
@@ -150,9 +185,9 @@ def cmd_doctor(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
-    parser = _Parser(prog="sdfpbr", description="Physically based material charts, rendered headless.")
+    parser = Parser(prog="sdfpbr", description="Physically based material charts, rendered headless.")
     parser.add_argument("--version", action="version", version=f"sdfpbr {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
 
     p = sub.add_parser("chart", help="render a labeled roughness x metallic chart")
     p.add_argument("-o", "--output", default="chart.png", help="PNG path (default chart.png)")

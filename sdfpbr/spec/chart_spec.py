@@ -123,6 +123,18 @@ def load_spec(path: str | Path, base: ChartSpec | None = None) -> ChartSpec:
     return spec_from_mapping(spec_mapping, base, where=where)
 
 
+def as_spec(spec: "ChartSpec | str | Path | None", what: str = "spec") -> ChartSpec:
+    """A ChartSpec from a spec, a TOML path, or None (the default chart): what every public
+    function that takes a spec accepts."""
+    if spec is None:
+        return ChartSpec()
+    if isinstance(spec, (str, Path)):
+        return load_spec(spec)
+    if not isinstance(spec, ChartSpec):
+        raise SpecError(f"{what} must be a ChartSpec or a TOML path, got {type(spec).__name__}")
+    return spec
+
+
 def with_bug(spec: ChartSpec, name: str) -> ChartSpec:
     """``spec`` with bug ``name`` switched on and made visible (see Bug.apply)."""
     return get_bug(name).apply(spec)
@@ -133,7 +145,7 @@ def bug_requirements(name: str) -> dict[str, Any]:
     return dict(get_bug(name).requires)
 
 
-__all__ = ["ChartSpec", "Light", "Quality", "FIELDS", "SPEC_KEYS", "make_spec", "spec_from_mapping", "load_spec",
+__all__ = ["ChartSpec", "Light", "Quality", "FIELDS", "SPEC_KEYS", "as_spec", "make_spec", "spec_from_mapping", "load_spec",
            "parse_range", "parse_size", "parse_color", "MATERIAL_PRESETS", "QUALITY_PRESETS", "ENV_PRESETS",
            "TONEMAPPERS", "BRDF_MODELS", "CAMERAS", "INTERSECT_METHODS", "BACKENDS", "TEXTURE_MODES",
            "LIGHT_KINDS", "NORMAL_METHODS", "HDR_PRECISIONS", "DEFAULT_LIGHTS", "KEY_LIGHT", "FILL_LIGHT",

@@ -19,7 +19,9 @@ from ..image.io import check_writable
 from ..image.sheet import assemble, flatten, sheet_text_size
 from ..progress import Progress
 from ..spec.chart_spec import ChartSpec, make_spec
-from .compare import as_spec, bug_pair, chart_panel, render_chart
+from ..image.chart_labels import label
+from ..spec.chart_spec import as_spec
+from .compare import bug_pair, chart_panel, render_chart
 
 __all__ = ["Animation", "animate", "animate_compare", "orbit_specs", "check_animation_output",
            "write_animation", "ANIMATION_SUFFIXES", "ORBITS"]
@@ -106,7 +108,6 @@ def _frames(specs: list, desc: str, enabled: bool | None):
 
 
 def _chart_frame(spec: ChartSpec) -> np.ndarray:
-    from ..api import label
     return label(spec, render_chart(spec).result)   # labels need the camera only, no AOVs
 
 

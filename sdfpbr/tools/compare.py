@@ -17,17 +17,17 @@ from typing import Any, Sequence
 import numpy as np
 
 from .. import __version__
-from ..shading.camera import sphere_centers
 from ..errors import SpecError
 from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import Cell
 from ..image.sheet import (Axes, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
                            sheet_text_size)
-from ..spec.chart_spec import SPEC_KEYS, ChartSpec, load_spec, make_spec
+from ..image.chart_labels import chart_cells, footer_text
+from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.fields import resolve_field, sweep_defaults
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
-           "bug_pair", "spec_differences", "at_panel_size", "as_spec",
+           "bug_pair", "spec_differences", "at_panel_size",
            "render_chart", "chart_axes", "chart_panel"]
 
 
@@ -112,17 +112,6 @@ def render_chart(spec: ChartSpec, aovs: bool = False) -> RenderedChart:
     return RenderedChart(spec, session.render(spec, aovs=aovs), session.renderer)
 
 
-def as_spec(spec: ChartSpec | str | Path | None, what: str) -> ChartSpec:
-    """A ChartSpec from a spec, a TOML path, or None (the default chart)."""
-    if spec is None:
-        return ChartSpec()
-    if isinstance(spec, (str, Path)):
-        return load_spec(spec)
-    if not isinstance(spec, ChartSpec):
-        raise SpecError(f"{what} must be a ChartSpec or a TOML path, got {type(spec).__name__}")
-    return spec
-
-
 def at_panel_size(spec: ChartSpec, panel_size: int | None) -> ChartSpec:
     """The spec rendered so that its longer edge is ``panel_size`` px (aspect kept)."""
     if panel_size is None:
@@ -139,13 +128,6 @@ def _digests(spec: ChartSpec, result) -> tuple[str, str]:
 
 # ---------------------------------------------------------------------------------------------
 # Panels.
-
-def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
-    """Projected sphere centres, as chart.label places its labels."""
-    px, scale = camera.project(sphere_centers(spec).reshape(-1, 3))
-    return [Cell(i // spec.cols, i % spec.cols, float(x), float(y), float(spec.sphere_radius * s))
-            for i, ((x, y), s) in enumerate(zip(px, scale))]
-
 
 def chart_axes(spec: ChartSpec, camera) -> Axes:
     """The roughness / metallic labels of a chart of ``spec``, for a sheet panel."""
@@ -350,7 +332,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
 # ---------------------------------------------------------------------------------------------
 # Sweeps.
 
-# The footer part (chart.footer_text) that names a field, left out of a sweep's caption.
+# The footer part (chart_labels.footer_text) that names a field, left out of a sweep's caption.
 _FOOTER_PART = {"tonemap": "tone map", "exposure": "exposure", "env": "env", "brdf": "BRDF",
                 "multiscatter": "BRDF", "spp": "spp"}
 
@@ -371,7 +353,6 @@ def sweep(spec: ChartSpec | str | Path | None, name: str, values: Sequence | Non
     """The same chart once per value of one spec field (tonemap, exposure, env, or any other),
     as a grid of panels, each labeled with its value. ``values`` default to sweep_defaults(name);
     ``columns`` default to at most four per row; ``panel_size`` as in compare_bug."""
-    from ..api import footer_text
     base = at_panel_size(as_spec(spec, "spec"), panel_size)
     field_name = resolve_field(name).name
     values = list(sweep_defaults(field_name) if values is None else values)

@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import argparse
-import re
 
 DEFAULT_PANEL = 384   # without --size/--spec/--panel-size: a sheet of 384 px panels, not 1024
 
@@ -31,10 +30,7 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", help="PNG path (default sweep-FIELD.png)")
     p.add_argument("-v", "--verbose", action="store_true")
     add_chart_options(p)
-    # Let `--values -2,0,2` read as a value: argparse takes only plain negative numbers for
-    # values, anything else starting with '-' for an option.
-    if hasattr(p, "_negative_number_matcher"):
-        p._negative_number_matcher = re.compile(r"^-\d[\d.,;:eE+-]*$|^-\.\d")
+    p.dash_values.add("--values")   # `--values -2,0,2` is a value, not an option
     p.set_defaults(run=run)
 
 

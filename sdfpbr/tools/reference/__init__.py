@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from ...api import footer_scene_parts, label as chart_label
+from ...image.chart_labels import footer_scene_parts, label as chart_label
 from ...spec.chart_spec import ChartSpec
 from .integrator import (DEFAULT_MAX_BOUNCES, ReferenceResult, batch_size, cell_reach, relative_error,
                          render_reference, validate_arguments)

@@ -3,7 +3,7 @@ a composed program. Every configuration is a pure function of the seed."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -276,3 +276,12 @@ def generate_cases(seed: int = 0, count: int = 10_000, quick: bool = False,
         case.aovs = aovs
         cases.append(case)
     return cases
+
+
+@dataclass
+class Outcome:
+    """What running one case gave: its failed checks, its metrics and its time."""
+    case: Case
+    failures: list
+    metrics: dict = field(default_factory=dict)
+    seconds: float = 0.0

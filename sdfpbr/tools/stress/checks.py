@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ...oracle import mirror
+from ...oracle import display, mirror
 from ...oracle.furnace import FurnaceTable
 from ...spec.chart_spec import ChartSpec
 
@@ -46,7 +46,7 @@ def expected_display(hdr: np.ndarray, alpha: np.ndarray, spec: ChartSpec) -> np.
     if spec.transparent:
         x = np.where(a[..., None] > 0, x / np.where(a > 0, a, 1.0)[..., None], 0.0)
     with np.errstate(over="ignore", invalid="ignore"):
-        y = mirror.srgb_oetf(mirror.tonemap(x * 2.0 ** spec.exposure, spec.tonemap, white=spec.reinhard_white))
+        y = display.srgb_oetf(display.tonemap(x * 2.0 ** spec.exposure, spec.tonemap, white=spec.reinhard_white))
     out = np.empty(hdr.shape[:2] + (4,), np.uint8)
     out[..., :3] = np.rint(np.nan_to_num(y) * 255.0)
     out[..., 3] = np.rint(np.clip(a, 0, 1) * 255.0) if spec.transparent else 255

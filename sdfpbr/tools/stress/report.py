@@ -5,15 +5,11 @@ from __future__ import annotations
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from ...files import atomic_file
 from ...spec.fields import spec_to_toml
-from .cases import TILED_TILE
+from .cases import TILED_TILE, Outcome
 from .checks import FIREFLY_RATIO
-
-if TYPE_CHECKING:   # the runner imports this module
-    from .runner import Outcome
 
 
 @dataclass

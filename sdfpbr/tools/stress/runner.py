@@ -3,7 +3,6 @@ in one configuration recorded as its failure."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -11,18 +10,10 @@ import numpy as np
 from ...oracle.furnace import FurnaceTable
 from ...progress import Progress
 from ...shading.camera import frame_grid
-from .cases import TILED_TILE, Case
+from .cases import TILED_TILE, Case, Outcome
 from .checks import (DISPLAY_LSB, check_finite, display_error, furnace_error, isolated_outliers,
                      monotonic_error, tiles_equal)
 from .report import Report, write_failure
-
-
-@dataclass
-class Outcome:
-    case: Case
-    failures: list
-    metrics: dict = field(default_factory=dict)
-    seconds: float = 0.0
 
 
 def run_case(case: Case, sessions: dict, table: FurnaceTable) -> Outcome:

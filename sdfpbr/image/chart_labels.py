@@ -1,0 +1,44 @@
+"""The labels around a chart render: where each sphere landed (the camera's projection of the
+grid), the title, the axis values and the footer of scene settings. The chart, the reference,
+sheets and animations all label through here."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..shading.camera import sphere_centers
+from ..shading.plan import brdf_model
+from ..spec.chart_spec import ChartSpec
+from .layout import Cell, compose_chart
+
+
+def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
+    """Each sphere's projected centre and radius in pixels, row by row."""
+    px, scale = camera.project(sphere_centers(spec).reshape(-1, 3))
+    return [Cell(i // spec.cols, i % spec.cols, float(x), float(y), float(spec.sphere_radius * s))
+            for i, ((x, y), s) in enumerate(zip(px, scale))]
+
+
+def footer_scene_parts(spec: ChartSpec, brdf: str) -> list[str]:
+    """What the chart and the reference footers share: display and scene settings."""
+    env = spec.env if len(spec.env) < 40 else "…" + spec.env[-38:]
+    return [f"tone map {spec.tonemap}", f"exposure {spec.exposure:+g} EV", f"env {env}",
+            f"BRDF {brdf}" + ("" if spec.multiscatter else " (single scatter)")]
+
+
+def footer_text(spec: ChartSpec) -> str:
+    parts = footer_scene_parts(spec, brdf_model(spec)) + [f"{spec.spp} spp"]
+    if spec.quality != "default":
+        parts.append(f"quality {spec.quality}")
+    if spec.bugs:
+        parts.append("BUG: " + ", ".join(spec.bugs))
+    return "  |  ".join(parts)
+
+
+def label(spec: ChartSpec, result, title: str | None = None, footer: str | None = None) -> np.ndarray:
+    """The labeled layout around a render (anything with .image and .camera)."""
+    if not spec.labels:
+        return result.image
+    title = spec.title or title or f"Roughness × metallic — {spec.rows}×{spec.cols}"
+    return compose_chart(result.image, chart_cells(spec, result.camera), spec.column_roughness(),
+                         spec.row_metallic(), title, footer if footer is not None else footer_text(spec),
+                         row_names=list(spec.row_materials) or None, transparent=spec.transparent)
