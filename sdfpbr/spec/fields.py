@@ -146,8 +146,9 @@ def _png(name: str):
 
 
 def _size(v) -> tuple[int, int]:
-    w, h = parse_size(v)
-    return number(w, "width", 1, MAX_SIZE, integer=True), number(h, "height", 1, MAX_SIZE, integer=True)
+    w, h = parse_size(v)   # each side named as the user wrote it: "size width", "size height"
+    return (number(w, "size width", 1, MAX_SIZE, integer=True),
+            number(h, "size height", 1, MAX_SIZE, integer=True))
 
 
 # ---- constructors, one per kind of field -------------------------------------------------------
