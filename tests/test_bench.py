@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from sdfpbr.tools.bench import ablation, cold, suite
+from sdfpbr.tools.bench import ablation, accuracy, cold, suite, timing
 from sdfpbr.tools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
 from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import ShaderCompileError, SpecError
@@ -54,6 +54,13 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
         # The timed draw reproduced the render the errors were computed from.
         assert row["draw_check"] < 1e-4
         assert len(row["flip_cells"]) == spec.rows and len(row["flip_cells"][0]) == spec.cols
+        # The reference's noise floor: two seeds of one scene differ, by less than the chart does
+        # only if the reference can judge it; the warm-up says whether draw times settled.
+        assert 0.0 < row["ref_noise_flip"] < 1.0
+        assert row["ref_judges"] == (row["flip_mean"] >= accuracy.NOISE_MARGIN * row["ref_noise_flip"])
+        assert row["warmup_draws"] >= cfg.warmup and isinstance(row["settled"], bool)
+    noise = {s: {r["ref_noise_flip"] for r in rows.values() if r["scene"] == s} for s in cfg.scenes}
+    assert all(len(v) == 1 for v in noise.values())   # one floor per scene
     assert "render ms" in stdout and "FLIP" in stdout
     assert path.with_suffix(".png").stat().st_size > 1000    # the time-vs-error plot
     heat = sorted(p.name for p in (path.parent / "heat").iterdir())
@@ -151,6 +158,17 @@ def test_baseline_errors_are_one_line(ctx, tmp_path):
 
 
 # --- scenes, cold flags, ablation --------------------------------------------------------------------
+
+def test_warm_up_waits_for_draw_times_to_settle():
+    """A GPU raising its clocks: draw times fall, then hold; settled only once two windows agree."""
+    falling = [9.0 - 0.5 * i for i in range(15)]            # 9 ms down to 2 ms
+    assert not timing.settled(falling)
+    held = falling + [1.6] * (2 * timing.SETTLE_WINDOW)
+    assert timing.settled(held)
+    assert not timing.settled(held[:-timing.SETTLE_WINDOW])  # one flat window is not enough
+    noisy = [1.5, 1.7, 1.6, 1.65, 1.55, 1.62, 1.58, 1.7, 1.5, 1.6]   # noise, not a trend
+    assert timing.SETTLE_WINDOW == 5 and timing.settled(noisy)
+
 
 @pytest.mark.parametrize("scene", list(suite.SCENES))
 def test_cold_flags_give_the_scene_spec(scene):

@@ -80,8 +80,22 @@ def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -
     return out
 
 
+# A reference judges a figure only if its own noise is well below it: the FLIP between two
+# references that differ only in their seed must be at least this factor under the chart's.
+NOISE_MARGIN = 3.0
+
+
+def noise_floor(a: Reference, b: Reference) -> float:
+    """Mean LDR FLIP between two references of one scene with different seeds: the error figure
+    a perfect chart would still get from the reference's own noise."""
+    from ...image import metrics
+    return metrics.flip_ldr(a.image, b.image)[0]
+
+
 def error_columns(result, ref: Reference, spec: ChartSpec, heatmap_path: Path | None = None,
-                  heatmap_title: str = "") -> dict:
+                  heatmap_title: str = "", noise: float | None = None) -> dict:
+    """Error of a chart render against its reference; ``noise``: the reference's noise floor
+    (noise_floor), reported beside the figures with whether the reference can judge them."""
     from ...image import metrics
     mask = (ref.row >= 0) & (ref.col >= 0)
     flip_mean, flip_map = metrics.flip_ldr(result.image, ref.image)
@@ -97,6 +111,9 @@ def error_columns(result, ref: Reference, spec: ChartSpec, heatmap_path: Path | 
         "ref_samples": ref.samples,
         "ref_seconds": ref.seconds,
     }
+    if noise is not None:
+        cols["ref_noise_flip"] = noise
+        cols["ref_judges"] = bool(flip_mean >= NOISE_MARGIN * noise)
     # The reference's own noise: its mean standard error and the rel RMSE that noise alone gives.
     err = ref.stderr if ref.stderr.ndim == 3 else ref.stderr[..., None]
     if err.shape[:2] == ref.hdr.shape[:2] and mask.any():

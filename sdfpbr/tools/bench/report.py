@@ -19,7 +19,7 @@ COLUMNS = (
     ("compile_ms", "compile ms", "{:>10.1f}"), ("source_bytes", "src kB", "{:>7.1f}"),
     ("cold_s", "cold s", "{:>7.2f}"), ("cold_warm_cache_s", "cold* s", "{:>7.2f}"),
     ("flip_mean", "FLIP", "{:>7.4f}"), ("flip_sphere_mean", "FLIPsph", "{:>7.4f}"),
-    ("rel_rmse", "relRMSE", "{:>8.4f}"), ("extra", "", "{}"),
+    ("rel_rmse", "relRMSE", "{:>8.4f}"), ("ref_noise_flip", "noise", "{:>7.4f}"), ("extra", "", "{}"),
 )
 
 
@@ -33,6 +33,10 @@ def _cell(row: dict, key: str, fmt: str) -> str:
         bits = []
         if row.get("shader"):
             bits.append(Path(row["shader"]).name)
+        if row.get("ref_judges") is False:
+            bits.append("reference too noisy to judge")
+        if row.get("settled") is False:
+            bits.append("draw times not settled")
         if "ratio" in row:
             bits.append(f"x{row['ratio']:.2f}")
         if "same_source" in row:
@@ -114,6 +118,19 @@ def write_plot(path: str | Path, report: dict) -> None:
         ax.annotate(f"{r['scene']}/{r['preset']}", (r["render_ms"], max(r["flip_mean"], 1e-4)),
                     fontsize=7, xytext=(4, 3), textcoords="offset points")
         plotted = True
+    # The time-error front: each scene's presets joined in preset order (draft, default, high;
+    # seed002 stays a lone point, the baseline approach), and the reference's noise floor.
+    front = [p for p in ("draft", "default", "high") if p in presets]
+    for s in scenes:
+        pts = [(r["render_ms"], max(r["flip_mean"], 1e-4)) for p in front for r in rows
+               if r["scene"] == s and r["preset"] == p and r.get("flip_mean") is not None and r.get("render_ms")]
+        if len(pts) > 1:
+            ax.plot(*zip(*pts), color="0.55", lw=1, zorder=2)
+        noise = [r["ref_noise_flip"] for r in rows if r["scene"] == s and r.get("ref_noise_flip") is not None]
+        if noise:
+            ax.axhline(max(noise[0], 1e-4), color="0.7", ls=":", lw=1)
+            ax.text(0.01, max(noise[0], 1e-4), f" {s}: reference noise", transform=ax.get_yaxis_transform(),
+                    fontsize=6, va="bottom", color="0.45")
     for r in report["rows"]:
         if r["preset"] == "baseline":
             ax.axvline(r["render_ms"], color="0.4", ls="--", lw=1)

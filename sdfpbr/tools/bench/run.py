@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ... import __version__
 from .ablation import ablation_rows
-from .accuracy import error_columns, get_reference, reference_available
+from .accuracy import error_columns, get_reference, noise_floor, reference_available
 from .cold import cold_times
 from .report import format_row
 from .suite import SCENES, BenchConfig, check_config, scene_spec
@@ -30,19 +30,24 @@ def run_bench(cfg: BenchConfig) -> dict:
         heat_dir.mkdir(parents=True, exist_ok=True)
 
     for scene in cfg.scenes:
-        ref = None
+        ref = noise = None
         if use_reference:
             ref = get_reference(session, scene_spec(scene, cfg), cfg.ref_samples, cfg.seed, log)
+            other = get_reference(session, scene_spec(scene, cfg), cfg.ref_samples, cfg.seed + 1, log)
+            noise = noise_floor(ref, other)
+            log(f"{scene}: reference noise floor (FLIP between seeds {cfg.seed} and {cfg.seed + 1}): {noise:.4f}")
         for preset in cfg.presets:
             spec = scene_spec(scene, cfg, preset)
             log(f"{scene} / {preset}: timing {cfg.repeats} draws at {spec.width}x{spec.height} ...")
             t = time_chart(session, spec, cfg.repeats, cfg.warmup)
             row = timing_row(scene, preset, spec, t)
+            log(f"  warm-up: {t.draw.warmup_draws} draws, "
+                + ("draw times settled" if t.draw.settled else "draw times did NOT settle (timings are noisy)"))
             if cfg.cold:
                 row["cold_s"], row["cold_warm_cache_s"] = cold_times(SCENES[scene], preset, cfg)
             if ref is not None:
                 path = heat_dir / f"flip_{scene}_{preset}.png" if heat_dir else None
-                row.update(error_columns(t.result, ref, spec, path, f"{scene} / {preset}"))
+                row.update(error_columns(t.result, ref, spec, path, f"{scene} / {preset}", noise))
             rows.append(row)
             log("  " + format_row(row))
 
@@ -84,6 +89,7 @@ def baseline_row(session, cfg: BenchConfig) -> dict:
         "scene": "shadertoy", "preset": "baseline", "shader": src.origin, "entry_point": src.entry, "width": W, "height": H, "spheres": None,
         "render_ms": timing.median_ms, "render_ms_min": timing.min_ms, "render_ms_mad": timing.mad_ms,
         "render_samples_ms": timing.samples_ms, "timing": timing.method,
+        "warmup_draws": timing.warmup_draws, "settled": timing.settled,
         "compile_ms": link + first, "link_ms": link, "first_draw_ms": first,
         "source_bytes": len(src.code.encode()), "cold_s": None, "cold_warm_cache_s": None,
         "flip_mean": None, "rel_rmse": None,

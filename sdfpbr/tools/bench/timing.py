@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...gpu.frame import tiles
 from ...spec.chart_spec import ChartSpec
 from .suite import BenchConfig
 
@@ -22,6 +23,17 @@ class DrawTiming:
     mad_ms: float          # median absolute deviation: the noise of this measurement
     method: str            # "gl-timer-query" or "finish-wall-clock"
     samples_ms: list
+    warmup_draws: int = 0  # untimed draws before the timed ones
+    settled: bool = True   # the warm-up ended because draw times had settled (see warm_up)
+
+
+# Warm-up: a GPU raises its clocks only under sustained load (the H100 timed one default draw
+# at 8.9 ms cold and 1.6 ms settled), so draws are repeated until the medians of two
+# consecutive windows agree within SETTLE_RTOL, for at most SETTLE_MAX_S seconds.
+SETTLE_WINDOW = 5
+SETTLE_RTOL = 0.05
+SETTLE_MAX_S = 20.0
+SETTLE_MAX_S_SOFTWARE = 3.0   # a CPU rasterizer has no GPU clocks to raise; its noise is the machine's
 
 
 _SOFTWARE_RASTERIZERS = ("llvmpipe", "softpipe", "swrast", "lavapipe")
@@ -34,14 +46,42 @@ def timer_query_measures_execution(ctx) -> bool:
     return not any(name in renderer for name in _SOFTWARE_RASTERIZERS)
 
 
-def time_draws(ctx, draw, repeats: int, warmup: int = 1) -> DrawTiming:
-    """Median draw time: a GL timer query where it measures execution (hardware), else the wall
-    clock between ctx.finish() calls. One method per context, so rows compare."""
-    for _ in range(warmup):
+def settled(times: list[float]) -> bool:
+    """Whether draw times have settled: the median of the last SETTLE_WINDOW is within
+    SETTLE_RTOL of the median of the window before it."""
+    if len(times) < 2 * SETTLE_WINDOW:
+        return False
+    recent = statistics.median(times[-SETTLE_WINDOW:])
+    before = statistics.median(times[-2 * SETTLE_WINDOW:-SETTLE_WINDOW])
+    return abs(recent - before) <= SETTLE_RTOL * before
+
+
+def warm_up(ctx, draw, min_draws: int, max_seconds: float = SETTLE_MAX_S) -> tuple[int, bool]:
+    """Draw at least ``min_draws`` times, then until the median wall time of the last
+    SETTLE_WINDOW draws is within SETTLE_RTOL of the window before it. Returns (draws, settled);
+    settled is False when ``max_seconds`` ran out first."""
+    times: list[float] = []
+    start = time.perf_counter()
+    while True:
+        ctx.finish()
+        t0 = time.perf_counter()
         draw()
-    ctx.finish()
+        ctx.finish()
+        times.append(time.perf_counter() - t0)
+        if len(times) >= min_draws and settled(times):
+            return len(times), True
+        if time.perf_counter() - start > max_seconds and len(times) >= min_draws:
+            return len(times), False
+
+
+def time_draws(ctx, draw, repeats: int, warmup: int = 1) -> DrawTiming:
+    """Median draw time after a warm-up that lasts until draw times settle (at least ``warmup``
+    draws): a GL timer query where it measures execution (hardware), else the wall clock
+    between ctx.finish() calls. One method per context, so rows compare."""
+    hardware = timer_query_measures_execution(ctx)
+    warmup_draws, settled = warm_up(ctx, draw, warmup, SETTLE_MAX_S if hardware else SETTLE_MAX_S_SOFTWARE)
     query = None
-    if timer_query_measures_execution(ctx):
+    if hardware:
         try:
             query = ctx.query(time=True)
         except Exception:   # a context without timer queries
@@ -61,19 +101,12 @@ def time_draws(ctx, draw, repeats: int, warmup: int = 1) -> DrawTiming:
     method = "gl-timer-query" if query is not None else "finish-wall-clock"
     med = statistics.median(samples)
     mad = statistics.median(abs(s - med) for s in samples)
-    return DrawTiming(med, min(samples), mad, method, [round(s, 3) for s in samples])
+    return DrawTiming(med, min(samples), mad, method, [round(s, 3) for s in samples], warmup_draws, settled)
 
 
 def within_noise(a: DrawTiming, b: DrawTiming) -> bool:
     """Two medians agree within 3 MADs of either run plus 3 % (the machine is shared)."""
     return abs(a.median_ms - b.median_ms) <= 3.0 * max(a.mad_ms, b.mad_ms) + 0.03 * max(a.median_ms, b.median_ms)
-
-
-def _tiles(width: int, height: int):
-    from ...gpu.render import TILE
-    for y0 in range(0, height, TILE):
-        for x0 in range(0, width, TILE):
-            yield x0, y0, min(TILE, width - x0), min(TILE, height - y0)
 
 
 def time_compile(ctx, vertex: str, fragment: str, formats: list[tuple[int, str]]) -> tuple[float, float]:
@@ -121,7 +154,7 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
         program = session.programs.fragment(source)
         W, H = spec.width, spec.height
         passes = []
-        for x0, y0, tw, th in _tiles(W, H):
+        for x0, y0, tw, th in tiles(W, H, session.tile):
             targets = [ctx.texture((tw, th), 4, dtype="f4") for _ in range(3)]
             passes.append((x0, y0, tw, th, targets, ctx.framebuffer(color_attachments=targets)))
         vao = ctx.vertex_array(program, [])
@@ -166,7 +199,8 @@ def time_interleaved(session, specs: list[ChartSpec], cfg: BenchConfig, rounds: 
     out = []
     for t, s in zip(first, samples):
         med = statistics.median(s)
-        t.draw = DrawTiming(med, min(s), statistics.median(abs(x - med) for x in s), t.draw.method, s)
+        t.draw = DrawTiming(med, min(s), statistics.median(abs(x - med) for x in s), t.draw.method, s,
+                            t.draw.warmup_draws, t.draw.settled)
         out.append(t)
     return out
 
@@ -178,6 +212,7 @@ def timing_row(scene: str, preset: str, spec: ChartSpec, t: ChartTiming) -> dict
         "spheres": spec.rows * spec.cols,
         "render_ms": t.draw.median_ms, "render_ms_min": t.draw.min_ms, "render_ms_mad": t.draw.mad_ms,
         "render_samples_ms": t.draw.samples_ms, "timing": t.draw.method,
+        "warmup_draws": t.draw.warmup_draws, "settled": t.draw.settled,
         "compile_ms": t.link_ms + t.first_draw_ms, "link_ms": t.link_ms, "first_draw_ms": t.first_draw_ms,
         "source_bytes": t.source_bytes, "draw_check": t.draw_check,
         "cold_s": None, "cold_warm_cache_s": None,
