@@ -14,6 +14,15 @@ float sphere_occlusion(float n_dot_c, float d) {
     return max((n_dot_c * acos(y) - x * s) * sin_sigma2 + atan(s / x), 0.0) * INV_PI;
 }
 
+#if STAGE == cells
+// A cell's floor is occluded by its own sphere alone (at the origin); a sphere point sees no
+// other sphere.
+float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
+    if (self_cell.x >= 0) return 1.0;
+    float dist = length(p);
+    return 1.0 - sphere_occlusion(dot(n, -p) / dist, max(dist / u_radius, 1.0 + 1e-4));
+}
+#else
 float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
     float visible = 1.0;
     ivec2 center = nearest_cell(p);
@@ -27,6 +36,7 @@ float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
         }
     return visible;
 }
+#endif
 #elif AO_METHOD == sdf
 uniform int u_ao_taps;
 uniform float u_ao_radius;

@@ -57,6 +57,9 @@ vec2 sample_offset(int i) {
 
 void main() {
     vec2 pixel = gl_FragCoord.xy - 0.5 + u_tile_origin;
+#if STAGE == cells
+    pixel = cell_pixel(pixel, g_cell);   // the camera then sees this cell's own scene
+#endif
     vec2 footprint = pixel_footprint();
     vec4 sum = vec4(0.0);
     for (int s = 0; s < u_spp; ++s) {

@@ -5,6 +5,31 @@ uniform float u_radius;        // sphere radius
 uniform float u_spacing;       // centre-to-centre distance
 uniform float u_ground_y;      // height of the ground plane
 
+#if STAGE == cells
+// The cells stage: every cell is one scene seen by one camera, a sphere at the origin resting
+// on its own floor; g_cell is the cell the current pixel shows (it picks the material).
+ivec2 g_cell = ivec2(0);
+
+vec3 cell_center(ivec2 cell) { return vec3(0.0); }
+
+ivec2 nearest_cell(vec3 p) { return g_cell; }
+
+float sdf_spheres(vec3 p, out ivec2 cell) {
+    cell = g_cell;
+    return length(p) - u_radius;
+}
+
+// The cell a pixel (GL coordinates) shows, and the pixel moved into that cell's own frame;
+// cells are whole pixels wide, so every cell computes exactly the same rays.
+uniform ivec2 u_cell_size;     // pixels per cell
+uniform ivec2 u_grid_origin;   // lower-left pixel of the grid
+
+vec2 cell_pixel(vec2 pixel, out ivec2 cell) {
+    ivec2 index = clamp(ivec2(floor(floor(pixel - vec2(u_grid_origin)) / vec2(u_cell_size))), ivec2(0), u_grid - 1);
+    cell = ivec2(index.x, u_grid.y - 1 - index.y);   // row 0 on top, GL rows run up
+    return pixel - vec2(u_grid_origin + index * u_cell_size);
+}
+#else
 vec3 cell_center(ivec2 cell) {  // cell = (col, row)
     vec2 half_extent = 0.5 * vec2(u_grid - 1) * u_spacing;
     return vec3(float(cell.x) * u_spacing - half_extent.x, half_extent.y - float(cell.y) * u_spacing, 0.0);
@@ -34,6 +59,8 @@ float sdf_spheres(vec3 p, out ivec2 cell) {
     return length(p - cell_center(cell)) - u_radius;
 #endif
 }
+
+#endif
 
 float sdf_spheres(vec3 p) { ivec2 c; return sdf_spheres(p, c); }
 

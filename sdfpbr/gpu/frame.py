@@ -61,6 +61,8 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_ao_radius": 0.5 * spec.sphere_radius,
         "u_env_intensity": spec.env_intensity,
     }
+    if spec.stage == "cells":
+        u.update(camera_mod.cell_grid(spec).uniforms(spec.height))
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]
         u["u_dir_light_illuminance"] = [tuple(c * light.intensity for c in light.color) for light in directional]
@@ -103,7 +105,7 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     """Bindings for ``spec``: camera, grid, lights and marching budget (from ``quality``), the
     environment (a texture for file environments) and the surface maps when the program
     composes them in."""
-    cam = camera_mod.frame_grid(spec)
+    cam = camera_mod.frame(spec)
     env = make_environment(ctx, spec)
     uniforms = chart_uniforms(spec, cam, quality)
     bindings = SceneBindings(cam, env, {**uniforms, **env.uniforms})

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shading.camera import sphere_centers
+from ..shading.camera import cell_grid, sphere_centers
 from ..shading.plan import brdf_model
 from ..spec.chart_spec import ChartSpec
 from .layout import Cell, compose_chart
@@ -13,6 +13,11 @@ from .layout import Cell, compose_chart
 
 def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
     """Each sphere's projected centre and radius in pixels, row by row."""
+    if spec.stage == "cells":   # one camera per cell: the sphere at the origin of each
+        grid = cell_grid(spec)
+        (x, y), s = (v[0] for v in camera.project(np.zeros((1, 3))))
+        return [Cell(r, c, float(grid.left + c * grid.cell_width + x), float(grid.top + r * grid.cell_height + y),
+                     float(spec.sphere_radius * s)) for r in range(spec.rows) for c in range(spec.cols)]
     px, scale = camera.project(sphere_centers(spec).reshape(-1, 3))
     return [Cell(i // spec.cols, i % spec.cols, float(x), float(y), float(spec.sphere_radius * s))
             for i, ((x, y), s) in enumerate(zip(px, scale))]

@@ -54,7 +54,68 @@ def sphere_centers(spec: ChartSpec) -> np.ndarray:
 
 
 def ground_height(spec: ChartSpec) -> float:
+    """The floor's height: under the bottom row (shared stage), or under each sphere, which
+    rests on it (cells stage, where every sphere sits at its own origin)."""
+    if spec.stage == "cells":
+        return -spec.sphere_radius
     return -0.5 * (spec.rows - 1) * spec.spacing - spec.sphere_radius
+
+
+# ---- the cells stage: one camera per cell, the same for every cell ---------------------------
+# Looking down this far keeps the floor's horizon above the top of every cell (the vertical
+# field of view is FOV_Y_DEG), so each sphere stands on a seamless floor.
+CELL_ELEVATION_DEG = 24.0
+CELL_FILL = 0.62   # the sphere's radius over the cell's half height (or half width if narrower)
+
+
+@dataclass(frozen=True)
+class CellGrid:
+    """Where the cells lie in the image: whole pixels each, so cells are shifted copies."""
+    rows: int
+    cols: int
+    cell_width: int
+    cell_height: int
+    left: int          # pixels left of the grid
+    top: int           # pixels above the grid
+
+    def centers(self) -> np.ndarray:
+        """(rows, cols, 2) pixel centres of the cells (x right, y down)."""
+        x = self.left + (np.arange(self.cols) + 0.5) * self.cell_width
+        y = self.top + (np.arange(self.rows) + 0.5) * self.cell_height
+        return np.stack(np.broadcast_arrays(x[None, :], y[:, None]), axis=-1)
+
+    def uniforms(self, image_height: int) -> dict:
+        """The grid in GL pixel coordinates (y up from the bottom row of the image)."""
+        bottom = image_height - self.top - self.rows * self.cell_height
+        return {"u_cell_size": (self.cell_width, self.cell_height), "u_grid_origin": (self.left, bottom)}
+
+
+def cell_grid(spec: ChartSpec) -> CellGrid:
+    w, h = max(spec.width // spec.cols, 1), max(spec.height // spec.rows, 1)
+    return CellGrid(spec.rows, spec.cols, w, h, (spec.width - spec.cols * w) // 2,
+                    (spec.height - spec.rows * h) // 2)
+
+
+def frame_cell(spec: ChartSpec) -> Camera:
+    """The camera of every cell: it looks at its sphere, centred at the origin, from above."""
+    grid = cell_grid(spec)
+    aspect = grid.cell_width / grid.cell_height
+    need = spec.sphere_radius / CELL_FILL * max(1.0, 1.0 / aspect)
+    elev, azim = math.radians(CELL_ELEVATION_DEG), math.radians(spec.camera_azimuth)
+    forward = np.array([-math.sin(azim) * math.cos(elev), -math.sin(elev), -math.cos(azim) * math.cos(elev)])
+    right = np.array([math.cos(azim), 0.0, -math.sin(azim)])
+    up = np.cross(right, forward)
+    if spec.camera == "orthographic":
+        position = -forward * 8.0 * spec.sphere_radius * spec.camera_distance_scale
+        return Camera(position, right, up, forward, need, True, grid.cell_width, grid.cell_height)
+    tan_half = math.tan(math.radians(FOV_Y_DEG) / 2)
+    distance = need / tan_half * spec.camera_distance_scale
+    return Camera(-forward * distance, right, up, forward, tan_half, False, grid.cell_width, grid.cell_height)
+
+
+def frame(spec: ChartSpec) -> Camera:
+    """The camera a render of ``spec`` uses: the grid's, or each cell's."""
+    return frame_cell(spec) if spec.stage == "cells" else frame_grid(spec)
 
 
 def frame_grid(spec: ChartSpec) -> Camera:

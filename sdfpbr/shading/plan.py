@@ -30,6 +30,7 @@ SCHEMA = OptionSchema(
         "INTERSECT": ("analytic", "march"),
         "AO_METHOD": ("analytic", "sdf"),
         "SCENE_SDF": ("nearest_cell", "all_spheres"),
+        "STAGE": ("shared", "cells"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE"),
@@ -108,6 +109,7 @@ def chart_options(spec: ChartSpec) -> dict:
         "HALF_RADIANCE": spec.hdr_precision == "float16",
         "USE_TEXTURES": spec.uses_textures(),
         "SCENE_SDF": q.scene_sdf,
+        "STAGE": spec.stage,
     }
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method

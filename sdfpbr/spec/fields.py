@@ -18,7 +18,7 @@ from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, number, number_text, parse_color, parse_names, parse_range, parse_size,
                      quote, sequence, text, vec3)
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
-                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE, QUALITY_PRESETS, TEXTURE_MODES, TONEMAPPERS,
+                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
                       light_from_mapping)
 from .toml_file import read_toml
 
@@ -218,6 +218,8 @@ FIELDS: tuple[Field, ...] = (
     _choice("hdr_precision", "float32", HDR_PRECISIONS, "float format of the radiance target"),
     _bool("multiscatter", True, "multiple-scattering energy compensation", sweep=(True, False)),
     _choice("brdf", "gltf", BRDF_MODELS, "BRDF model", sweep=BRDF_MODELS),
+    _choice("stage", "shared", STAGES, "shared: one floor under the whole grid, neighbours in reflections; "
+            "cells: each sphere on its own floor seen by its own camera (identical cells)", sweep=STAGES),
     _choice("camera", "perspective", CAMERAS, "projection", sweep=CAMERAS),
     _float("camera_azimuth", 0.0, -3600.0, 3600.0, "camera orbit angle around the grid, degrees", metavar="DEG",
            aliases=("azimuth",), sweep=(0.0, 30.0, 60.0, 90.0)),

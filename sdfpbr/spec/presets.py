@@ -21,6 +21,10 @@ ENV_PRESETS = ("studio", "sky", "uniform", "black")
 TONEMAPPERS = ("none", "clamp", "reinhard", "reinhard-extended", "aces", "aces-hill", "neutral")
 BRDF_MODELS = ("gltf", "schlick-ggx")
 CAMERAS = ("perspective", "orthographic")
+# The stage: "cells" gives every sphere the same studio (its own floor, seen by its own camera),
+# so cells with the same material look the same; "shared" is one scene, a grid of spheres over
+# one floor, where neighbours and the floor appear in reflections.
+STAGES = ("shared", "cells")
 INTERSECT_METHODS = ("auto", "analytic", "march")
 BACKENDS = ("auto", "egl", "osmesa")
 TEXTURE_MODES = ("none", "procedural")

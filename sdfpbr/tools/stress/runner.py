@@ -9,7 +9,7 @@ import numpy as np
 
 from ...oracle.furnace import FurnaceTable
 from ...progress import Progress
-from ...shading.camera import frame_grid
+from ...shading.camera import frame
 from .cases import TILED_TILE, Case, Outcome
 from .checks import (DISPLAY_LSB, check_finite, display_error, furnace_error, isolated_outliers,
                      monotonic_error, tiles_equal)
@@ -26,7 +26,7 @@ def run_case(case: Case, sessions: dict, table: FurnaceTable) -> Outcome:
     metrics["display_lsb"] = lsb
     if bad:
         failures.append(f"{bad} display pixels differ from the tone-mapped HDR by more than {DISPLAY_LSB} LSB (worst {lsb})")
-    ratio, flagged, tested = isolated_outliers(result.hdr, result.aov, spec, frame_grid(spec))
+    ratio, flagged, tested = isolated_outliers(result.hdr, result.aov, spec, frame(spec))
     metrics["firefly_ratio"] = ratio
     metrics["firefly_tested"] = tested
     if flagged:
