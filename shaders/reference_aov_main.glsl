@@ -16,7 +16,11 @@ void main() {
     ivec2 local_id = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(local_id, u_tile_size))) return;
     ivec2 pixel = u_tile_origin + local_id;
-    vec2 ndc = 2.0 * (vec2(pixel) + 0.5) / u_resolution - 1.0;
+    vec2 base = vec2(pixel);
+#if STAGE == cells
+    base = cell_pixel(base, g_cell);   // as chart_main: the pixel in its cell's frame
+#endif
+    vec2 ndc = 2.0 * (base + 0.5) / u_resolution - 1.0;
     vec3 rd;
     vec3 ro = camera_ray(ndc, rd);
     Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);

@@ -2,6 +2,7 @@
 // surface points, shadow rays). A 2-D DDA walks the grid cells the ray crosses inside the slab
 // |z| <= R, in order of distance, and tests the spheres that reach into each cell; it stops
 // once the next cell starts beyond the best hit. Exact for any grid size and spacing.
+// Under STAGE == cells the scene is one sphere on its floor (below).
 // `skip` names the surface the ray leaves: spheres and the plane are convex, so a ray leaving
 // one never meets it again and no offset epsilon is needed. SKIP_NONE skips nothing;
 // ivec2(-1) (the ground's cell) skips the ground.
@@ -9,6 +10,32 @@ uniform int u_cell_reach;   // k: a sphere reaches into cells up to k away (0 wh
 #define SKIP_NONE ivec2(-2)
 #define MAX_DDA_STEPS 300   // > 2 * (MAX_GRID + 2 k) + 2 for every reach the Python side allows
 
+#if STAGE == cells
+// The cells stage: each pixel's cell (g_cell, set from the pixel by cell_pixel) is one scene,
+// a sphere of radius R at the origin resting on its own floor y = -R, with the environment at
+// infinity; no other cell is in it. Every ray of the pixel's paths (camera, bounce, shadow)
+// sees exactly that scene, so occlusion, shadows and interreflection between the sphere and
+// its floor follow, and every cell computes the same light transport.
+Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
+    Hit hit = NO_HIT;
+    float t_best = t_max;
+#if HAS_GROUND
+    if (rd.y < 0.0 && skip != ivec2(-1)) {
+        float tg = (u_ground_y - ro.y) / rd.y;
+        if (tg > 0.0 && tg < t_best) {
+            t_best = tg;
+            hit = Hit(tg, vec3(0.0, 1.0, 0.0), ivec2(-1));
+        }
+    }
+#endif
+    if (skip != g_cell) {   // a ray leaving the (convex) sphere never meets it again
+        float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
+        if (t > 0.0 && t < t_best)
+            hit = Hit(t, normalize(ro + rd * t), g_cell);
+    }
+    return hit;
+}
+#else
 // Continuous cell coordinates: cell (col, row) covers [col, col + 1) x [row, row + 1).
 vec2 grid_coordinates(vec3 p) {
     vec2 half_extent = 0.5 * vec2(u_grid - 1) * u_spacing;
@@ -95,6 +122,8 @@ Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
         hit.normal = normalize(ro + rd * hit.t - cell_center(hit.cell));
     return hit;
 }
+
+#endif
 
 bool occluded(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
     return trace_scene(ro, rd, t_max, skip).t > 0.0;

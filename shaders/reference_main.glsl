@@ -23,6 +23,14 @@
 // follow the R2 sequence (Roberts 2018) under a per-pixel random rotation: stratified for
 // any count. Luminance moments are kept about a shift K (the pixel's first sample) so the
 // variance does not cancel away in float32.
+//
+// Pixel footprint: pixel p (lower-left corner, GL pixel coordinates; under STAGE == cells
+// first moved into its cell's frame by cell_pixel, as chart_main does) integrates the unit
+// square [p, p + 1)^2 with a box filter: the offsets fract(rotation + s * R2) cover [0, 1)^2.
+// The chart's spp > 1 average uses offsets fract(0.5 + s * R2) (chart_main.glsl:
+// sample_offset) on the same square, so both estimate the same pixel integral; the chart's
+// sample 0 (and the AOVs of both) is the pixel centre p + 0.5. The random numbers are keyed
+// by the image pixel, so the cells of the cells stage get independent noise.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform image2D u_sum;       // rgb: sum of radiance, a: sum of coverage
 layout(rgba32f, binding = 1) uniform image2D u_moments;   // sum (Y-K), sum (Y-K)^2, K, non-finite samples
@@ -42,11 +50,15 @@ void main() {
     uvec2 rotation = rng_next_bits(pixel_rng).xy;
     vec4 sum = imageLoad(u_sum, pixel);
     vec4 moments = imageLoad(u_moments, pixel);
+    vec2 base = vec2(pixel);
+#if STAGE == cells
+    base = cell_pixel(base, g_cell);   // the camera then sees this cell's own scene
+#endif
     for (int k = 0; k < u_sample_count; ++k) {
         uint s = uint(u_sample_start + k);
         Rng rng = rng_init(uvec2(pixel), s, u_seed);
         vec2 offset = vec2((rotation + s * R2_STEP) >> 8u) * (1.0 / 16777216.0);
-        vec2 ndc = 2.0 * (vec2(pixel) + offset) / u_resolution - 1.0;
+        vec2 ndc = 2.0 * (base + offset) / u_resolution - 1.0;
         vec3 rd;
         vec3 ro = camera_ray(ndc, rd);
         vec4 c = trace_path(ro, rd, rng);

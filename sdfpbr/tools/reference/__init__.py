@@ -6,6 +6,17 @@ as the chart, on the same GL context. What the chart approximates, the reference
 analytic ray-sphere/plane visibility for every ray, true shadow rays for every light and
 for the environment (no AO), the sun as a disc of finite radiance, interreflections.
 
+Stages: on the shared stage the spheres stand in one grid over one floor, traversed exactly
+by a grid DDA; on the cells stage (``stage = "cells"``) each pixel first moves into its cell's
+frame (``cell_pixel`` in scene.glsl, as the chart does) and every ray of its paths sees that
+cell's scene only, one sphere at the origin on its own floor y = -R, so shadows, occlusion and
+interreflection between the sphere and its floor are exact and every cell is the same scene.
+
+Pixel footprint: both the chart (spp > 1) and the reference integrate the unit pixel square
+[p, p + 1)^2 (in the cell's frame on the cells stage) with a box filter: the chart at R2
+offsets fract(0.5 + s R2), the reference at fract(rotation + s R2); the AOVs of both are the
+pixel centre's (tests/test_reference_cells.py checks the coverage of silhouette pixels).
+
 Sampling: GGX visible normals (Heitz 2018) mixed with cosine-weighted diffuse, one light
 sample per light and one environment sample (a tabulated equirect CDF) per surface point,
 combined by multiple importance sampling with the power heuristic. Pixel samples follow the

@@ -51,7 +51,10 @@ class ReferenceResult:
 
 
 def cell_reach(spec: ChartSpec) -> int:
-    """How many cells away from its own a sphere reaches (0 unless spheres overlap cells)."""
+    """How many cells away from its own a sphere reaches (0 unless spheres overlap cells; 0
+    on the cells stage, where each cell's scene holds its own sphere only)."""
+    if spec.stage == "cells":
+        return 0
     return max(0, math.ceil(spec.sphere_radius / spec.spacing - 0.5))
 
 
