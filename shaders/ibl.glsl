@@ -1,5 +1,6 @@
 // Image-based lighting from the baked environment: GGX-prefiltered cubemap (roughness -> lod
-// linear, lod = r (levels - 1), the inverse of the bake), SH9 irradiance, DFG split sum.
+// linear, lod = r (levels - 1), the inverse of the bake), SH9 irradiance, DFG split sum
+// (IBL_METHOD split_sum), or the per-pixel sampled specular of ibl_sampled.glsl (sampled).
 uniform samplerCube u_prefiltered;
 uniform float u_prefiltered_lods;   // number of mip levels - 1
 uniform vec3 u_sh[9];               // irradiance SH9, cosine lobe already applied
@@ -17,23 +18,103 @@ vec3 sh_irradiance(vec3 n) {
     return max(e, vec3(0.0));
 }
 
-// Split-sum IBL for the glTF mix; each specular lobe compensated with its own f0.
-vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
-    vec3 r_dir = reflect(-v, n);
-    vec3 radiance = prefiltered_radiance(r_dir, m.perceptual_roughness);
-    vec3 irradiance = sh_irradiance(n);
-    float e_single = dfg.x + dfg.y;
-    vec3 spec_dielectric = vec3(DIELECTRIC_F0 * dfg.x + dfg.y) * energy_compensation(vec3(DIELECTRIC_F0), e_single);
-    vec3 spec_metal = (m.base_color_linear * dfg.x + dfg.y) * energy_compensation(m.base_color_linear, e_single);
-#if BUG_DIFFUSE_NO_FRESNEL
-    vec3 diffuse = m.base_color_linear * irradiance * INV_PI;
-#else
-    vec3 diffuse = m.base_color_linear * irradiance * INV_PI * dfg.z;
+// Where and how wide the split sum reads the prefiltered map (IBL_DOMINANT_DIR):
+// - none: along R at the material's roughness, the split sum's assumption V = N = R;
+// - frostbite: R leaned toward N as the lobe widens (GGX lobes seen off-normal peak between
+//   R and N), Lagarde & de Rousiers 2014, "Moving Frostbite to PBR", listing 22:
+//   lerp(N, R, (1 - a)(sqrt(1 - a) + a)), a = alpha;
+// - moments: fitted to this BRDF: the direction of the centroid of f cos (F = 1) of the
+//   height-correlated GGX lobe, as lerp(N, R, t(NdotV, a)), and the roughness whose V = N
+//   prefilter kernel (PREFILTER_KERNEL brdf, the split sum's) has the same centroid length
+//   (mean cosine), r_eff(NdotV, a): seen off-normal the lobe is stretched and wider. Both are
+//   polynomials, degree 3 in NdotV and in a, least-squares fitted to float64 moments of
+//   sdfpbr.oracle.ibl_integral on NdotV 0.1..1, r 0.1..1 (max error 0.021 in t; 0.05 in r_eff,
+//   where it passes 1 and the chain clamps it anyway).
+struct SpecularLookup { vec3 direction; float perceptual_roughness; };
+#define TAIL_MAX 0.22
+#define CORE_SCALE 0.87
+
+#if IBL_DOMINANT_DIR == moments
+float poly3(vec4 c, float x) { return c.x + x * (c.y + x * (c.z + x * c.w)); }
+
+// sum over i, j of C[i][j] mu^i a^j: rows are powers of mu, columns powers of a.
+float poly3x3(mat4 c, float mu, float a) {
+    return poly3(vec4(poly3(c[0], a), poly3(c[1], a), poly3(c[2], a), poly3(c[3], a)), mu);
+}
+
+const mat4 LOBE_T = mat4(
+    0.99207, -2.81084, 3.84268, -2.04072,
+    0.25649, 4.24510, -11.42984, 7.02438,
+    -0.48403, -1.44510, 6.75248, -4.94302,
+    0.23480, 0.18741, -1.87488, 1.49689);
+const mat4 LOBE_DR = mat4(
+    0.06398, -0.12727, 0.97403, -0.11894,
+    -0.41132, 0.52012, -4.60509, 2.21143,
+    0.67447, -2.04185, 9.34162, -5.40672,
+    -0.33009, 1.66771, -5.77449, 3.35483);
 #endif
-    vec3 metal = radiance * spec_metal;
-#if BUG_METAL_DIFFUSE
-    return diffuse + mix(radiance * spec_dielectric, metal, m.metallic);
+
+SpecularLookup specular_lookup(vec3 n, vec3 v, float n_dot_v, float perceptual_roughness, float alpha) {
+    vec3 r_dir = reflect(-v, n);
+#if IBL_DOMINANT_DIR == frostbite
+    float smooth_ = saturate(1.0 - alpha);
+    r_dir = normalize(mix(n, r_dir, smooth_ * (sqrt(smooth_) + alpha)));
+#elif IBL_DOMINANT_DIR == moments
+    float mu = clamp(n_dot_v, 0.1, 1.0), a = clamp(alpha, 0.01, 1.0);
+    r_dir = normalize(mix(n, r_dir, saturate(poly3x3(LOBE_T, mu, a))));
+    perceptual_roughness = perceptual_roughness + poly3x3(LOBE_DR, mu, a) * step(0.1, perceptual_roughness);
+#endif
+    return SpecularLookup(r_dir, perceptual_roughness);
+}
+
+// The glTF mix from its lighting terms; each specular lobe compensated with its own f0.
+// mean_a, mean_b: the radiance averaged over the specular lobe with the weights of A and of B
+// (both the prefiltered radiance in the split sum); irradiance_over_pi: E(n) / pi.
+vec3 ibl_mix(Material m, vec3 dfg, vec3 mean_a, vec3 mean_b, vec3 irradiance_over_pi) {
+    float e_single = dfg.x + dfg.y;
+    vec3 spec_dielectric = (DIELECTRIC_F0 * dfg.x * mean_a + dfg.y * mean_b)
+                         * energy_compensation(vec3(DIELECTRIC_F0), e_single);
+    vec3 metal = (m.base_color_linear * dfg.x * mean_a + dfg.y * mean_b)
+               * energy_compensation(m.base_color_linear, e_single);
+#if BUG_DIFFUSE_NO_FRESNEL
+    vec3 diffuse = m.base_color_linear * irradiance_over_pi;
 #else
-    return mix(diffuse + radiance * spec_dielectric, metal, m.metallic);
+    vec3 diffuse = m.base_color_linear * irradiance_over_pi * dfg.z;
+#endif
+#if BUG_METAL_DIFFUSE
+    return diffuse + mix(spec_dielectric, metal, m.metallic);
+#else
+    return mix(diffuse + spec_dielectric, metal, m.metallic);
 #endif
 }
+
+// Split sum: one prefiltered radiance for the whole lobe, SH9 irradiance for the diffuse.
+// IBL_TWO_LOBE: a rough lobe seen off-normal has more of its weight far from its centre (a
+// heavy tail towards the horizon) than a V = N kernel of the same mean cosine, so the lookup
+// becomes a narrower core plus a share w of the widest level read along N. The core's scale
+// and w are least-squares fits (per roughness, then these ramps) of the float64 lobe average
+// under random three-lobe environments, not the test environment.
+vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
+    SpecularLookup look = specular_lookup(n, v, n_dot_v, m.perceptual_roughness, m.alpha);
+#if IBL_TWO_LOBE
+    float r = m.perceptual_roughness;
+    float tail = clamp(0.55 * (r - 0.27), 0.0, TAIL_MAX);
+    float core_scale = mix(CORE_SCALE, 1.0, smoothstep(0.8, 1.0, r));
+    vec3 radiance = mix(prefiltered_radiance(look.direction, look.perceptual_roughness * core_scale),
+                        textureLod(u_prefiltered, n, u_prefiltered_lods).rgb, tail);
+#else
+    vec3 radiance = prefiltered_radiance(look.direction, look.perceptual_roughness);
+#endif
+    return ibl_mix(m, dfg, radiance, radiance, sh_irradiance(n) * INV_PI);
+}
+
+#if IBL_METHOD == sampled
+#include "ibl_sampled.glsl"
+
+// Sampled (the spheres of the high preset): the lobe-weighted mean radiances of
+// ibl_sampled.glsl, and the irradiance read from the r = 1 level (see ibl_sampled.glsl).
+vec3 shade_ibl_sampled(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
+    SampledSpecular s = sampled_specular(n, v, n_dot_v, m.alpha);
+    return ibl_mix(m, dfg, s.mean_a, s.mean_b, textureLod(u_prefiltered, n, u_prefiltered_lods).rgb);
+}
+#endif

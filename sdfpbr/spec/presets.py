@@ -85,6 +85,13 @@ class Quality:
     dfg_size: int = 64
     dfg_samples: int = 2048
     sh_size: int = 32
+    # Image-based specular: "split_sum" reads the prefiltered map once (the lookup leaned toward
+    # the normal for rough lobes when ibl_dominant_dir); "sampled" integrates the environment
+    # per pixel with ibl_pixel_samples GGX (VNDF) samples and mip-filtered lookups.
+    ibl_method: str = "split_sum"
+    ibl_dominant_dir: str = "moments"   # split_sum lookup: "none" (along R), "frostbite", "moments"
+    ibl_two_lobe: bool = True          # split_sum lookup: a narrower core plus a tail read along N
+    ibl_pixel_samples: int = 0
     scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
     hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
     intersect: str = ""              # forces "march" or "analytic"; "" follows the spec
@@ -97,7 +104,8 @@ QUALITY_PRESETS: dict[str, Quality] = {
                      ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
-                    ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048),
+                    ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048,
+                    ibl_method="sampled", ibl_pixel_samples=256),
     # The approach of shared seed 002 on our scene: every sphere in the SDF, 100 steps to a fixed
     # 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
