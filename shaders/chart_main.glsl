@@ -30,6 +30,9 @@
 #include "march.glsl"
 #endif
 #include "shade.glsl"
+#if STAGE == cells && HAS_GROUND && USE_AO
+#include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
+#endif
 
 // Chart program: one fullscreen triangle per tile; each pixel averages SPP stratified rays.
 // Outputs linear HDR radiance + coverage, and the AOVs of the pixel-centre ray.
@@ -71,7 +74,12 @@ void main() {
             sum += vec4(background(rd), 0.0);
         } else {
             vec3 p = ro + rd * hit.t;
-            sum += vec4(shade_surface(p, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
+            float pixel_size = footprint.x + footprint.y * hit.t;
+            vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
+#if STAGE == cells && HAS_GROUND && USE_AO
+            if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
+#endif
+            sum += vec4(radiance, 1.0);
         }
         if (s == 0) {
             out_normal_depth = hit.t < 0.0 ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(hit.normal, hit.t);

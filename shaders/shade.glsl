@@ -26,7 +26,12 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
     float ao = ambient_occlusion(p, n_geo, cell);
 #endif
 #if USE_IBL
+#if IBL_METHOD == sampled && !BUG_FEWTAP_IBL
+    // The spheres integrate the environment per pixel; the floor keeps the split sum.
+    vec3 ibl = cell.x >= 0 ? shade_ibl_sampled(m, n, v, n_dot_v, dfg) : shade_ibl(m, n, v, n_dot_v, dfg);
+#else
     vec3 ibl = shade_ibl(m, n, v, n_dot_v, dfg);
+#endif
 #if USE_AO
     ibl *= ao;
 #endif

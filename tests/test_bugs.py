@@ -10,7 +10,9 @@ from sdfpbr.errors import SpecError
 from sdfpbr.shading.plan import chart_options, render_plan
 from sdfpbr.spec.chart_spec import ChartSpec, make_spec
 
-BASE = ChartSpec(width=96, height=96, labels=False)
+# The shared stage: its spheres see the environment, not a floor whose BRDF a bug also changes,
+# so a bug's effect on the spheres is its effect on their BRDF alone.
+BASE = ChartSpec(width=96, height=96, labels=False, stage="shared")
 
 
 def _options(spec):

@@ -92,7 +92,7 @@ def test_highlight_narrows_and_brightens_towards_smooth(session):
 
 
 def test_aov_ndotv_matches_normals_and_view(session):
-    res = session.render(make_spec(width=160, height=160, rows=2, cols=2))
+    res = session.render(make_spec(width=160, height=160, rows=2, cols=2, stage="shared"))   # one camera
     m = res.aov["row"] >= 0
     h, w = res.hdr.shape[:2]
     ys, xs = np.nonzero(m)
@@ -106,7 +106,7 @@ def test_aov_ndotv_matches_normals_and_view(session):
     # The hit point lies on the sphere of its cell.
     from sdfpbr.shading.camera import sphere_centers
     p = cam.position + rd * res.aov["depth"][m][:, None]
-    c = sphere_centers(res_spec := make_spec(width=160, height=160, rows=2, cols=2))[res.aov["row"][m], res.aov["col"][m]]
+    c = sphere_centers(res_spec := make_spec(width=160, height=160, rows=2, cols=2, stage="shared"))[res.aov["row"][m], res.aov["col"][m]]
     np.testing.assert_allclose(np.linalg.norm(p - c, axis=1), res_spec.sphere_radius, atol=1e-3)
     assert np.isinf(res.aov["depth"][res.aov["ndotv"] == -1]).all()
 

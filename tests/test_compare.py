@@ -21,7 +21,7 @@ from sdfpbr.errors import SpecError
 from sdfpbr.image.metrics import apply_colormap, flip_ldr, per_cell_mean
 from sdfpbr.spec.chart_spec import make_spec
 
-SMALL = dict(width=96, height=96, quality="draft")
+SMALL = dict(width=96, height=96, quality="draft", stage="shared")   # sphere positions by the grid camera
 
 
 @pytest.fixture(autouse=True)

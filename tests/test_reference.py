@@ -15,8 +15,11 @@ from sdfpbr.shading.camera import frame_grid, sphere_centers
 from sdfpbr.tools.reference import batch_size, render_reference
 from sdfpbr.spec.chart_spec import Light, make_spec
 
+# These tests trace the shared stage's grid camera in float64 (primary_hits); the cells stage
+# has its own in test_reference_cells.py.
+SHARED = dict(stage="shared")
 FURNACE = dict(env="uniform", lights="none", ground=False, rows=1, cols=1, base_color=(1.0, 1.0, 1.0),
-               width=40, height=40)
+               width=40, height=40, **SHARED)
 SUB = 6   # subsamples per pixel edge for the expected values
 # The compensation's E comes from a 128^2 float64 table read bilinearly: its error is below
 # 4e-4 relative (measured against direct quadrature); float32 sums add ~1e-5. Bound: 1e-3.
@@ -128,7 +131,7 @@ def test_interreflection_between_white_lambert_spheres_conserves_energy(session)
 
 
 def test_same_seed_is_bit_identical_and_another_seed_is_not(session):
-    spec = make_spec(width=32, height=32)   # the default scene: ground, sun, point light, studio
+    spec = make_spec(width=32, height=32, **SHARED)   # the default scene: ground, sun, point light, studio
     a = render_reference(spec, samples=6, seed=7, session=session)
     b = render_reference(spec, samples=6, seed=7, session=session)
     c = render_reference(spec, samples=6, seed=8, session=session)
@@ -189,7 +192,7 @@ def test_small_sun_converges_to_closed_form(session):
     theta_deg, illuminance = 0.25, 2.0
     sun = Light("directional", direction=tuple(sun_dir), intensity=illuminance, angular_radius_deg=theta_deg)
     base = np.array([0.9, 0.6, 0.3])
-    spec = make_spec(env="black", lights=(sun,), ground=False, rows=2, cols=2, roughness=(0.4, 0.8),
+    spec = make_spec(**SHARED, env="black", lights=(sun,), ground=False, rows=2, cols=2, roughness=(0.4, 0.8),
                      metallic=(0.0, 1.0), base_color=tuple(base), multiscatter=False, width=48, height=48)
     res = render_reference(spec, samples=64, max_bounces=1, seed=6, session=session)
     hits = primary_hits(spec)
@@ -236,7 +239,7 @@ def test_small_sun_converges_to_closed_form(session):
 ])
 def test_aovs_match_the_chart(session, grid):
     """The reference traces the chart's scene: same cells, normals and NdotV per pixel."""
-    spec = make_spec(width=64, height=48, **grid)
+    spec = make_spec(width=64, height=48, **SHARED, **grid)
     ref = render_reference(spec, samples=1, session=session)
     chart = session.render(spec)
     same = (ref.aov["row"] == chart.aov["row"]) & (ref.aov["col"] == chart.aov["col"])

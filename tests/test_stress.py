@@ -20,7 +20,7 @@ from sdfpbr.shading.camera import frame_grid
 from sdfpbr.cli.main import main
 from sdfpbr.spec.chart_spec import Light, load_spec, make_spec
 
-SMALL = dict(width=144, height=128, rows=2, cols=3, quality="draft", roughness=(0.3, 1.0))
+SMALL = dict(width=144, height=128, rows=2, cols=3, quality="draft", roughness=(0.3, 1.0), stage="shared")   # the checks trace the grid camera
 
 
 @pytest.fixture(scope="module")

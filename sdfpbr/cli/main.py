@@ -64,7 +64,8 @@ class Parser(argparse.ArgumentParser):
         m = re.search(r"unrecognized arguments: (\S+)", message)
         if m:
             known = self.option_strings().union(*(p.option_strings() for p in self.subcommands.values()))
-            message += did_you_mean(m.group(1).split("=")[0], sorted(known))
+            word = m.group(1).split("=")[0]
+            message += did_you_mean(word, sorted(known - {word}))   # another command's flag is no suggestion
         m = re.search(r"argument (.+?): invalid choice: '(.*?)' \(choose from", message)
         if m:
             action = next((a for a in self.arguments if m.group(1) in ("/".join(a.option_strings), a.metavar, a.dest)),

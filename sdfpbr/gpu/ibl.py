@@ -21,6 +21,17 @@ DEFAULT_SUN = (0.55, 0.6, 0.58)
 LOCAL = 8   # compute work-group edge
 
 
+def prefilter_samples(base: int, level: int) -> int:
+    """GGX samples per texel of prefiltered level ``level``: the preset's count times 4^level,
+    so every level costs about the same (it has a quarter of the texels of the one above) and
+    the rough levels, whose lobes are wide, read fine source mips instead of the coarse ones
+    that over-blurred them (default preset, r = 1: +21 % mean with 64 samples and the old +1
+    lod bias, 0.02 % now; tests/test_ibl_accuracy.py checks every level against the float64
+    prefilter). Capped at 2^16: on llvmpipe, 2^18 and 2^20 samples per texel gave wrong levels
+    (+33 % near a bright lobe; not investigated further), and 2^16 is already converged."""
+    return min(base << (2 * level), 1 << 16) if level > 0 else base
+
+
 def _groups(n: int) -> int:
     return (n + LOCAL - 1) // LOCAL
 
@@ -92,6 +103,7 @@ class EnvironmentLighting:
     prefiltered: moderngl.TextureCube
     lods: int
     sh: np.ndarray    # (9, 3) irradiance coefficients, cosine lobe applied
+    key: str = ""     # the content key it was baked or loaded under
 
     def uniforms(self) -> dict:
         return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh]}
@@ -138,18 +150,40 @@ class IBLBaker:
 
     # ---- environment -------------------------------------------------------------------
     def lighting(self, env: Environment, plan: IBLPlan) -> EnvironmentLighting:
+        """The environment's prefiltered cube and SH9, baked once per content, cached on disk."""
+        textures = [("u_env_map", env.texture)] if env.texture is not None else []
+        return self._baked(plan, plan.env_bake, env.content, env.uniforms, textures)
+
+    def stage_lighting(self, plan: IBLPlan, probe: ComposedSource, environment: EnvironmentLighting,
+                       dfg: moderngl.Texture, scene_uniforms: dict, env: Environment) -> EnvironmentLighting:
+        """The cells stage's probe (the radiance a sphere sees from its centre: the environment
+        above, its own lit floor below), prefiltered and projected like the environment. The
+        floor is shaded with the environment's lighting, which the probe program reads."""
+        uniforms = {**scene_uniforms, **environment.uniforms()}
+        textures = [("u_dfg", dfg), ("u_prefiltered", environment.prefiltered)]
+        if env.texture is not None:
+            textures.append(("u_env_map", env.texture))
+        program = self.programs.compute(probe)
+        # What the probe's radiance depends on: the uniforms its program reads and the lighting.
+        read = {k: v for k, v in uniforms.items() if k in program and k not in dict(textures)}
+        return self._baked(plan, probe, content_key(read, environment.key, env.content), uniforms, textures)
+
+    def _baked(self, plan: IBLPlan, program: ComposedSource, content: str, uniforms: dict,
+               textures: list) -> EnvironmentLighting:
         size = plan.size
-        levels = max(1, int(math.log2(size)) - 1)      # down to 4 x 4
-        key = content_key(plan.env_bake.text, plan.prefilter.text, plan.irradiance.text, env.content,
-                          plan.env_bake_size, size, plan.samples, plan.sh_size)
+        levels = plan.levels or max(1, int(math.log2(size)) - 1)      # down to 4 x 4 unless the plan says
+        key = content_key(program.text, plan.prefilter.text, plan.irradiance.text, content,
+                          plan.env_bake_size, size, plan.sh_size, levels,
+                          [prefilter_samples(plan.samples, k) for k in range(levels)])
         if key in self._lighting:
             return self._lighting[key]
         cached = self.cache.get("ibl", key)
         if cached is not None:
             cube = self._cube_from_levels(plan.copy_to_cube, [cached[f"level{k}"] for k in range(levels)])
-            result = EnvironmentLighting(cube, levels - 1, cached["sh"])
+            result = EnvironmentLighting(cube, levels - 1, cached["sh"], key)
         else:
-            result = self._bake(env, plan, levels)
+            result = self._bake(plan, levels, program, uniforms, textures)
+            result.key = key
             arrays = {f"level{k}": self._read_cube_level(plan.copy_from_cube, result.prefiltered, k, size >> k)
                       for k in range(levels)}
             arrays["sh"] = result.sh
@@ -161,14 +195,20 @@ class IBLBaker:
         """One prefiltered level as (6, size, size, 4) float32, faces in GL order."""
         return self._read_cube_level(plan.copy_from_cube, lighting.prefiltered, level, plan.size >> level)
 
-    def _bake(self, env: Environment, plan: IBLPlan, levels: int) -> EnvironmentLighting:
+    def _bake(self, plan: IBLPlan, levels: int, program: ComposedSource, uniforms: dict,
+              textures: list) -> EnvironmentLighting:
+        """Bake a radiance cube with ``program`` (the environment, or the cells stage's probe)
+        reading ``textures`` ((sampler, texture) pairs), then GGX-prefilter it and project it
+        to SH9."""
         ctx = self.ctx
         n = plan.env_bake_size
         source = ctx.texture_cube((n, n), 4, dtype="f4")
-        bake = self.programs.compute(plan.env_bake)
-        set_uniforms(bake, {**env.uniforms, "u_size": n, "u_env_map": 1})
-        if env.texture is not None:
-            env.texture.use(1)
+        bake = self.programs.compute(program)
+        samplers = {}
+        for unit, (name, tex) in enumerate(textures, start=1):   # unit 0 takes the source below
+            tex.use(unit)
+            samplers[name] = unit
+        set_uniforms(bake, {**uniforms, **samplers, "u_size": n})
         source.bind_to_image(0, read=False, write=True, level=0)
         bake.run(_groups(n), _groups(n), 6)
         ctx.memory_barrier()
@@ -184,7 +224,7 @@ class IBLBaker:
             s = size >> k
             r = k / (levels - 1) if levels > 1 else 0.0   # lod = r (levels - 1), as ibl.glsl reads it
             set_uniforms(prefilter, {"u_source": 0, "u_size": s, "u_source_size": float(n),
-                                     "u_perceptual_roughness": r, "u_samples": plan.samples})
+                                     "u_perceptual_roughness": r, "u_samples": prefilter_samples(plan.samples, k)})
             target.bind_to_image(0, read=False, write=True, level=k)
             prefilter.run(_groups(s), _groups(s), 6)
             ctx.memory_barrier()

@@ -47,9 +47,13 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
     t1 = time.perf_counter()
     scene = scene_bindings(ctx, spec, plan.quality, plan.options["USE_TEXTURES"])
     try:
-        scene.add_texture("u_dfg", session.ibl.dfg(plan))
+        dfg = session.ibl.dfg(plan)
+        scene.add_texture("u_dfg", dfg)
         if plan.ibl is not None:
             lighting = session.ibl.lighting(scene.environment, plan.ibl)
+            if plan.ibl.stage_probe is not None:   # cells stage: spheres and floor see the stage
+                lighting = session.ibl.stage_lighting(plan.ibl, plan.ibl.stage_probe, lighting, dfg,
+                                                      scene.uniforms, scene.environment)
             scene.uniforms.update(lighting.uniforms())
             scene.add_texture("u_prefiltered", lighting.prefiltered)
         set_uniforms(program, scene.bind())

@@ -8,6 +8,7 @@ reference and ``sdfpbr shader`` all read a plan; none decides this again.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -30,11 +31,14 @@ SCHEMA = OptionSchema(
         "INTERSECT": ("analytic", "march"),
         "AO_METHOD": ("analytic", "sdf"),
         "SCENE_SDF": ("nearest_cell", "all_spheres"),
+        "IBL_METHOD": ("split_sum", "sampled"),
+        "IBL_DOMINANT_DIR": ("none", "frostbite", "moments"),
+        "PREFILTER_KERNEL": ("cosine", "brdf"),
         "STAGE": ("shared", "cells"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
-           "USE_TEXTURES", "HALF_RADIANCE"),
-    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS"),
+           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE"),
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES"),
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
 )
 
@@ -116,6 +120,12 @@ def chart_options(spec: ChartSpec) -> dict:
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
     opts.update(bug_options(spec, "chart"))
+    if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
+        opts["IBL_METHOD"] = q.ibl_method
+        opts["IBL_DOMINANT_DIR"] = q.ibl_dominant_dir
+        opts["IBL_TWO_LOBE"] = q.ibl_two_lobe
+        if q.ibl_method == "sampled":
+            opts["IBL_PIXEL_SAMPLES"] = max(q.ibl_pixel_samples, 1)
     return opts
 
 
@@ -140,9 +150,12 @@ class IBLPlan:
     size: int                     # prefiltered cube edge
     samples: int                  # prefilter samples per texel
     sh_size: int                  # cube edge the SH projection reads
+    stage_probe: ComposedSource | None = None   # cells stage: the stage seen from a sphere's centre
+    levels: int = 0               # prefiltered levels, lod = r (levels - 1); 0: down to 4 x 4
 
     def sources(self) -> list[ComposedSource]:
-        return [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
+        out = [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
+        return out + ([self.stage_probe] if self.stage_probe else [])
 
 
 @dataclass(frozen=True)
@@ -173,11 +186,36 @@ class RenderPlan:
 def _ibl_plan(spec: ChartSpec, q: Quality, chart: dict) -> IBLPlan:
     bake = {"ENV": chart["ENV"], "BRDF_MODEL": chart["BRDF_MODEL"]}
     return IBLPlan(env_bake=compose_program("bake_env_main.glsl", bake),
-                   prefilter=compose_program("prefilter_main.glsl", bake),
+                   prefilter=compose_program("prefilter_main.glsl", {**bake, "PREFILTER_KERNEL": prefilter_kernel(q)}),
                    irradiance=compose_program("sh_main.glsl"),
                    copy_to_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "to_cube"}),
                    copy_from_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "from_cube"}),
-                   env_bake_size=q.env_bake_size, size=q.ibl_size, samples=q.ibl_samples, sh_size=q.sh_size)
+                   env_bake_size=q.env_bake_size, size=q.ibl_size, samples=q.ibl_samples, sh_size=q.sh_size,
+                   stage_probe=_stage_probe(chart), levels=prefilter_levels(q))
+
+
+def prefilter_kernel(q: Quality) -> str:
+    """The prefilter's weight (prefilter_main.glsl): the split sum reads the levels as whole
+    specular lobes ("brdf"); the sampled path filters samples with them and reads r = 1 as
+    the irradiance, which needs the plain GGX kernel ("cosine")."""
+    return "cosine" if q.ibl_method == "sampled" else "brdf"
+
+
+def prefilter_levels(q: Quality) -> int:
+    """Prefiltered levels, lod = r (levels - 1). The split sum goes down to 4 x 4 (only the
+    roughest lobes read it); the sampled path also reads the r = 1 level as the irradiance
+    E(n) / pi, which needs 8 x 8 (bilinear reconstruction error 0.5 %, against 1.9 % at 4 x 4,
+    under the test environment of tests/test_ibl_accuracy.py)."""
+    smallest = 8 if q.ibl_method == "sampled" else 4
+    return max(1, int(math.log2(max(q.ibl_size // smallest, 1))) + 1)
+
+
+def _stage_probe(chart: dict) -> ComposedSource | None:
+    """The cells stage lights its spheres with a probe of the stage (environment + its own
+    floor); the floor's shading is the chart's, without the spheres' textures."""
+    if chart["STAGE"] != "cells" or not chart["HAS_GROUND"]:
+        return None
+    return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False})
 
 
 def dfg_source(brdf: str, direct_k_bug: bool = False) -> ComposedSource:

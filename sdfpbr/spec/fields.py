@@ -218,7 +218,7 @@ FIELDS: tuple[Field, ...] = (
     _choice("hdr_precision", "float32", HDR_PRECISIONS, "float format of the radiance target"),
     _bool("multiscatter", True, "multiple-scattering energy compensation", sweep=(True, False)),
     _choice("brdf", "gltf", BRDF_MODELS, "BRDF model", sweep=BRDF_MODELS),
-    _choice("stage", "shared", STAGES, "shared: one floor under the whole grid, neighbours in reflections; "
+    _choice("stage", "cells", STAGES, "shared: one floor under the whole grid, neighbours in reflections; "
             "cells: each sphere on its own floor seen by its own camera (identical cells)", sweep=STAGES),
     _choice("camera", "perspective", CAMERAS, "projection", sweep=CAMERAS),
     _float("camera_azimuth", 0.0, -3600.0, 3600.0, "camera orbit angle around the grid, degrees", metavar="DEG",

@@ -12,6 +12,8 @@ from ...spec.chart_spec import QUALITY_PRESETS, ChartSpec, make_spec
 # The scene suite. Each scene is a set of spec overrides on the default chart.
 SCENES: dict[str, dict] = {
     "default": {},                                    # 5x5, studio env, key + fill light, ground
+    "cells": {"stage": "cells"},                      # each sphere on its own floor (identical cells)
+    "shared": {"stage": "shared"},                    # one floor under the grid, neighbours reflected
     "grid3x3": {"rows": 3, "cols": 3},
     "grid10x10": {"rows": 10, "cols": 10},
     "bare": {"ground": False, "shadows": False, "ao": False},
@@ -23,6 +25,8 @@ SCENES: dict[str, dict] = {
 }
 SCENE_NOTES = {
     "default": "the default 5x5 chart",
+    "cells": "5x5, cells stage: a sphere on its own floor per cell",
+    "shared": "5x5, shared stage: one floor, neighbours in reflections",
     "grid3x3": "3x3 spheres",
     "grid10x10": "10x10 spheres",
     "bare": "no ground, shadows or AO",

@@ -166,8 +166,10 @@ def _sweep_case(d: _Draw, index: int, kind: str, fam: dict, size=None) -> Case:
     distance = 1.0 if d.chance(0.4) else d.log_edge(1e-3, 1e3)
     elevation = d.pick((8.0, 0.0, 89.0, -89.0)) if d.chance(0.4) else float(d.rng.uniform(-89, 89))
     lights = _lights(d, fam, scene)
+    # The sweep's geometric checks (probe pixels, smooth regions, firefly neighbourhoods) trace
+    # the shared stage's one camera; the cells stage's geometry is tested in tests/test_stage.py.
     spec = make_spec(
-        rows=rows, cols=cols, width=width, height=height, roughness=roughness, metallic=metallic,
+        stage="shared", rows=rows, cols=cols, width=width, height=height, roughness=roughness, metallic=metallic,
         base_color=base, row_materials=materials, env=fam["env"], env_intensity=fam["env_intensity"],
         lights=lights, shadows=fam["shadows"], ao=fam["ao"], ground=fam["ground"], ibl=fam["ibl"],
         tonemap=d.pick(TONEMAPS), exposure=exposure, reinhard_white=d.pick((1e-3, 1.0, 4.0, 1e6)),
@@ -223,7 +225,7 @@ def _monotonic_case(d: _Draw, index: int, fam: dict) -> Case:
     light = Light("directional", direction=tuple(light_dir), intensity=d.log_edge(1e-6, 1e6),
                   angular_radius_deg=d.pick((0.0, 0.5, 2.5)))
     spec = make_spec(
-        rows=1, cols=cols, width=width, height=height, roughness=(lo, hi), metallic=(metallic, metallic),
+        stage="shared", rows=1, cols=cols, width=width, height=height, roughness=(lo, hi), metallic=(metallic, metallic),
         base_color=(base,) * 3, env="black", lights=(light,), shadows=False, ao=False, ground=False,
         ibl=False, camera="orthographic", camera_azimuth=0.0, camera_elevation=0.0, intersect="analytic",
         spacing=spacing, brdf=fam["brdf"], multiscatter=fam["multiscatter"], quality=fam["quality"],
