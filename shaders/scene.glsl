@@ -24,6 +24,17 @@ float sdf_spheres(vec3 p, out ivec2 cell) {
 uniform ivec2 u_cell_size;     // pixels per cell
 uniform ivec2 u_grid_origin;   // lower-left pixel of the grid
 
+// The stage probe (stage_probe_main.glsl) sees the stage from the sphere's centre; a ray from
+// a surface point that meets the floor meets it elsewhere. Reading the probe towards that
+// floor point instead corrects the parallax (exact for the floor's own position).
+vec3 g_shading_point = vec3(0.0);   // set by shade_surface
+
+vec3 stage_parallax(vec3 dir) {
+    if (dir.y >= 0.0) return dir;   // the environment, at infinity
+    vec3 q = g_shading_point + dir * ((u_ground_y - g_shading_point.y) / dir.y);
+    return normalize(q);
+}
+
 vec2 cell_pixel(vec2 pixel, out ivec2 cell) {
     ivec2 index = clamp(ivec2(floor(floor(pixel - vec2(u_grid_origin)) / vec2(u_cell_size))), ivec2(0), u_grid - 1);
     cell = ivec2(index.x, u_grid.y - 1 - index.y);   // row 0 on top, GL rows run up

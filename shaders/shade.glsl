@@ -2,6 +2,9 @@
 // lights (the key light shadowed where shadows are composed in).
 // pixel_size: the world size of a pixel at p (texture level of detail).
 vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
+#if STAGE == cells
+    g_shading_point = p;   // for the probe's parallax correction
+#endif
     Material m = cell_material(cell);
     vec3 n = n_geo;
 #if USE_TEXTURES
