@@ -4,10 +4,11 @@
 // Cells stage: the light a cell's sphere sends onto its own floor point q (seen along v). The
 // sphere hides a form factor FF of the floor's sky (the AO removed that part of the
 // environment term); in its place the floor receives the sphere's radiance. Its cosine-weighted
-// average over the sphere's visible cap is estimated from five rays (the cap's axis and a ring
-// at BOUNCE_RING of its angular radius); a Lambert floor then returns rho FF L_avg.
+// average over the sphere's visible cap is estimated from BOUNCE_RAYS rays (the cap's axis, then
+// a ring at BOUNCE_RING of its angular radius); a Lambert floor then returns rho FF L_avg.
 #define BOUNCE_RING 0.6
 #define BOUNCE_MIN_FF 1e-3   // far floor: the sphere's light is below what 8 bits show
+#define BOUNCE_FEW_FF 0.05   // below this the sphere is small in the floor's sky: its axis ray will do
 
 vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     float dist = length(q);
@@ -19,8 +20,9 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     float ring = BOUNCE_RING * asin(min(u_radius / dist, 1.0));
     vec3 sum = vec3(0.0);
     float weight = 0.0;
-    for (int i = 0; i < 5; ++i) {
-        float phi = 0.5 * PI * float(i);
+    int rays = ff < BOUNCE_FEW_FF ? 1 : BOUNCE_RAYS;
+    for (int i = 0; i < rays; ++i) {
+        float phi = 2.0 * PI * float(i) / float(max(BOUNCE_RAYS - 1, 1));
         vec3 w = i == 0 ? axis : cos(ring) * axis + sin(ring) * (cos(phi) * t + sin(phi) * b);
         float cos_q = w.y;                       // the floor's normal is +y
         if (cos_q <= 0.0) continue;              // below the floor's horizon

@@ -10,6 +10,7 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
+from ..shading import plan
 from ..spec.chart_spec import ChartSpec, Quality
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
@@ -61,7 +62,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_ao_radius": 0.5 * spec.sphere_radius,
         "u_env_intensity": spec.env_intensity,
     }
-    if spec.stage == "cells":
+    if plan.stage(spec) == "cells":
         u.update(camera_mod.cell_grid(spec).uniforms(spec.height))
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]

@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..shading.camera import cell_grid, sphere_centers
-from ..shading.plan import brdf_model
+from ..shading.plan import brdf_model, stage
 from ..spec.chart_spec import ChartSpec
 from .layout import Cell, compose_chart
 
 
 def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
     """Each sphere's projected centre and radius in pixels, row by row."""
-    if spec.stage == "cells":   # one camera per cell: the sphere at the origin of each
+    if stage(spec) == "cells":   # one camera per cell: the sphere at the origin of each
         grid = cell_grid(spec)
         (x, y), s = (v[0] for v in camera.project(np.zeros((1, 3))))
         return [Cell(r, c, float(grid.left + c * grid.cell_width + x), float(grid.top + r * grid.cell_height + y),

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..spec.chart_spec import ChartSpec
+from . import plan
 
 FOV_Y_DEG = 30.0
 MARGIN = 1.06
@@ -56,7 +57,7 @@ def sphere_centers(spec: ChartSpec) -> np.ndarray:
 def ground_height(spec: ChartSpec) -> float:
     """The floor's height: under the bottom row (shared stage), or under each sphere, which
     rests on it (cells stage, where every sphere sits at its own origin)."""
-    if spec.stage == "cells":
+    if plan.stage(spec) == "cells":
         return -spec.sphere_radius
     return -0.5 * (spec.rows - 1) * spec.spacing - spec.sphere_radius
 
@@ -115,7 +116,7 @@ def frame_cell(spec: ChartSpec) -> Camera:
 
 def frame(spec: ChartSpec) -> Camera:
     """The camera a render of ``spec`` uses: the grid's, or each cell's."""
-    return frame_cell(spec) if spec.stage == "cells" else frame_grid(spec)
+    return frame_cell(spec) if plan.stage(spec) == "cells" else frame_grid(spec)
 
 
 def frame_grid(spec: ChartSpec) -> Camera:

@@ -38,7 +38,7 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE"),
-    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES"),
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
 )
 
@@ -62,6 +62,12 @@ def quality(spec: ChartSpec) -> Quality:
 def brdf_model(spec: ChartSpec) -> str:
     """The BRDF the chart shades with: the spec's, unless its quality preset forces one."""
     return quality(spec).brdf or spec.brdf
+
+
+def stage(spec: ChartSpec) -> str:
+    """The stage a chart renders: the spec's, unless its quality preset forces one (seed002
+    draws one shared scene, as the seed's shader does)."""
+    return quality(spec).stage or spec.stage
 
 
 def active_bugs(spec: ChartSpec) -> tuple[str, ...]:
@@ -113,10 +119,12 @@ def chart_options(spec: ChartSpec) -> dict:
         "HALF_RADIANCE": spec.hdr_precision == "float16",
         "USE_TEXTURES": spec.uses_textures(),
         "SCENE_SDF": q.scene_sdf,
-        "STAGE": spec.stage,
+        "STAGE": stage(spec),
     }
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
+    if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
+        opts["BOUNCE_RAYS"] = q.bounce_rays
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
     opts.update(bug_options(spec, "chart"))

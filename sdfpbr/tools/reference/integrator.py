@@ -15,7 +15,7 @@ from ...gpu.session import Session, default_session
 from ...progress import Progress
 from ...shading.camera import Camera
 from ...shading.compose import ComposedSource
-from ...shading.plan import ReferencePlan, quality, reference_plan
+from ...shading.plan import ReferencePlan, quality, reference_plan, stage
 from ...spec.chart_spec import ChartSpec
 from .tables import compensation_texture, environment_sampling
 
@@ -53,7 +53,7 @@ class ReferenceResult:
 def cell_reach(spec: ChartSpec) -> int:
     """How many cells away from its own a sphere reaches (0 unless spheres overlap cells; 0
     on the cells stage, where each cell's scene holds its own sphere only)."""
-    if spec.stage == "cells":
+    if stage(spec) == "cells":
         return 0
     return max(0, math.ceil(spec.sphere_radius / spec.spacing - 0.5))
 
