@@ -1,5 +1,6 @@
-// The chart scene: an rows x cols grid of equal spheres in the z = 0 plane, row 0 on top,
-// and an optional ground plane under the bottom row.
+// The chart scene. STAGE shared: a rows x cols grid of equal spheres in the z = 0 plane, row 0
+// on top, and an optional ground plane under the bottom row. STAGE cells: one sphere at the
+// origin on its own floor, shown once per cell (below).
 uniform ivec2 u_grid;          // (cols, rows)
 uniform float u_radius;        // sphere radius
 uniform float u_spacing;       // centre-to-centre distance
@@ -14,9 +15,23 @@ vec3 cell_center(ivec2 cell) { return vec3(0.0); }
 
 ivec2 nearest_cell(vec3 p) { return g_cell; }
 
+#if SCENE_SDF == all_spheres
+// Shared seed 002's union over every sphere of the chart, laid out here so far apart on the
+// floor that no cell's camera sees another: the same picture, at the seed's O(rows x cols) cost.
+#define SEED_LAYOUT_SPACING 1e3
+#endif
+
 float sdf_spheres(vec3 p, out ivec2 cell) {
     cell = g_cell;
+#if SCENE_SDF == all_spheres
+    float d = 1e30;
+    for (int j = 0; j < u_grid.y; ++j)
+        for (int i = 0; i < u_grid.x; ++i)
+            d = min(d, length(p - vec3(float(i - g_cell.x), 0.0, float(j - g_cell.y)) * SEED_LAYOUT_SPACING * u_radius) - u_radius);
+    return d;
+#else
     return length(p) - u_radius;
+#endif
 }
 
 // The cell a pixel (GL coordinates) shows, and the pixel moved into that cell's own frame;

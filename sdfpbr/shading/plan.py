@@ -65,9 +65,8 @@ def brdf_model(spec: ChartSpec) -> str:
 
 
 def stage(spec: ChartSpec) -> str:
-    """The stage a chart renders: the spec's, unless its quality preset forces one (seed002
-    draws one shared scene, as the seed's shader does)."""
-    return quality(spec).stage or spec.stage
+    """The stage a chart renders (one place to ask, as for the other resolved settings)."""
+    return spec.stage
 
 
 def active_bugs(spec: ChartSpec) -> tuple[str, ...]:

@@ -96,7 +96,6 @@ class Quality:
     scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
     hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
     intersect: str = ""              # forces "march" or "analytic"; "" follows the spec
-    stage: str = ""                  # forces a stage; "" follows the spec
     brdf: str = ""                   # forces a BRDF model; "" follows the spec
     implied_bugs: tuple[str, ...] = ()   # shortcuts a preset takes on purpose (seed002)
 
@@ -114,7 +113,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
     "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
                        shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
-                       intersect="march", brdf="schlick-ggx", stage="shared",
+                       intersect="march", brdf="schlick-ggx",
                        implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
 }
 
