@@ -10,15 +10,8 @@ uniform int u_cell_reach;   // k: a sphere reaches into cells up to k away (0 wh
 #define SKIP_NONE ivec2(-2)
 #define MAX_DDA_STEPS 300   // > 2 * (MAX_GRID + 2 k) + 2 for every reach the Python side allows
 
-#if STAGE == cells
-// The cells stage: each pixel's cell (g_cell, set from the pixel by cell_pixel) is one scene,
-// a sphere of radius R at the origin resting on its own floor y = -R, with the environment at
-// infinity; no other cell is in it. Every ray of the pixel's paths (camera, bounce, shadow)
-// sees exactly that scene, so occlusion, shadows and interreflection between the sphere and
-// its floor follow, and every cell computes the same light transport.
-Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
-    Hit hit = NO_HIT;
-    float t_best = t_max;
+// The ground plane, where the ray meets it before t_best (and does not leave it).
+void trace_ground(vec3 ro, vec3 rd, ivec2 skip, inout Hit hit, inout float t_best) {
 #if HAS_GROUND
     if (rd.y < 0.0 && skip != ivec2(-1)) {
         float tg = (u_ground_y - ro.y) / rd.y;
@@ -28,6 +21,18 @@ Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
         }
     }
 #endif
+}
+
+#if STAGE == cells
+// The cells stage: each pixel's cell (g_cell, set from the pixel by cell_pixel) is one scene,
+// a sphere of radius R at the origin resting on its own floor y = -R, with the environment at
+// infinity; no other cell is in it. Every ray of the pixel's paths (camera, bounce, shadow)
+// sees exactly that scene, so occlusion, shadows and interreflection between the sphere and
+// its floor follow, and every cell computes the same light transport.
+Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
+    Hit hit = NO_HIT;
+    float t_best = t_max;
+    trace_ground(ro, rd, skip, hit, t_best);
     if (skip != g_cell) {   // a ray leaving the (convex) sphere never meets it again
         float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
         if (t > 0.0 && t < t_best)
@@ -45,15 +50,7 @@ vec2 grid_coordinates(vec3 p) {
 Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
     Hit hit = NO_HIT;
     float t_best = t_max;
-#if HAS_GROUND
-    if (rd.y < 0.0 && skip != ivec2(-1)) {
-        float tg = (u_ground_y - ro.y) / rd.y;
-        if (tg > 0.0 && tg < t_best) {
-            t_best = tg;
-            hit = Hit(tg, vec3(0.0, 1.0, 0.0), ivec2(-1));
-        }
-    }
-#endif
+    trace_ground(ro, rd, skip, hit, t_best);
     // Interval inside the slab of the spheres, |z| <= R.
     float t0 = 0.0, t1 = t_best;
     if (abs(rd.z) > 0.0) {

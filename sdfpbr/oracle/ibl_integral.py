@@ -30,7 +30,6 @@ import numpy as np
 
 from . import mirror
 
-_F0_DIELECTRIC = 0.04
 
 
 @dataclass(frozen=True)
@@ -80,10 +79,6 @@ def _frame(n, v):
     return x, y
 
 
-def _gl(n):
-    return mirror._gauss_legendre01(n)
-
-
 def _specular_terms(n, v, r, env, n_theta, n_phi):
     """S_A = int (1 - Fc) f_spec L cos, S_B = int Fc f_spec L cos (F = 1, f_spec = D Vis),
     per pixel, RGB: (m, 3) each. With L = 1 these are the A, B of the DFG LUT."""
@@ -92,17 +87,11 @@ def _specular_terms(n, v, r, env, n_theta, n_phi):
     a2 = alpha * alpha
     sv = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
     tx, ty = _frame(n, v)
-    theta_v = np.arccos(mu)
-    th_a = 0.5 * (0.5 * np.pi - theta_v)
-    th_b = 0.5 * (0.5 * np.pi + theta_v)
-    th_c = np.arctan(3.0 * alpha)
-    p1 = np.minimum(th_a, th_c)
-    p2 = np.minimum(np.maximum(th_a, th_c), th_b)
-    pieces = ((np.zeros_like(mu), p1), (p1, p2), (p2, th_b))
-    x, w = _gl(n_theta)
+    pieces, th_c = mirror.half_vector_pieces(mu, alpha)
+    x, w = mirror.gauss_legendre01(n_theta)
     xs = x * x * (3.0 - 2.0 * x)
     ws = w * 6.0 * x * (1.0 - x)
-    xp, wp = _gl(n_phi)
+    xp, wp = mirror.gauss_legendre01(n_phi)
     SA = np.zeros(mu.shape + (3,))
     SB = np.zeros(mu.shape + (3,))
     mu3, sv3, a23, al3 = (t[:, None, None] for t in (mu, sv, a2, alpha))
@@ -111,24 +100,7 @@ def _specular_terms(n, v, r, env, n_theta, n_phi):
     N, X, Y = (t[:, None, None, :] for t in (n, tx, ty))
     for lo, hi in pieces:
         use_u = (hi <= th_c)[:, None, None]
-        lo3, hi3 = lo[:, None, None], hi[:, None, None]
-        u_lo = mirror._u_of_theta(np.sin(lo3), np.cos(lo3), a23)
-        u_hi = mirror._u_of_theta(np.sin(hi3), np.cos(hi3), a23)
-        u = u_lo + (u_hi - u_lo) * xt
-        q = 1.0 + (a23 - 1.0) * u
-        c_u = np.sqrt(np.clip((1.0 - u) / q, 0.0, 1.0))
-        s_u = np.sqrt(np.clip(a23 * u / q, 0.0, 1.0))
-        w_u = (u_hi - u_lo) * wt
-        s_lo = np.log(np.maximum(np.tan(lo3), 1e-150))
-        s_hi = np.log(np.maximum(np.tan(hi3), 1e-150))
-        t = np.exp(s_lo + (s_hi - s_lo) * xt)
-        c_t = 1.0 / np.sqrt(1.0 + t * t)
-        s_t = t * c_t
-        den = a23 + t * t
-        w_t = (s_hi - s_lo) * wt * 2.0 * a23 * t * t / (den * den)
-        c = np.where(use_u, c_u, c_t)
-        s = np.where(use_u, s_u, s_t)
-        w_th = np.where(use_u, w_u, w_t)
+        c, s, w_th = mirror.half_vector_nodes(lo[:, None, None], hi[:, None, None], a23, xt, wt, use_u)
         c0 = mu3 * (1.0 - 2.0 * c * c) / np.maximum(2.0 * c * s * sv3, 1e-300)
         phi_max = np.arccos(np.clip(c0, -1.0, 1.0))
         phi = phi_max * (2.0 * xq - 1.0)               # the whole arc: L is not symmetric
@@ -144,7 +116,7 @@ def _specular_terms(n, v, r, env, n_theta, n_phi):
         l = 2.0 * v_dot_h[..., None] * h - vw
         l /= np.linalg.norm(l, axis=-1, keepdims=True)
         L = env.radiance(l)
-        fc = mirror._fc(v_dot_h)
+        fc = mirror.fresnel_weight(v_dot_h)
         SB += np.sum((g * fc * wgt)[..., None] * L, axis=(1, 2))
         SA += np.sum((g * (1.0 - fc) * wgt)[..., None] * L, axis=(1, 2))
     return SA, SB
@@ -153,8 +125,8 @@ def _specular_terms(n, v, r, env, n_theta, n_phi):
 def _diffuse_term(n, v, env, n_theta, n_phi):
     """S_C = int (1 - F_d(VdotH)) L cos / pi dl, F_d the dielectric Schlick (f0 0.04): (m, 3)."""
     tx, ty = _frame(n, v)
-    x, w = _gl(n_theta)
-    xp, wp = _gl(n_phi)
+    x, w = mirror.gauss_legendre01(n_theta)
+    xp, wp = mirror.gauss_legendre01(n_phi)
     th = 0.5 * np.pi * x[None, :, None]
     ph = 2.0 * np.pi * xp[None, None, :]
     st, ct = np.sin(th), np.cos(th)
@@ -162,7 +134,7 @@ def _diffuse_term(n, v, env, n_theta, n_phi):
     l = (st * np.cos(ph))[..., None] * X + (st * np.sin(ph))[..., None] * Y + ct[..., None] * N
     vv = v[:, None, None, :]
     v_dot_h = np.sqrt(np.clip(0.5 * (1.0 + np.sum(vv * l, -1)), 0.0, 1.0))
-    one_minus_fd = 1.0 - (_F0_DIELECTRIC + (1.0 - _F0_DIELECTRIC) * mirror._fc(v_dot_h))
+    one_minus_fd = 1.0 - (mirror.DIELECTRIC_F0 + (1.0 - mirror.DIELECTRIC_F0) * mirror.fresnel_weight(v_dot_h))
     wgt = (0.5 * np.pi * w[None, :, None]) * st * ct * (2.0 * np.pi * wp[None, None, :]) / np.pi
     return np.sum((one_minus_fd * wgt)[..., None] * env.radiance(l), axis=(1, 2))
 
@@ -194,9 +166,9 @@ def ibl_integral(n, v, base_color, metallic, perceptual_roughness, env: LobeSky,
         SC[sl] = _diffuse_term(n[sl], v[sl], env, o["diff_theta"], o["diff_phi"])
     A, B, _ = mirror.dfg_integrate(mu, r)
     e = (A + B)[:, None]
-    comp_d = 1.0 + _F0_DIELECTRIC * (1.0 / e - 1.0) if multiscatter else 1.0
+    comp_d = 1.0 + mirror.DIELECTRIC_F0 * (1.0 / e - 1.0) if multiscatter else 1.0
     comp_m = 1.0 + base * (1.0 / e - 1.0) if multiscatter else 1.0
-    spec_d = (_F0_DIELECTRIC * SA + SB) * comp_d
+    spec_d = (mirror.DIELECTRIC_F0 * SA + SB) * comp_d
     spec_m = (base * SA + SB) * comp_m
     dielectric = base * SC + spec_d
     return (1.0 - metal) * dielectric + metal * spec_m
@@ -214,12 +186,12 @@ def prefiltered(directions, perceptual_roughness, env: LobeSky, n_theta: int = 9
         return env.radiance(d)
     a2 = max(r, mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 4
     # theta_h in [0, pi/4] (NdotL = cos 2 theta_h > 0), u the CDF variable of D cos.
-    u_max = mirror._u_of_theta(np.sin(np.pi / 4), np.cos(np.pi / 4), a2)
-    x, w = _gl(n_theta)
-    xp, wp = _gl(n_phi)
+    u_max = mirror.u_of_theta(np.sin(np.pi / 4), np.cos(np.pi / 4), a2)
+    x, w = mirror.gauss_legendre01(n_theta)
+    xp, wp = mirror.gauss_legendre01(n_phi)
     # Two pieces in u so the peak of small lobes and the tail both get nodes.
     th_c = min(np.arctan(3.0 * np.sqrt(a2)), np.pi / 4)
-    u_c = mirror._u_of_theta(np.sin(th_c), np.cos(th_c), a2)
+    u_c = mirror.u_of_theta(np.sin(th_c), np.cos(th_c), a2)
     tx, ty = _frame(d, d)
     N, X, Y = (t[:, None, None, :] for t in (d, tx, ty))
     num = np.zeros((d.shape[0], 3))

@@ -43,7 +43,7 @@ MIN_PERCEPTUAL_ROUGHNESS = 0.045
 MIN_N_DOT_V = 1e-4
 # Below this alpha the lobe is a delta for any quadrature we can afford: use the limit.
 _ALPHA_DELTA = 1e-4
-_DIELECTRIC_F0 = 0.04
+DIELECTRIC_F0 = 0.04
 _TINY = 1e-300
 # Largest finite half float, and Filament's fp16 roughness guard: 0.089^4 = 6.3e-5 keeps alpha^2
 # a normal half (>= 2^-14); with the half-safe D its peak 1/(pi alpha^2) = 5.1e3 stays finite.
@@ -130,8 +130,8 @@ def k_ibl(perceptual_roughness, dtype=np.float64):
     return alpha_from_perceptual(perceptual_roughness, dtype) / 2.0
 
 
-def _fc(x):
-    # Clamp before the power: pow of a slightly negative base is NaN in GLSL.
+def fresnel_weight(x):
+    """Fc(x) = (1 - x)^5, x clipped first (pow of a slightly negative base is NaN in GLSL)."""
     return (1.0 - np.clip(x, 0.0, 1.0)) ** 5
 
 
@@ -144,7 +144,7 @@ def fresnel_schlick(f0, v_dot_h, dtype=np.float64):
     x = np.asarray(v_dot_h, dtype=dtype)
     if f0.ndim >= 1 and f0.shape[-1] == 3:
         x = x[..., None]
-    return f0 + (1.0 - f0) * _fc(x)
+    return f0 + (1.0 - f0) * fresnel_weight(x)
 
 
 def _vis(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl, dtype=np.float64):
@@ -161,7 +161,7 @@ def _vis(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl, dtype=np.flo
 _GL_CACHE: dict = {}
 
 
-def _gauss_legendre01(n):
+def gauss_legendre01(n):
     """Nodes and weights on [0, 1]."""
     if n not in _GL_CACHE:
         x, w = np.polynomial.legendre.leggauss(int(n))
@@ -169,10 +169,44 @@ def _gauss_legendre01(n):
     return _GL_CACHE[n]
 
 
-def _u_of_theta(sin_t, cos_t, a2):
-    # Inverse of cos^2 = (1-u)/(1+(a2-1)u): the CDF of D cos in theta_h.
+def u_of_theta(sin_t, cos_t, a2):
+    """Inverse of cos^2 = (1-u)/(1+(a2-1)u): the CDF of D cos in theta_h."""
     s2 = sin_t * sin_t
     return s2 / (a2 * cos_t * cos_t + s2)
+
+
+def half_vector_pieces(mu, alpha):
+    """The half vector's polar range split where the integrand stops being smooth (see
+    _dfg_spec_flat): three (lo, hi) pieces, and th_c, below which u is the good variable."""
+    theta_v = np.arccos(mu)
+    th_a = 0.5 * (0.5 * np.pi - theta_v)
+    th_b = 0.5 * (0.5 * np.pi + theta_v)
+    th_c = np.arctan(3.0 * alpha)
+    p1 = np.minimum(th_a, th_c)
+    p2 = np.minimum(np.maximum(th_a, th_c), th_b)
+    return ((np.zeros_like(mu), p1), (p1, p2), (p2, th_b)), th_c
+
+
+def half_vector_nodes(lo3, hi3, a23, xt, wt, use_u):
+    """Quadrature over the half vector's polar angle on [lo, hi] (broadcast arrays): the u
+    variable of u_of_theta where D peaks (D flattened), s = ln(tan theta) in the tail, which
+    spans decades when alpha is small (measure du = 2 a2 t^2 / (a2 + t^2)^2 ds, t = tan theta).
+    Returns (cos, sin, weight) of each node; xt, wt: nodes and weights on [0, 1]."""
+    u_lo = u_of_theta(np.sin(lo3), np.cos(lo3), a23)
+    u_hi = u_of_theta(np.sin(hi3), np.cos(hi3), a23)
+    u = u_lo + (u_hi - u_lo) * xt
+    q = 1.0 + (a23 - 1.0) * u
+    c_u = np.sqrt(np.clip((1.0 - u) / q, 0.0, 1.0))
+    s_u = np.sqrt(np.clip(a23 * u / q, 0.0, 1.0))
+    w_u = (u_hi - u_lo) * wt
+    s_lo = np.log(np.maximum(np.tan(lo3), 1e-150))
+    s_hi = np.log(np.maximum(np.tan(hi3), 1e-150))
+    t = np.exp(s_lo + (s_hi - s_lo) * xt)
+    c_t = 1.0 / np.sqrt(1.0 + t * t)
+    s_t = t * c_t
+    den = a23 + t * t
+    w_t = (s_hi - s_lo) * wt * 2.0 * a23 * t * t / (den * den)
+    return np.where(use_u, c_u, c_t), np.where(use_u, s_u, s_t), np.where(use_u, w_u, w_t)
 
 
 def _dfg_spec_flat(mu, r, model, n):
@@ -189,15 +223,9 @@ def _dfg_spec_flat(mu, r, model, n):
     alpha = r * r
     a2 = alpha * alpha
     sv = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
-    theta_v = np.arccos(mu)
-    th_a = 0.5 * (0.5 * np.pi - theta_v)
-    th_b = 0.5 * (0.5 * np.pi + theta_v)
-    th_c = np.arctan(3.0 * alpha)
-    p1 = np.minimum(th_a, th_c)
-    p2 = np.minimum(np.maximum(th_a, th_c), th_b)
-    pieces = ((np.zeros_like(mu), p1), (p1, p2), (p2, th_b))
+    pieces, th_c = half_vector_pieces(mu, alpha)
 
-    x, w = _gauss_legendre01(n)
+    x, w = gauss_legendre01(n)
     # theta nodes through the smoothstep x = 3y^2 - 2y^3: the phi range opens like a square
     # root at the piece ends, and the vanishing Jacobian turns that into a smooth integrand.
     xs = x * x * (3.0 - 2.0 * x)
@@ -210,27 +238,7 @@ def _dfg_spec_flat(mu, r, model, n):
     xp, wp = x[None, None, :], w[None, None, :]
     for lo, hi in pieces:
         use_u = (hi <= th_c)[:, None, None]
-        lo3, hi3 = lo[:, None, None], hi[:, None, None]
-        # u variable (D peak, where D is flattened): measure du.
-        u_lo = _u_of_theta(np.sin(lo3), np.cos(lo3), a23)
-        u_hi = _u_of_theta(np.sin(hi3), np.cos(hi3), a23)
-        u = u_lo + (u_hi - u_lo) * xt
-        q = 1.0 + (a23 - 1.0) * u
-        c_u = np.sqrt(np.clip((1.0 - u) / q, 0.0, 1.0))
-        s_u = np.sqrt(np.clip(a23 * u / q, 0.0, 1.0))
-        w_u = (u_hi - u_lo) * wt
-        # s = ln(tan theta) variable (tail, which spans decades when alpha is small):
-        # measure du = 2 a2 t^2 / (a2 + t^2)^2 ds, t = tan theta; smooth, decays like 1/t^2.
-        s_lo = np.log(np.maximum(np.tan(lo3), 1e-150))
-        s_hi = np.log(np.maximum(np.tan(hi3), 1e-150))
-        t = np.exp(s_lo + (s_hi - s_lo) * xt)
-        c_t = 1.0 / np.sqrt(1.0 + t * t)
-        s_t = t * c_t
-        den = a23 + t * t
-        w_t = (s_hi - s_lo) * wt * 2.0 * a23 * t * t / (den * den)
-        c = np.where(use_u, c_u, c_t)
-        s = np.where(use_u, s_u, s_t)
-        w_th = np.where(use_u, w_u, w_t)
+        c, s, w_th = half_vector_nodes(lo[:, None, None], hi[:, None, None], a23, xt, wt, use_u)
         # NdotL = 2 VdotH c - mu > 0  <=>  cos(phi) > c0.
         num = mu3 * (1.0 - 2.0 * c * c)
         c0 = num / np.maximum(2.0 * c * s * sv3, _TINY)
@@ -242,7 +250,7 @@ def _dfg_spec_flat(mu, r, model, n):
         g = vis * n_dot_l * 4.0 * v_dot_h / np.maximum(c, _TINY)
         # Weight: w_theta * phi_max w_phi * 2 (symmetry) / (2 pi).
         wgt = w_th * phi_max * wp / np.pi
-        fc = _fc(v_dot_h)
+        fc = fresnel_weight(v_dot_h)
         B += np.sum(g * fc * wgt, axis=(1, 2))
         A += np.sum(g * (1.0 - fc) * wgt, axis=(1, 2))
     return A, B
@@ -253,14 +261,14 @@ def _dfg_c_flat(mu, n):
 
     Parametrised by theta_l (not sin^2) so the integrand has no sqrt kink at the horizon.
     """
-    x, w = _gauss_legendre01(n)
+    x, w = gauss_legendre01(n)
     mu3 = mu[:, None, None]
     sv3 = np.sqrt(np.maximum(1.0 - mu3 * mu3, 0.0))
     th = 0.5 * np.pi * x[None, :, None]
     phi = np.pi * x[None, None, :]
     v_dot_l = sv3 * np.sin(th) * np.cos(phi) + mu3 * np.cos(th)
     v_dot_h = np.sqrt(np.clip(0.5 * (1.0 + v_dot_l), 0.0, 1.0))
-    one_minus_fd = 1.0 - (_DIELECTRIC_F0 + (1.0 - _DIELECTRIC_F0) * _fc(v_dot_h))
+    one_minus_fd = 1.0 - (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fresnel_weight(v_dot_h))
     # Measure: dxi dphi / (2 pi), xi = sin^2, dxi = 2 sin cos dtheta; phi doubled.
     wgt = (0.5 * np.pi * w[None, :, None]) * 2.0 * np.sin(th) * np.cos(th) \
         * (np.pi * w[None, None, :]) * 2.0 / (2.0 * np.pi)
@@ -289,7 +297,7 @@ def dfg_integrate(n_dot_v, perceptual_roughness, model="gltf", n=64):
     C = np.empty_like(mu)
 
     delta = r * r < _ALPHA_DELTA
-    fc_mu = _fc(mu)
+    fc_mu = fresnel_weight(mu)
     A[delta] = 1.0 - fc_mu[delta]
     B[delta] = fc_mu[delta]
 
@@ -311,7 +319,7 @@ def dfg_integrate(n_dot_v, perceptual_roughness, model="gltf", n=64):
 def e_avg(perceptual_roughness, model="gltf", n=64):
     """Hemispherical average Eavg(r) = 2 int_0^1 E(mu) mu dmu."""
     r = np.asarray(perceptual_roughness, dtype=np.float64)
-    x, w = _gauss_legendre01(n)
+    x, w = gauss_legendre01(n)
     A, B, _ = dfg_integrate(x, r[..., None], model=model, n=n)
     return 2.0 * np.sum((A + B) * x * w, axis=-1)
 
@@ -377,14 +385,14 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     v_dot_h = np.abs(_dot(v, h))
 
     f_spec = (d_ggx(n_dot_h, alpha, dtype) * _vis(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
-    fc = _fc(v_dot_h)[..., None]
-    fd = _DIELECTRIC_F0 + (1.0 - _DIELECTRIC_F0) * fc
+    fc = fresnel_weight(v_dot_h)[..., None]
+    fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc
     spec_d = f_spec * fd
     spec_m = f_spec * (base + (1.0 - base) * fc)
     if multiscatter:
         e = _e_for(n_dot_v.astype(np.float64), r.astype(np.float64), model) if e_spec is None else e_spec
         e = np.maximum(np.asarray(e, dtype=dtype), _tiny(dtype))
-        spec_d = spec_d * _compensation(np.asarray(_DIELECTRIC_F0, dtype), e)
+        spec_d = spec_d * _compensation(np.asarray(DIELECTRIC_F0, dtype), e)
         spec_m = spec_m * _compensation(base, e)
     dielectric = base / np.pi * (1.0 - fd) + spec_d
     f = (1.0 - metal) * dielectric + metal * spec_m
@@ -415,7 +423,7 @@ def furnace_from_dfg(A, B, C, base_color, metallic, multiscatter=True):
     metal = np.asarray(metallic, dtype=np.float64)[..., None]
     e = A + B
     A, B, C = A[..., None], B[..., None], C[..., None]
-    f0d = np.float64(_DIELECTRIC_F0)
+    f0d = np.float64(DIELECTRIC_F0)
     spec_d = f0d * A + B
     spec_m = base * A + B
     if multiscatter:
