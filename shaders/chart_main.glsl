@@ -17,6 +17,9 @@
 #elif USE_IBL
 #include "ibl.glsl"
 #endif
+#if GROUND_IBL
+#include "ground_ibl.glsl"
+#endif
 #if USE_AO
 #include "ao.glsl"
 #endif

@@ -11,6 +11,9 @@
 #if USE_IBL
 #include "ibl.glsl"
 #endif
+#if GROUND_IBL
+#include "ground_ibl.glsl"
+#endif
 #if USE_AO
 #include "ao.glsl"
 #endif

@@ -109,6 +109,12 @@ class EnvironmentLighting:
         return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh]}
 
 
+@dataclass
+class GroundTable:
+    texture: moderngl.Texture     # (u_ground_ibl) RGBA float, ground_ibl.glsl's octahedral map
+    key: str
+
+
 class IBLBaker:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache):
         self.ctx = ctx
@@ -116,13 +122,18 @@ class IBLBaker:
         self.cache = cache
         self._dfg: dict[str, moderngl.Texture] = {}
         self._lighting: dict[str, EnvironmentLighting] = {}
+        self._ground: dict[str, GroundTable] = {}
 
     # ---- DFG LUT -------------------------------------------------------------------------
+    @staticmethod
+    def dfg_key(plan: RenderPlan) -> str:
+        return content_key(plan.dfg.text, plan.dfg_size, plan.dfg_samples)
+
     def dfg(self, plan: RenderPlan) -> moderngl.Texture:
         """The plan's DFG LUT (its source says which model, and whether the ibl-direct-k bug
         builds it with the direct-light Schlick k)."""
         source, size, samples = plan.dfg, plan.dfg_size, plan.dfg_samples
-        key = content_key(source.text, size, samples)
+        key = self.dfg_key(plan)
         if key not in self._dfg:
             cached = self.cache.get("dfg", key)
             if cached is not None:
@@ -154,19 +165,52 @@ class IBLBaker:
         textures = [("u_env_map", env.texture)] if env.texture is not None else []
         return self._baked(plan, plan.env_bake, env.content, env.uniforms, textures)
 
+    def ground_table(self, plan: RenderPlan, environment: EnvironmentLighting, dfg: moderngl.Texture,
+                     scene_uniforms: dict) -> GroundTable:
+        """The ground's IBL per view direction (ground_ibl_main.glsl) under ``environment``,
+        baked once per environment, ground material and DFG LUT, cached on disk."""
+        source, size = plan.ibl.ground_table, plan.ibl.ground_table_size
+        program = self.programs.compute(source)
+        uniforms = {**scene_uniforms, **environment.uniforms()}
+        read = {k: v for k, v in uniforms.items() if k in program}
+        key = content_key(source.text, size, read, environment.key, self.dfg_key(plan))
+        if key not in self._ground:
+            cached = self.cache.get("ibl", key)
+            if cached is not None:
+                table = cached["table"]
+            else:
+                target = self.ctx.texture((size, size), 4, dtype="f4")
+                environment.prefiltered.use(1)
+                dfg.use(2)
+                set_uniforms(program, {**read, "u_prefiltered": 1, "u_dfg": 2, "u_size": size})
+                target.bind_to_image(0, read=False, write=True)
+                program.run(_groups(size), _groups(size), 1)
+                self.ctx.memory_barrier()
+                table = np.frombuffer(target.read(), dtype=np.float32).reshape(size, size, 4).copy()
+                target.release()
+                self.cache.put("ibl", key, {"table": table})
+            tex = self.ctx.texture((size, size), 4, np.ascontiguousarray(table, np.float32).tobytes(), dtype="f4")
+            tex.repeat_x = tex.repeat_y = False   # CLAMP_TO_EDGE: the square's edge is the horizon
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self._ground[key] = GroundTable(tex, key)
+        return self._ground[key]
+
     def stage_lighting(self, plan: IBLPlan, probe: ComposedSource, environment: EnvironmentLighting,
-                       dfg: moderngl.Texture, scene_uniforms: dict, env: Environment) -> EnvironmentLighting:
+                       scene_textures: list, scene_uniforms: dict, env: Environment,
+                       depends_on: tuple = ()) -> EnvironmentLighting:
         """The cells stage's probe (the radiance a sphere sees from its centre: the environment
         above, its own lit floor below), prefiltered and projected like the environment. The
-        floor is shaded with the environment's lighting, which the probe program reads."""
+        floor is shaded with the environment's lighting and the scene's textures (DFG LUT,
+        ground table, environment map), which the probe program reads; ``depends_on``: the
+        keys of baked inputs among them."""
         uniforms = {**scene_uniforms, **environment.uniforms()}
-        textures = [("u_dfg", dfg), ("u_prefiltered", environment.prefiltered)]
-        if env.texture is not None:
-            textures.append(("u_env_map", env.texture))
+        textures = [*scene_textures, ("u_prefiltered", environment.prefiltered)]
         program = self.programs.compute(probe)
+        textures = [(name, tex) for name, tex in textures if name in program]
         # What the probe's radiance depends on: the uniforms its program reads and the lighting.
         read = {k: v for k, v in uniforms.items() if k in program and k not in dict(textures)}
-        return self._baked(plan, probe, content_key(read, environment.key, env.content), uniforms, textures)
+        return self._baked(plan, probe, content_key(read, environment.key, env.content, list(depends_on)),
+                           uniforms, textures)
 
     def _baked(self, plan: IBLPlan, program: ComposedSource, content: str, uniforms: dict,
                textures: list) -> EnvironmentLighting:

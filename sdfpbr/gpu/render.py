@@ -51,9 +51,14 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
         scene.add_texture("u_dfg", dfg)
         if plan.ibl is not None:
             lighting = session.ibl.lighting(scene.environment, plan.ibl)
+            baked = []
+            if plan.ibl.ground_table is not None:   # the ground's IBL per view direction
+                ground = session.ibl.ground_table(plan, lighting, dfg, scene.uniforms)
+                scene.add_texture("u_ground_ibl", ground.texture)
+                baked.append(ground.key)
             if plan.ibl.stage_probe is not None:   # cells stage: spheres and floor see the stage
-                lighting = session.ibl.stage_lighting(plan.ibl, plan.ibl.stage_probe, lighting, dfg,
-                                                      scene.uniforms, scene.environment)
+                lighting = session.ibl.stage_lighting(plan.ibl, plan.ibl.stage_probe, lighting, scene.textures,
+                                                      scene.uniforms, scene.environment, tuple(baked))
             scene.uniforms.update(lighting.uniforms())
             scene.add_texture("u_prefiltered", lighting.prefiltered)
         set_uniforms(program, scene.bind())

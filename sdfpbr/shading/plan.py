@@ -37,7 +37,7 @@ SCHEMA = OptionSchema(
         "STAGE": ("shared", "cells"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
-           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE"),
+           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL"),
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
 )
@@ -133,6 +133,10 @@ def chart_options(spec: ChartSpec) -> dict:
         opts["IBL_TWO_LOBE"] = q.ibl_two_lobe
         if q.ibl_method == "sampled":
             opts["IBL_PIXEL_SAMPLES"] = max(q.ibl_pixel_samples, 1)
+    # The ground reads its IBL from a view-direction table (ground_ibl.glsl) baked from the
+    # prefiltered environment, which the few-tap bug does without.
+    opts["GROUND_IBL"] = (opts["USE_IBL"] and spec.ground and q.ground_ibl_samples > 0
+                          and not opts.get("BUG_FEWTAP_IBL", False))
     return opts
 
 
@@ -159,10 +163,12 @@ class IBLPlan:
     sh_size: int                  # cube edge the SH projection reads
     stage_probe: ComposedSource | None = None   # cells stage: the stage seen from a sphere's centre
     levels: int = 0               # prefiltered levels, lod = r (levels - 1); 0: down to 4 x 4
+    ground_table: ComposedSource | None = None  # the ground's IBL per view direction (GROUND_IBL)
+    ground_table_size: int = 0    # its edge in texels
 
     def sources(self) -> list[ComposedSource]:
         out = [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
-        return out + ([self.stage_probe] if self.stage_probe else [])
+        return out + [s for s in (self.stage_probe, self.ground_table) if s is not None]
 
 
 @dataclass(frozen=True)
@@ -198,7 +204,8 @@ def _ibl_plan(spec: ChartSpec, q: Quality, chart: dict) -> IBLPlan:
                    copy_to_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "to_cube"}),
                    copy_from_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "from_cube"}),
                    env_bake_size=q.env_bake_size, size=q.ibl_size, samples=q.ibl_samples, sh_size=q.sh_size,
-                   stage_probe=_stage_probe(chart), levels=prefilter_levels(q))
+                   stage_probe=_stage_probe(chart), levels=prefilter_levels(q),
+                   ground_table=_ground_table(q, chart), ground_table_size=q.ground_ibl_size)
 
 
 def prefilter_kernel(q: Quality) -> str:
@@ -223,6 +230,18 @@ def _stage_probe(chart: dict) -> ComposedSource | None:
     if chart["STAGE"] != "cells" or not chart["HAS_GROUND"]:
         return None
     return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False})
+
+
+def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
+    """The ground's IBL table bake: the ground material (never a catalogued bug, which are about
+    the spheres) under the environment, IBL_PIXEL_SAMPLES filtered samples per texel."""
+    if not chart.get("GROUND_IBL"):
+        return None
+    return compose_program("ground_ibl_main.glsl", {
+        "STAGE": "shared", "SCENE_SDF": "nearest_cell", "HAS_GROUND": True, "GRID_ROWS": 1,
+        "BRDF_MODEL": chart["BRDF_MODEL"], "MULTISCATTER": chart["MULTISCATTER"],
+        "IBL_METHOD": "sampled", "IBL_PIXEL_SAMPLES": q.ground_ibl_samples,
+        "IBL_DOMINANT_DIR": "none", "IBL_TWO_LOBE": False})
 
 
 def dfg_source(brdf: str, direct_k_bug: bool = False) -> ComposedSource:

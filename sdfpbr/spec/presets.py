@@ -93,6 +93,11 @@ class Quality:
     ibl_two_lobe: bool = True          # split_sum lookup: a narrower core plus a tail read along N
     ibl_pixel_samples: int = 0
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
+    # The ground's IBL from a table over the view direction, baked once per environment with
+    # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
+    # on an edge.
+    ground_ibl_samples: int = 1024
+    ground_ibl_size: int = 128       # ~64 texels from horizon to zenith, as the DFG LUT's NdotV
     scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
     hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
     intersect: str = ""              # forces "march" or "analytic"; "" follows the spec
@@ -103,7 +108,7 @@ class Quality:
 QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16,
-                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1),
+                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, ground_ibl_size=64),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
                     ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048,
@@ -113,7 +118,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
     "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
                        shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
-                       intersect="march", brdf="schlick-ggx",
+                       intersect="march", brdf="schlick-ggx", ground_ibl_samples=0,
                        implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
 }
 

@@ -1,0 +1,44 @@
+#include "common.glsl"
+#include "hit.glsl"
+#include "scene.glsl"
+#include "ggx.glsl"
+#include "visibility.glsl"
+#include "brdf.glsl"
+#include "dfg.glsl"
+#include "material.glsl"
+#include "ibl.glsl"
+#include "ground_ibl.glsl"
+
+// The ground's IBL table (read by ground_ibl.glsl): per view direction, the environment's
+// light reflected by the ground material. Both integrals use IBL_PIXEL_SAMPLES filtered samples
+// of the prefiltered map (ibl_sampled.glsl's estimator, which tends to the exact integral as
+// the count grows): the specular lobe with GGX visible normals, the irradiance with cosine
+// samples (SH9's band limit put it 2 % low under a sharp lobe). The split sum it replaces put the
+// far floor up to 8 % low (one V = N lobe read along R, at grazing angles).
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f, binding = 0) uniform writeonly image2D u_target;
+uniform int u_size;
+
+// E(up) / pi: the mean of L over cosine-distributed directions (pdf cos / pi).
+vec3 irradiance_over_pi_up() {
+    uint count = uint(IBL_PIXEL_SAMPLES);
+    vec3 sum = vec3(0.0);
+    for (uint i = 0u; i < count; ++i) {
+        vec3 l = sample_cosine_hemisphere(hammersley(i, count)).xzy;   // local z -> world y
+        float pdf = l.y * INV_PI;
+        sum += textureLod(u_prefiltered, l, filtered_lod(1.0 / (float(count) * max(pdf, 1e-6)))).rgb;
+    }
+    return sum / float(count);
+}
+
+void main() {
+    ivec2 id = ivec2(gl_GlobalInvocationID.xy);
+    if (id.x >= u_size || id.y >= u_size) return;
+    vec3 v = ground_view_direction((vec2(id) + 0.5) / float(u_size));
+    vec3 n = vec3(0.0, 1.0, 0.0);
+    Material m = cell_material(ivec2(-1));
+    float n_dot_v = max(v.y, MIN_N_DOT_V);
+    vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
+    SampledSpecular s = sampled_specular(n, v, n_dot_v, m.alpha);
+    imageStore(u_target, id, vec4(ibl_mix(m, dfg, s.mean_a, s.mean_b, irradiance_over_pi_up()), 1.0));
+}
