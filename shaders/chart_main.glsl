@@ -33,15 +33,19 @@
 #include "march.glsl"
 #endif
 #include "shade.glsl"
+#if ANALYTIC_AA
+#include "edge_coverage.glsl"
+#endif
 #if STAGE == cells && HAS_GROUND && USE_AO
 #include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
 #endif
 
-// Chart program: one fullscreen triangle per tile; each pixel averages SPP stratified rays.
-// Outputs linear HDR radiance + coverage, and the AOVs of the pixel-centre ray.
+// Chart program: one fullscreen triangle per tile; each pixel integrates its box, with SPP
+// stratified rays or (ANALYTIC_AA) the silhouette's exact coverage. Outputs linear HDR
+// radiance + coverage, and the AOVs of the pixel-centre ray.
 layout(location = 0) out vec4 out_radiance;      // rgb radiance, a coverage
 layout(location = 1) out vec4 out_normal_depth;  // world normal, distance along the ray
-layout(location = 2) out vec4 out_cell;          // col, row, NdotV, 0 (-1 for background)
+layout(location = 2) out vec4 out_cell;          // col, row, NdotV (-1 for background), sphere coverage
 uniform vec2 u_tile_origin;                      // pixel offset of this tile in the image
 uniform int u_spp;
 
@@ -61,36 +65,65 @@ vec2 sample_offset(int i) {
     return fract(vec2(0.5) + float(i) * vec2(0.7548776662, 0.5698402909));
 }
 
+// Radiance along one primary ray (a hit's shading, or the background), a = coverage; `hit`
+// receives what the ray found (for the AOVs).
+vec4 trace(vec3 ro, vec3 rd, vec2 footprint, out Hit hit) {
+    hit = intersect_scene(ro, rd, footprint);
+    if (hit.t < 0.0) return vec4(background(rd), 0.0);
+    vec3 p = ro + rd * hit.t;
+    float pixel_size = footprint.x + footprint.y * hit.t;
+    vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
+#if STAGE == cells && HAS_GROUND && USE_AO
+    if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
+#endif
+    return vec4(radiance, 1.0);
+}
+
+vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
+    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
+    return trace(ro, rd, footprint, hit);
+}
+
 void main() {
     vec2 pixel = gl_FragCoord.xy - 0.5 + u_tile_origin;
 #if STAGE == cells
     pixel = cell_pixel(pixel, g_cell);   // the camera then sees this cell's own scene
 #endif
     vec2 footprint = pixel_footprint();
-    vec4 sum = vec4(0.0);
-    for (int s = 0; s < u_spp; ++s) {
-        vec2 ndc = 2.0 * (pixel + sample_offset(s)) / u_resolution - 1.0;
-        vec3 rd;
-        vec3 ro = camera_ray(ndc, rd);
-        Hit hit = intersect_scene(ro, rd, footprint);
-        if (hit.t < 0.0) {
-            sum += vec4(background(rd), 0.0);
-        } else {
-            vec3 p = ro + rd * hit.t;
-            float pixel_size = footprint.x + footprint.y * hit.t;
-            vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
-#if STAGE == cells && HAS_GROUND && USE_AO
-            if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
-#endif
-            sum += vec4(radiance, 1.0);
-        }
-        if (s == 0) {
-            out_normal_depth = hit.t < 0.0 ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(hit.normal, hit.t);
-            float n_dot_v = hit.t < 0.0 ? -1.0 : dot(hit.normal, -rd);
-            out_cell = hit.t < 0.0 ? vec4(-1.0, -1.0, -1.0, 0.0) : vec4(vec2(hit.cell), n_dot_v, 0.0);
-        }
+    Hit centre;            // the pixel-centre ray's hit, for the AOVs
+    vec3 centre_rd;
+    Hit other;
+    vec3 other_rd;
+#if ANALYTIC_AA
+    // One ray per pixel, and two at the sphere's silhouette, blended by the covered share of
+    // the pixel box (edge_coverage.glsl).
+    vec4 radiance;
+    EdgeSplit split = edge_split(pixel + 0.5);
+    float sphere_share = split.coverage;
+    if (split.coverage <= 0.0 || split.coverage >= 1.0) {
+        radiance = trace_pixel(pixel + 0.5, footprint, centre, centre_rd);
+        sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
+    } else {
+        radiance = mix(trace_pixel(split.outside, footprint, other, other_rd),
+                       trace_pixel(split.inside, footprint, other, other_rd), split.coverage);
+        vec3 ro = camera_ray(2.0 * (pixel + 0.5) / u_resolution - 1.0, centre_rd);
+        centre = intersect_scene(ro, centre_rd, footprint);
     }
-    out_radiance = sum / float(u_spp);
+#else
+    // SPP stratified rays over the pixel box; sample 0 is the centre.
+    vec4 radiance = trace_pixel(pixel + sample_offset(0), footprint, centre, centre_rd);
+    float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
+    for (int s = 1; s < u_spp; ++s) {
+        radiance += trace_pixel(pixel + sample_offset(s), footprint, other, other_rd);
+        sphere_share += other.t >= 0.0 && other.cell.x >= 0 ? 1.0 : 0.0;
+    }
+    radiance /= float(u_spp);
+    sphere_share /= float(u_spp);
+#endif
+    out_radiance = radiance;
+    out_normal_depth = centre.t < 0.0 ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(centre.normal, centre.t);
+    float n_dot_v = centre.t < 0.0 ? -1.0 : dot(centre.normal, -centre_rd);
+    out_cell = centre.t < 0.0 ? vec4(-1.0, -1.0, -1.0, sphere_share) : vec4(vec2(centre.cell), n_dot_v, sphere_share);
 #if HALF_RADIANCE
     // A half-float target holds at most 65504; some drivers turn larger values into Inf.
     out_radiance = min(out_radiance, vec4(65504.0));

@@ -26,5 +26,6 @@ void main() {
     Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);
     bool miss = hit.t < 0.0;
     imageStore(u_normal_depth, pixel, miss ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(hit.normal, hit.t));
-    imageStore(u_cell, pixel, miss ? vec4(-1.0, -1.0, -1.0, 0.0) : vec4(vec2(hit.cell), dot(hit.normal, -rd), 0.0));
+    imageStore(u_cell, pixel, miss ? vec4(-1.0, -1.0, -1.0, 0.0)
+                                  : vec4(vec2(hit.cell), dot(hit.normal, -rd), hit.cell.x >= 0 ? 1.0 : 0.0));
 }

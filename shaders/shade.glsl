@@ -49,6 +49,15 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
     vec3 ibl = cell.x >= 0 ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #endif
 #if USE_AO
+#if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL
+    if (cell.x < 0) {
+        // The ground: its sphere hides a cosine-weighted share of the diffuse light and the
+        // part of the specular lobe it covers (stage_bounce.glsl gives both back as the
+        // sphere's own light). The diffuse share from the SH9 irradiance (within 2 %).
+        vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
+        ibl = diffuse * ao + (ibl - diffuse) * (1.0 - ground_specular_occlusion(p, v, m.alpha));
+    } else
+#endif
     ibl *= ao;
 #endif
 #if USE_TEXTURES
@@ -61,7 +70,11 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
         vec3 l = u_dir_light_direction[i];
         float alpha_light = alpha_for_disc(m.alpha, u_dir_light_angular_radius[i]);
         vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_light, e_single) * u_dir_light_illuminance[i];
-#if USE_SHADOWS
+#if USE_SHADOWS && STAGE == cells
+        // The ground receives every light's shadow (exact on this stage, shadow.glsl).
+        if (cell.x < 0 && dot(n, l) > 0.0)
+            c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
+#elif USE_SHADOWS
         // Light 0 is the key light; the ground receives its shadow.
         if (i == 0 && cell.x < 0 && dot(n, l) > 0.0)
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
@@ -74,8 +87,12 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
         vec3 to_light = u_point_light_position[i] - p;
         float dist = length(to_light);
         vec3 l = to_light / dist;
-        color += brdf_cos(m, n, v, l, n_dot_v, m.alpha, e_single) * u_point_light_intensity[i]
+        vec3 c = brdf_cos(m, n, v, l, n_dot_v, m.alpha, e_single) * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
+#if USE_SHADOWS && STAGE == cells
+        if (cell.x < 0) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
+#endif
+        color += c;
     }
 #endif
 #if BUG_AO_ON_DIRECT && USE_AO

@@ -1,4 +1,5 @@
 #if STAGE == cells
+#include "ray_sphere.glsl"
 // The cells stage: the only occluder is the cell's sphere (radius u_radius at the origin), so
 // the visible fraction of a disc light is exact: one minus the overlap of the light's disc
 // (angular radius a) with the sphere's silhouette (angular radius s) at angular separation g,
@@ -16,6 +17,12 @@ float soft_shadow(vec3 ro, vec3 rd, float k) {
                   + s * s * acos(clamp((g * g + s * s - a * a) / (2.0 * g * s), -1.0, 1.0))
                   - 0.5 * sqrt(max((-g + a + s) * (g + a - s) * (g - a + s) * (g + a + s), 0.0));
     return saturate(1.0 - overlap / (PI * a * a));
+}
+
+// A point light's visibility from p: whether the segment to it misses the sphere (exact).
+float point_shadow(vec3 p, vec3 l, float dist) {
+    float t = ray_sphere(p, l, vec3(0.0), u_radius);
+    return t > 0.0 && t < dist ? 0.0 : 1.0;
 }
 #else
 // Soft shadows by sphere tracing towards the key light (Inigo Quilez's improved technique).

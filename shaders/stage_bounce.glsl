@@ -35,5 +35,9 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     if (weight <= 0.0) return vec3(0.0);
     Material floor_material = cell_material(ivec2(-1));
     vec3 dfg = dfg_lookup(max(v.y, MIN_N_DOT_V), floor_material.perceptual_roughness);
-    return floor_material.base_color_linear * dfg.z * ff * sum / weight;
+    float e_single = dfg.x + dfg.y;
+    // The specular share the sphere hides (shade.glsl) comes back as its light too.
+    float so = ground_specular_occlusion(q, v, floor_material.alpha);
+    vec3 specular_albedo = (DIELECTRIC_F0 * dfg.x + dfg.y) * energy_compensation(vec3(DIELECTRIC_F0), e_single);
+    return (floor_material.base_color_linear * dfg.z * ff + specular_albedo * so) * sum / weight;
 }

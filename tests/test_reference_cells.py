@@ -275,7 +275,9 @@ def test_floor_direct_light_matches_the_closed_form(session):
     n0 = np.broadcast_to([0.0, 1.0, 0.0], rd0.shape)
     centre = (mirror.brdf(n0, -rd0, np.broadcast_to(SUN_DIR, rd0.shape), FLOOR, 0.0, spec.ground_roughness)
               * SUN_E * SUN_DIR[1])[..., 0, :]
-    np.testing.assert_allclose(chart.hdr[lit], centre[lit], rtol=1e-4)
+    whole = lit & (chart.aov["coverage"] == 0)   # the sphere's anti-aliased edge blends some in
+    assert whole.sum() > 0.9 * lit.sum()
+    np.testing.assert_allclose(chart.hdr[whole], centre[whole], rtol=1e-4)
 
 
 # ---- CLI --------------------------------------------------------------------------------------------

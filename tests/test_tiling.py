@@ -64,10 +64,10 @@ def test_wider_than_the_gl_limit_renders_in_tiles(session):
     assert same(wide, Session(session.ctx, session.cache, tile=4000).render(spec))
 
 
-@pytest.mark.parametrize("aovs, bytes_per_pixel", [(True, 64), (False, 24)])
+@pytest.mark.parametrize("aovs, bytes_per_pixel", [(True, 68), (False, 24)])
 def test_host_memory_is_a_fixed_number_of_bytes_per_pixel(session, aovs, bytes_per_pixel):
     """The result holds hdr (12 B), alpha (4), image (4) and, with AOVs, normal (12), depth,
-    row, col, roughness, metallic, ndotv (4 each): 56 B/pixel; tiles are read straight into
+    row, col, roughness, metallic, ndotv, coverage (4 each): 60 B/pixel; tiles are read straight into
     those arrays, so the peak is that plus the AOVs' masks (~7 B) and one tile's staging."""
     spec = make_spec(width=384, height=384, rows=3, cols=3, quality="draft")
     small_tiles = Session(session.ctx, session.cache, tile=64)

@@ -193,7 +193,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("chart", help="render a labeled roughness x metallic chart")
     p.add_argument("-o", "--output", default="chart.png", help="PNG path (default chart.png)")
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
-    p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv")
+    p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv, coverage")
     p.add_argument("-v", "--verbose", action="store_true")
     p.add_argument("--frames", type=int, metavar="N", help="render an N-frame orbit animation instead (-o .gif, .webp or .mp4)")
     p.add_argument("--orbit", choices=("light", "camera"), default="light", help="what turns in the animation (default light)")

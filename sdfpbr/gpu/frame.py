@@ -152,6 +152,7 @@ class AOVBuffers:
         self.col = np.empty((height, width), np.int32)
         self.row = np.empty((height, width), np.int32)
         self.ndotv = np.empty((height, width), np.float32)
+        self.coverage = np.empty((height, width), np.float32)
 
     def write(self, where: tuple[slice, slice], normal_depth: np.ndarray, cells: np.ndarray) -> None:
         self.normal[where] = normal_depth[..., :3]
@@ -159,9 +160,12 @@ class AOVBuffers:
         self.col[where] = np.rint(cells[..., 0])
         self.row[where] = np.rint(cells[..., 1])
         self.ndotv[where] = cells[..., 2]
+        self.coverage[where] = cells[..., 3]
 
     def finish(self) -> dict:
-        """normal, depth, row, col, roughness, metallic, ndotv; -1 / NaN for background."""
+        """normal, depth, row, col, roughness, metallic, ndotv of the pixel-centre ray (-1 / NaN
+        for background), and coverage: the share of the pixel's box the spheres cover (0 < c < 1
+        at anti-aliased edges, whose radiance blends two surfaces)."""
         row, col = self.row, self.col
         sphere = (row >= 0) & (col >= 0)
         col[~sphere] = -1
@@ -172,4 +176,4 @@ class AOVBuffers:
         roughness[sphere] = np.asarray(self.spec.column_roughness(), np.float32)[col[sphere]]
         metallic[sphere] = np.asarray(self.spec.row_metallic(), np.float32)[row[sphere]]
         return {"normal": self.normal, "depth": self.depth, "row": row, "col": col,
-                "roughness": roughness, "metallic": metallic, "ndotv": self.ndotv}
+                "roughness": roughness, "metallic": metallic, "ndotv": self.ndotv, "coverage": self.coverage}

@@ -37,7 +37,8 @@ SCHEMA = OptionSchema(
         "STAGE": ("shared", "cells"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
-           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL"),
+           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
+           "ANALYTIC_AA"),
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
 )
@@ -108,8 +109,9 @@ def chart_options(spec: ChartSpec) -> dict:
         "HAS_GROUND": spec.ground,
         "USE_IBL": spec.ibl,
         "USE_AO": spec.ibl and spec.ao,
-        # The key light (the first directional light) casts shadows onto the ground.
-        "USE_SHADOWS": spec.shadows and spec.ground and directional > 0,
+        # The key light (the first directional light) casts shadows onto the ground; on the
+        # cells stage point lights do too.
+        "USE_SHADOWS": spec.shadows and spec.ground and (directional > 0 or (point > 0 and stage(spec) == "cells")),
         "MULTISCATTER": spec.multiscatter,
         "TRANSPARENT": spec.transparent,
         "NUM_DIR_LIGHTS": directional,
@@ -122,6 +124,10 @@ def chart_options(spec: ChartSpec) -> dict:
     }
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
+    # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): the cells
+    # stage's one sphere per pixel, intersected in closed form.
+    opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["STAGE"] == "cells"
+                           and opts["INTERSECT"] == "analytic")
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
     if opts["USE_AO"]:

@@ -215,6 +215,8 @@ FIELDS: tuple[Field, ...] = (
     _float("exposure", 0.0, -40.0, 40.0, "exposure in EV", metavar="EV", sweep=(-2.0, -1.0, 0.0, 1.0, 2.0)),
     _float("reinhard_white", 4.0, 1e-3, 1e6, "white point of reinhard-extended"),
     _int("spp", 1, 1, 1024, "samples per pixel"),
+    _bool("antialias", True, "at spp 1 on the cells stage, the spheres' edges covered analytically "
+          "(the pixel box the reference integrates)"),
     _choice("hdr_precision", "float32", HDR_PRECISIONS, "float format of the radiance target"),
     _bool("multiscatter", True, "multiple-scattering energy compensation", sweep=(True, False)),
     _choice("brdf", "gltf", BRDF_MODELS, "BRDF model", sweep=BRDF_MODELS),

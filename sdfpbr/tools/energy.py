@@ -21,9 +21,10 @@ GRAZING_N_DOT_V = 0.2
 
 def furnace_spec(spec: ChartSpec, white: bool = True) -> ChartSpec:
     """The spec in a white furnace: uniform environment of radiance 1 seen through IBL only,
-    no lights, ground or AO, one sample per pixel (so each pixel is the AOV's NdotV)."""
+    no lights, ground or AO, one sample per pixel at its centre, no edge blending (so each
+    pixel is the BRDF at the AOV's NdotV, grazing angles included)."""
     overrides = dict(env="uniform", env_intensity=1.0, lights=(), ground=False, ao=False, shadows=False,
-                     ibl=True, transparent=False, spp=1)
+                     ibl=True, transparent=False, spp=1, antialias=False)
     if white:
         overrides.update(base_color=(1.0, 1.0, 1.0), row_materials=())
     return make_spec(spec, **overrides)

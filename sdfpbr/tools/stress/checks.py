@@ -69,11 +69,18 @@ def display_error(hdr, alpha, image, spec: ChartSpec, chunk_rows: int | None = N
     return worst, bad
 
 
+MIXED = -3   # surface id of a pixel whose radiance blends a sphere with what is beside it
+
+
 def surface_ids(aov: dict, cols: int) -> np.ndarray:
-    """Per pixel: the sphere index, -2 for the ground, -1 for the background."""
+    """Per pixel: the sphere index, -2 for the ground, -1 for the background, MIXED where an
+    anti-aliased edge blends a sphere with its surroundings."""
     sphere = aov["row"] * cols + aov["col"]
     ground = (aov["row"] < 0) & np.isfinite(aov["depth"]) & (aov["ndotv"] >= -0.5)
-    return np.where(aov["row"] >= 0, sphere, np.where(ground, -2, -1))
+    ids = np.where(aov["row"] >= 0, sphere, np.where(ground, -2, -1))
+    if "coverage" in aov:
+        ids = np.where((aov["coverage"] > 0) & (aov["coverage"] < 1), MIXED, ids)
+    return ids
 
 
 def _neighbours(a: np.ndarray):
@@ -91,7 +98,7 @@ def interior_mask(ids: np.ndarray) -> np.ndarray:
     if ids.shape[0] < 3 or ids.shape[1] < 3:
         return out
     c = ids[1:-1, 1:-1]
-    same = c != -1
+    same = (c != -1) & (c != MIXED)
     for nb in _neighbours(ids):
         same &= nb == c
     out[1:-1, 1:-1] = same
