@@ -65,23 +65,29 @@ vec2 sample_offset(int i) {
     return fract(vec2(0.5) + float(i) * vec2(0.7548776662, 0.5698402909));
 }
 
-// Radiance along one primary ray (a hit's shading, or the background), a = coverage; `hit`
-// receives what the ray found (for the AOVs).
-vec4 trace(vec3 ro, vec3 rd, vec2 footprint, out Hit hit) {
+#if FLOOR_PLATE
+uniform sampler2D u_floor_plate;   // the floor's light without its sphere's bounce (stage_floor_main.glsl)
+uniform vec2 u_plate_origin;       // the cell pixel of its texel (0, 0)
+#endif
+
+// Radiance along the primary ray through `position` (cell frame on the cells stage): a hit's
+// shading, or the background; a = coverage. `hit` receives what the ray found (for the AOVs).
+vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
+    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     hit = intersect_scene(ro, rd, footprint);
     if (hit.t < 0.0) return vec4(background(rd), 0.0);
     vec3 p = ro + rd * hit.t;
     float pixel_size = footprint.x + footprint.y * hit.t;
+#if FLOOR_PLATE
+    vec3 radiance = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0))).rgb
+                                   : shade_sphere(p, hit.normal, -rd, hit.cell, pixel_size);
+#else
     vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
+#endif
 #if STAGE == cells && HAS_GROUND && USE_AO
     if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
 #endif
     return vec4(radiance, 1.0);
-}
-
-vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
-    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
-    return trace(ro, rd, footprint, hit);
 }
 
 void main() {
@@ -97,15 +103,15 @@ void main() {
 #if ANALYTIC_AA
     // One ray per pixel, and two at the sphere's silhouette, blended by the covered share of
     // the pixel box (edge_coverage.glsl).
-    vec4 radiance;
     EdgeSplit split = edge_split(pixel + 0.5);
-    float sphere_share = split.coverage;
-    if (split.coverage <= 0.0 || split.coverage >= 1.0) {
-        radiance = trace_pixel(pixel + 0.5, footprint, centre, centre_rd);
-        sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
-    } else {
-        radiance = mix(trace_pixel(split.outside, footprint, other, other_rd),
-                       trace_pixel(split.inside, footprint, other, other_rd), split.coverage);
+    bool edge = split.coverage > 0.0 && split.coverage < 1.0;
+    // Two traces, not three, where a SIMD group holds an edge: the first ray is the centre's,
+    // or the inside one's at an edge.
+    vec4 radiance = trace_pixel(edge ? split.inside : pixel + 0.5, footprint, centre, centre_rd);
+    float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
+    if (edge) {
+        radiance = mix(trace_pixel(split.outside, footprint, other, other_rd), radiance, split.coverage);
+        sphere_share = split.coverage;
         vec3 ro = camera_ray(2.0 * (pixel + 0.5) / u_resolution - 1.0, centre_rd);
         centre = intersect_scene(ro, centre_rd, footprint);
     }

@@ -13,8 +13,10 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 
 // Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
 // lights (the key light shadowed where shadows are composed in).
-// pixel_size: the world size of a pixel at p (texture level of detail).
-vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
+// pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
+// at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
+// code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
+vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground) {
 #if STAGE == cells
     g_shading_point = p;   // for the probe's parallax correction
 #endif
@@ -22,7 +24,7 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
     vec3 n = n_geo;
 #if USE_TEXTURES
     float occlusion = 1.0;
-    if (cell.x >= 0) {   // glTF: texture values scale the cell's factors
+    if (!ground) {   // glTF: texture values scale the cell's factors
         SurfaceTexels tx = sample_surface(n_geo, pixel_size);
         m = make_material(m.base_color_linear * tx.base_color_linear, cell_metallic(cell) * tx.orm.b,
                           cell_perceptual_roughness(cell) * tx.orm.g);
@@ -44,13 +46,13 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 #if USE_IBL
 #if IBL_METHOD == sampled && !BUG_FEWTAP_IBL
     // The spheres integrate the environment per pixel.
-    vec3 ibl = cell.x >= 0 ? shade_ibl_sampled(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
+    vec3 ibl = !ground ? shade_ibl_sampled(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #else
-    vec3 ibl = cell.x >= 0 ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
+    vec3 ibl = !ground ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #endif
 #if USE_AO
 #if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL
-    if (cell.x < 0) {
+    if (ground) {
         // The ground: its sphere hides a cosine-weighted share of the diffuse light and the
         // part of the specular lobe it covers (stage_bounce.glsl gives both back as the
         // sphere's own light). The diffuse share from the SH9 irradiance (within 2 %).
@@ -72,11 +74,11 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
         vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_light, e_single) * u_dir_light_illuminance[i];
 #if USE_SHADOWS && STAGE == cells
         // The ground receives every light's shadow (exact on this stage, shadow.glsl).
-        if (cell.x < 0 && dot(n, l) > 0.0)
+        if (ground && dot(n, l) > 0.0)
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
 #elif USE_SHADOWS
         // Light 0 is the key light; the ground receives its shadow.
-        if (i == 0 && cell.x < 0 && dot(n, l) > 0.0)
+        if (i == 0 && ground && dot(n, l) > 0.0)
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
 #endif
         color += c;
@@ -90,7 +92,7 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
         vec3 c = brdf_cos(m, n, v, l, n_dot_v, m.alpha, e_single) * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
-        if (cell.x < 0) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
+        if (ground) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
 #endif
         color += c;
     }
@@ -100,4 +102,17 @@ vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 #else
     return color;
 #endif
+}
+
+vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
+    return shade_point(p, n_geo, v, cell, pixel_size, false);
+}
+
+vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true);
+}
+
+// A hit of either kind (cell.x < 0: the ground).
+vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
+    return cell.x < 0 ? shade_ground(p, v, pixel_size) : shade_sphere(p, n_geo, v, cell, pixel_size);
 }

@@ -29,15 +29,17 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
         float th = ray_sphere(q, w, vec3(0.0), u_radius);
         if (th <= 0.0) continue;
         vec3 s = q + w * th;
-        sum += cos_q * shade_surface(s, s / u_radius, -w, cell, pixel_size);
+        sum += cos_q * shade_sphere(s, s / u_radius, -w, cell, pixel_size);
         weight += cos_q;
     }
     if (weight <= 0.0) return vec3(0.0);
     Material floor_material = cell_material(ivec2(-1));
     vec3 dfg = dfg_lookup(max(v.y, MIN_N_DOT_V), floor_material.perceptual_roughness);
-    float e_single = dfg.x + dfg.y;
+    vec3 albedo = floor_material.base_color_linear * dfg.z * ff;
+#if AO_METHOD == analytic && !BUG_FEWTAP_IBL
     // The specular share the sphere hides (shade.glsl) comes back as its light too.
     float so = ground_specular_occlusion(q, v, floor_material.alpha);
-    vec3 specular_albedo = (DIELECTRIC_F0 * dfg.x + dfg.y) * energy_compensation(vec3(DIELECTRIC_F0), e_single);
-    return (floor_material.base_color_linear * dfg.z * ff + specular_albedo * so) * sum / weight;
+    albedo += (DIELECTRIC_F0 * dfg.x + dfg.y) * energy_compensation(vec3(DIELECTRIC_F0), dfg.x + dfg.y) * so;
+#endif
+    return albedo * sum / weight;
 }

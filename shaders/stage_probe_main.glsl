@@ -42,7 +42,7 @@ void main() {
         vec3 p = d * (u_ground_y / d.y);   // the floor point seen from the sphere's centre
         // Footprint of a probe texel on the floor: its angular size times the distance.
         float pixel_size = length(p) * 2.0 / float(u_size);
-        radiance = shade_surface(p, vec3(0.0, 1.0, 0.0), -d, ivec2(-1), pixel_size);
+        radiance = shade_ground(p, -d, pixel_size);
     }
 #endif
     imageStore(u_target, id, vec4(radiance, 1.0));

@@ -66,3 +66,19 @@ def test_labels_sit_on_the_spheres(session):
     for cell in chart_cells(spec, res.camera):
         y, x = int(round(cell.cy)), int(round(cell.cx))
         assert res.aov["row"][y, x] == cell.row and res.aov["col"][y, x] == cell.col
+
+
+@pytest.mark.parametrize("size", [(160, 120), (163, 127)])   # margins beyond the grid: 0/1, 1/2 and 3/4 px
+def test_floor_plate_is_the_per_pixel_floor(session, monkeypatch, size):
+    """The floor shaded once per cell pixel and read back by every cell gives, at every pixel
+    whose centre ray meets the floor, what shading that pixel's floor point gives: the plate's
+    texel is the same point (float32 texture, read at its centre), so within float rounding."""
+    import dataclasses
+    from sdfpbr.spec.presets import QUALITY_PRESETS
+    spec = make_spec(width=size[0], height=size[1], rows=2, cols=4)
+    plate = session.render(spec)
+    monkeypatch.setitem(QUALITY_PRESETS, "default", dataclasses.replace(QUALITY_PRESETS["default"], floor_plate=False))
+    direct = session.render(spec)
+    floor = (plate.aov["row"] < 0) & np.isfinite(plate.aov["depth"]) & (plate.aov["coverage"] == 0)
+    assert floor.sum() > 0.3 * floor.size
+    np.testing.assert_allclose(plate.hdr[floor], direct.hdr[floor], rtol=1e-5, atol=1e-7)

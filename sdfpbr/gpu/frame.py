@@ -89,6 +89,18 @@ class SceneBindings:
         if owned:
             self.owned.append(texture)
 
+    def replace_texture(self, name: str, texture) -> None:
+        """Set ``name`` to a texture this render owns, releasing the one it replaces."""
+        for i, (n, old) in enumerate(self.textures):
+            if n == name:
+                if old in self.owned:
+                    self.owned.remove(old)
+                    old.release()
+                self.textures[i] = (name, texture)
+                self.owned.append(texture)
+                return
+        self.add_texture(name, texture, owned=True)
+
     def bind(self) -> dict:
         """Put each texture on a unit; the uniforms with every sampler pointing at its unit."""
         for unit, (name, tex) in enumerate(self.textures):

@@ -15,7 +15,7 @@ from ..shading import camera as camera_mod
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, render_plan
 from ..spec.chart_spec import ChartSpec
-from .frame import AOVBuffers, display_pass, image_slices, read_rgba, scene_bindings, tiles
+from .frame import AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings, tiles
 from .programs import set_uniforms
 
 TILE = 2048   # largest tile edge; also bounds the float targets' memory
@@ -45,7 +45,22 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
     timings["compile_s"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    scene = scene_bindings(ctx, spec, plan.quality, plan.options["USE_TEXTURES"])
+    scene = chart_scene(session, spec, plan)
+    try:
+        timings["setup_s"] = time.perf_counter() - t1
+        t2 = time.perf_counter()
+        bind_frame(session, plan, scene, program)
+        hdr, alpha, image, aov = _draw(ctx, program, display, spec, session.tile, aovs)
+        timings["render_s"] = time.perf_counter() - t2
+    finally:
+        scene.release()
+    return RenderResult(hdr, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
+
+
+def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
+    """The scene's bindings with the lighting the chart program reads: DFG LUT, and the baked
+    environment, ground table and stage probe where the plan has them (cached bakes)."""
+    scene = scene_bindings(session.ctx, spec, plan.quality, plan.options["USE_TEXTURES"])
     try:
         dfg = session.ibl.dfg(plan)
         scene.add_texture("u_dfg", dfg)
@@ -61,15 +76,44 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
                                                       scene.uniforms, scene.environment, tuple(baked))
             scene.uniforms.update(lighting.uniforms())
             scene.add_texture("u_prefiltered", lighting.prefiltered)
-        set_uniforms(program, scene.bind())
-        timings["setup_s"] = time.perf_counter() - t1
-
-        t2 = time.perf_counter()
-        hdr, alpha, image, aov = _draw(ctx, program, display, spec, session.tile, aovs)
-        timings["render_s"] = time.perf_counter() - t2
-    finally:
+    except BaseException:
         scene.release()
-    return RenderResult(hdr, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
+        raise
+    return scene
+
+
+def bind_frame(session, plan: RenderPlan, scene: SceneBindings, program) -> None:
+    """The per-frame work before the chart's draw: the cells stage's floor plate (a pass of its
+    own, part of what a frame costs), then every binding onto ``program``."""
+    if plan.floor_plate is not None:
+        scene.replace_texture("u_floor_plate", _floor_plate(session, plan.floor_plate, scene, plan.spec))
+    set_uniforms(program, scene.bind())
+
+
+def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> moderngl.Texture:
+    """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
+    texture of one cell's size plus the margins, read back by every cell (bilinear filtering
+    between texel centres, for the anti-aliased edges' and extra samples' positions)."""
+    ctx = session.ctx
+    grid = camera_mod.cell_grid(spec)
+    # The cell plus the image's margins beyond the grid, in the cell's GL frame (y up).
+    bottom = spec.height - grid.top - grid.rows * grid.cell_height
+    right = spec.width - grid.left - grid.cols * grid.cell_width
+    scene.uniforms["u_plate_origin"] = (-grid.left, -bottom)
+    program = session.programs.fragment(source)
+    plate = ctx.texture((grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top), 4, dtype="f4")
+    plate.repeat_x = plate.repeat_y = False
+    plate.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    fbo = ctx.framebuffer(color_attachments=[plate])
+    vao = ctx.vertex_array(program, [])
+    try:
+        fbo.use()
+        set_uniforms(program, scene.bind())
+        vao.render(moderngl.TRIANGLES, vertices=3)
+    finally:
+        vao.release()
+        fbo.release()
+    return plate
 
 
 def _draw(ctx, program, display, spec: ChartSpec, tile: int, aovs: bool):

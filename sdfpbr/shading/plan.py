@@ -38,7 +38,7 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA"),
+           "ANALYTIC_AA", "FLOOR_PLATE"),
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
 )
@@ -124,6 +124,8 @@ def chart_options(spec: ChartSpec) -> dict:
     }
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
+    # The cells stage's floor shaded once per cell pixel (stage_floor_main.glsl).
+    opts["FLOOR_PLATE"] = opts["STAGE"] == "cells" and spec.ground and q.floor_plate
     # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): the cells
     # stage's one sphere per pixel, intersected in closed form.
     opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["STAGE"] == "cells"
@@ -191,6 +193,7 @@ class RenderPlan:
     dfg_size: int
     dfg_samples: int
     ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
+    floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
 
     @property
     def options(self) -> dict:
@@ -198,7 +201,7 @@ class RenderPlan:
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys and `sdfpbr shader`."""
-        out = [self.vertex, self.chart, self.display, self.dfg]
+        out = [self.vertex, self.chart, self.display, self.dfg] + ([self.floor_plate] if self.floor_plate else [])
         return out + (self.ibl.sources() if self.ibl else [])
 
 
@@ -238,6 +241,14 @@ def _stage_probe(chart: dict) -> ComposedSource | None:
     return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False})
 
 
+def _floor_plate(chart: dict) -> ComposedSource | None:
+    """The cells stage's floor shaded once per cell pixel: the chart's shading, without the
+    spheres' textures (the floor has none)."""
+    if not chart["FLOOR_PLATE"]:
+        return None
+    return compose_program("stage_floor_main.glsl", {**chart, "USE_TEXTURES": False})
+
+
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
     """The ground's IBL table bake: the ground material (never a catalogued bug, which are about
     the spheres) under the environment, IBL_PIXEL_SAMPLES filtered samples per texel."""
@@ -270,7 +281,8 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         display=compose_program("display_main.glsl", display_options(spec)),
         dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
-        ibl=_ibl_plan(spec, q, chart) if prefiltered else None)
+        ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
+        floor_plate=_floor_plate(chart))
 
 
 # ---- the reference's plan --------------------------------------------------------------------

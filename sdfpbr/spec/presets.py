@@ -97,6 +97,7 @@ class Quality:
     # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
     # on an edge.
     ground_ibl_samples: int = 1024
+    floor_plate: bool = True         # cells stage: the floor's static light shaded once per cell pixel
     ground_ibl_size: int = 128       # ~64 texels from horizon to zenith, as the DFG LUT's NdotV
     scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
     hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
@@ -118,7 +119,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
     "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
                        shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
-                       intersect="march", brdf="schlick-ggx", ground_ibl_samples=0,
+                       intersect="march", brdf="schlick-ggx", ground_ibl_samples=0, floor_plate=False,
                        implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
 }
 

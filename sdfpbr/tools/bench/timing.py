@@ -142,16 +142,19 @@ class ChartTiming:
 
 
 def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time: bool = True) -> ChartTiming:
-    """Render once (programs, IBL, uniforms, bound textures), then time the chart program's draw
-    alone into the same float targets the renderer uses."""
+    """Render once (programs, IBL bakes), then time a frame's draws alone into the same float
+    targets the renderer uses: its per-frame passes (the cells stage's floor plate) and the
+    chart program's tiles."""
     import moderngl
     from ...shading.plan import render_plan
+    from ...gpu.render import bind_frame, chart_scene
     result = session.render(spec)
     ctx = session.ctx
     plan = render_plan(spec)
     source = plan.chart
     with session:
         program = session.programs.fragment(source)
+        scene = chart_scene(session, spec, plan)
         W, H = spec.width, spec.height
         passes = []
         for x0, y0, tw, th in tiles(W, H, session.tile):
@@ -159,7 +162,8 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
             passes.append((x0, y0, tw, th, targets, ctx.framebuffer(color_attachments=targets)))
         vao = ctx.vertex_array(program, [])
 
-        def draw():
+        def draw():   # what a frame draws: its per-frame passes, then the chart's tiles
+            bind_frame(session, plan, scene, program)
             for x0, y0, _, _, _, fbo in passes:
                 fbo.use()
                 if "u_tile_origin" in program:
@@ -174,6 +178,7 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
         scale = max(float(np.abs(result.hdr).max()), 1e-6)
         check = float(np.abs(radiance - result.hdr).max()) / scale
         vao.release()
+        scene.release()
         for *_, targets, fbo in passes:
             fbo.release()
             for t in targets:

@@ -1,0 +1,44 @@
+#include "common.glsl"
+#include "hit.glsl"
+#include "scene.glsl"
+#include "camera.glsl"
+#include "ggx.glsl"
+#include "visibility.glsl"
+#include "brdf.glsl"
+#include "dfg.glsl"
+#include "material.glsl"
+#include "env.glsl"
+#include "lights.glsl"
+#if USE_IBL
+#include "ibl.glsl"
+#endif
+#if GROUND_IBL
+#include "ground_ibl.glsl"
+#endif
+#if USE_AO
+#include "ao.glsl"
+#endif
+#if USE_SHADOWS
+#include "shadow.glsl"
+#endif
+#include "shade.glsl"
+
+// The cells stage's floor plate (FLOOR_PLATE): every cell shows the same floor under the same
+// camera, so the part of its light that does not depend on the cell's material (environment,
+// lights, the sphere's occlusion and shadows) is shaded once per cell pixel here, and the chart
+// reads it back (chart_main.glsl), adding only the light its own sphere bounces onto it.
+// One texel per cell pixel: the floor point the pixel-centre ray meets, sphere or not.
+// The plate spans the cell and the image's margins beyond the grid (the outer cells' pixels
+// there see the floor further out): texel (0, 0) is cell pixel u_plate_origin.
+layout(location = 0) out vec4 out_radiance;
+uniform vec2 u_plate_origin;
+
+void main() {
+    vec2 position = gl_FragCoord.xy + u_plate_origin;   // the pixel centre, in the cell's frame
+    vec3 rd;
+    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
+    float t = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;
+    if (t <= 0.0) { out_radiance = vec4(0.0); return; }   // the chart shades what is not floor
+    vec2 footprint = pixel_footprint();
+    out_radiance = vec4(shade_ground(ro + rd * t, -rd, footprint.x + footprint.y * t), 1.0);
+}
