@@ -113,6 +113,11 @@ def test_size_sets_width_and_height_on_every_surface(tmp_path):
 
 def test_materials_set_the_rows_unless_rows_are_given():
     assert make_spec(materials=["gold", "copper"]).rows == 2
+    # Measured metals are metals unless metallic is given (issue 10: gold was a cream plastic).
+    assert make_spec(materials=["gold"]).metallic == (1.0, 1.0)
+    assert make_spec(materials=["gold"], metallic=(0.0, 1.0)).metallic == (0.0, 1.0)
+    assert cli_spec("--materials", "gold,iron").metallic == (1.0, 1.0)
+    assert cli_spec("--materials", "gold", "--metallic", "0:1").metallic == (0.0, 1.0)
     assert make_spec(row_materials="gold,iron,silver").materials == ("gold", "iron", "silver")
     with pytest.raises(SpecError, match="one per row"):
         make_spec(rows=3, materials=["gold"])

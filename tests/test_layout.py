@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
+from sdfpbr.image import chart_labels
 from sdfpbr.image.layout import Cell, compose_chart, label_text, render_area_offset
+from sdfpbr.spec.chart_spec import make_spec
 
 TITLE = "Material chart"
 FOOTER = "ACES filmic · exposure +0.0 EV · environment: studio"
@@ -190,3 +192,10 @@ def test_large_render_font_scales():
 def test_rejects_non_rgba():
     with pytest.raises(ValueError):
         compose_chart(np.zeros((10, 10, 3), np.uint8), [], [0], [0], TITLE, FOOTER)
+
+
+def test_default_title_says_what_the_chart_shows():
+    assert chart_labels.default_title(make_spec()) == "Roughness × metallic — 5×5"
+    assert chart_labels.default_title(make_spec(materials=["gold", "copper"])) == "Roughness × measured metals — 2×5"
+    assert chart_labels.default_title(make_spec(metallic=(1, 1), rows=1)) == "Roughness, metallic 1 — 1×5"
+    assert chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0))) == "Roughness 0.3, metallic 0 — 5×5"

@@ -19,9 +19,10 @@ GL_SRGB8_ALPHA8 = 0x8C43
 
 @dataclass(frozen=True)
 class TextureSet:
-    base_color_srgb8: np.ndarray   # (H, W, 4) uint8, sRGB
-    orm_linear8: np.ndarray        # (H, W, 4) uint8, linear
-    normal_linear8: np.ndarray     # (H, W, 4) uint8, linear, OpenGL convention
+    """The maps a spec composes in; None: that map is absent (the factors stand alone)."""
+    base_color_srgb8: np.ndarray | None   # (H, W, 4) uint8, sRGB
+    orm_linear8: np.ndarray | None        # (H, W, 4) uint8, linear
+    normal_linear8: np.ndarray | None     # (H, W, 4) uint8, linear, OpenGL convention
 
 
 @lru_cache(maxsize=1)
@@ -69,29 +70,49 @@ def _load_png(path: str, what: str) -> np.ndarray:
     if img.dtype != np.uint8:
         raise SpecError(f"{what} {path}: 8-bit PNG required, got {img.dtype}")
     if img.ndim == 2:
-        img = np.repeat(img[..., None], 3, -1)
+        img = img[..., None]
+    if img.ndim != 3 or img.shape[-1] not in (1, 2, 3, 4):
+        raise SpecError(f"{what} {path}: one still image (grey, grey+alpha, RGB or RGBA) required, "
+                        f"got an array of shape {img.shape}" + (" (an animated PNG?)" if img.ndim == 4 else ""))
+    if img.shape[-1] <= 2:   # grey (+ alpha): the grey in R, G and B
+        img = np.concatenate([np.repeat(img[..., :1], 3, -1), img[..., 1:]], -1)
     if img.shape[-1] == 3:
         img = np.concatenate([img, np.full(img.shape[:2] + (1,), 255, np.uint8)], -1)
     return np.ascontiguousarray(img[..., :4])
 
 
 def texture_set(spec) -> TextureSet:
-    """The spec's maps: its PNGs where given, the procedural ones elsewhere."""
-    base = procedural_set()
-    return TextureSet(
-        _load_png(spec.base_color_texture, "base_color_texture") if spec.base_color_texture else base.base_color_srgb8,
-        _load_png(spec.orm_texture, "orm_texture") if spec.orm_texture else base.orm_linear8,
-        _load_png(spec.normal_texture, "normal_texture") if spec.normal_texture else base.normal_linear8)
+    """The maps the plan composes in (shading.plan.texture_maps): the spec's PNGs where given,
+    the procedural ones elsewhere."""
+    from ..shading.plan import texture_maps
+    present = texture_maps(spec)
+    base = procedural_set() if any(present) else None
+    maps = []
+    for here, path, what, procedural in zip(present, (spec.base_color_texture, spec.orm_texture, spec.normal_texture),
+                                            ("base_color_texture", "orm_texture", "normal_texture"),
+                                            (base.base_color_srgb8, base.orm_linear8, base.normal_linear8) if base else (None,) * 3):
+        maps.append(None if not here else _load_png(path, what) if path else procedural)
+    return TextureSet(*maps)
 
 
 def upload(ctx, maps: TextureSet) -> dict:
-    """GL textures with mipmaps; base colour through an sRGB format so filtering is linear."""
+    """GL textures with mipmaps for the maps present; base colour through an sRGB format so
+    filtering is linear. A map larger than the driver's texture limit is refused (GL would
+    leave it undefined: a black sphere)."""
     import moderngl
+    limit = int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384))
     out = {}
     for name, img, fmt in (("u_base_color_map", maps.base_color_srgb8, GL_SRGB8_ALPHA8),
                            ("u_orm_map", maps.orm_linear8, None),
                            ("u_normal_map", maps.normal_linear8, None)):
+        if img is None:
+            continue
         h, w = img.shape[:2]
+        if max(w, h) > limit:
+            for tex in out.values():
+                tex.release()
+            raise SpecError(f"{name[2:].replace('_map', '')} texture is {w}x{h}; this GL takes at most "
+                            f"{limit} texels a side: scale it down")
         # Image row 0 is v = 0; uploading it as the first GL row keeps texture(v) = image row v.
         kwargs = {"internal_format": fmt} if fmt else {}
         tex = ctx.texture((w, h), 4, np.ascontiguousarray(img).tobytes(), **kwargs)

@@ -39,11 +39,32 @@ def footer_text(spec: ChartSpec) -> str:
     return "  |  ".join(parts)
 
 
+def _number(x: float) -> str:
+    return f"{x:g}"
+
+
+def default_title(spec: ChartSpec) -> str:
+    """What the chart shows: the axes that vary, then those held at one value, and the grid
+    (measured-metal rows are named as such)."""
+    def axis(name, lo, hi):
+        return (name, True) if lo != hi else (f"{name} {_number(lo)}", False)
+    axes = [axis("roughness", *spec.roughness)]
+    if spec.row_materials:
+        axes.append(("measured metals", True))
+        if spec.metallic != (1.0, 1.0):
+            axes.append(axis("metallic", *spec.metallic))
+    else:
+        axes.append(axis("metallic", *spec.metallic))
+    varying = " × ".join(a for a, v in axes if v)
+    text = ", ".join([varying] * bool(varying) + [a for a, v in axes if not v])
+    return f"{text[0].upper()}{text[1:]} — {spec.rows}×{spec.cols}"
+
+
 def label(spec: ChartSpec, result, title: str | None = None, footer: str | None = None) -> np.ndarray:
     """The labeled layout around a render (anything with .image and .camera)."""
     if not spec.labels:
         return result.image
-    title = spec.title or title or f"Roughness × metallic — {spec.rows}×{spec.cols}"
+    title = spec.title or title or default_title(spec)
     return compose_chart(result.image, chart_cells(spec, result.camera), spec.column_roughness(),
                          spec.row_metallic(), title, footer if footer is not None else footer_text(spec),
                          row_names=list(spec.row_materials) or None, transparent=spec.transparent)

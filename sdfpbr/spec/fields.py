@@ -275,7 +275,9 @@ def field_for_attr(attr: str) -> Field:
 
 def attr_values(mapping: Mapping[str, Any], what: str = "option") -> dict[str, Any]:
     """Names (or aliases) and values -> ChartSpec attributes and values, for ``replace``.
-    ``size`` becomes width and height; materials without rows sets rows (one per material)."""
+    ``size`` becomes width and height; materials without rows sets rows (one per material), and
+    without metallic makes every row a metal (the presets are measured metals: gold at
+    metallic 0 would be a cream plastic)."""
     given: dict[str, str] = {}
     out: dict[str, Any] = {}
     for key, value in mapping.items():
@@ -291,6 +293,8 @@ def attr_values(mapping: Mapping[str, Any], what: str = "option") -> dict[str, A
     if out.get("row_materials") and "rows" not in out:
         out["row_materials"] = _materials(out["row_materials"])
         out["rows"] = len(out["row_materials"])
+    if out.get("row_materials") and "metallic" not in out:
+        out["metallic"] = (1.0, 1.0)
     return out
 
 

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from ...image.chart_labels import footer_scene_parts, label as chart_label
+from ...image.chart_labels import default_title, footer_scene_parts, label as chart_label
 from ...spec.chart_spec import ChartSpec
 from .integrator import (DEFAULT_MAX_BOUNCES, ReferenceResult, batch_size, cell_reach, relative_error,
                          render_reference, validate_arguments)
@@ -61,5 +61,5 @@ def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
 
 def label(spec: ChartSpec, result: ReferenceResult) -> np.ndarray:
     """The chart's labeled layout around the reference render."""
-    return chart_label(spec, result, title=f"Roughness × metallic — {spec.rows}×{spec.cols} (reference)",
+    return chart_label(spec, result, title=f"{default_title(spec)} (reference)",
                        footer=footer_text(spec, result))
