@@ -9,7 +9,8 @@ import numpy as np
 
 from . import __version__
 from .errors import SpecError
-from .image.io import HDR_SUFFIXES, check_writable, png_bytes, write_hdr, write_npz, write_png
+from .files import write_group
+from .image.io import check_outputs, hdr_writer, npz_writer, png_bytes, png_writer
 from .image.chart_labels import label
 from .gpu.render import RenderResult
 from .gpu.session import Session, default_session
@@ -37,18 +38,17 @@ class Chart:
                 "sdfpbr:gl-renderer": self.renderer}
 
     def save(self, path: str | Path, hdr: str | Path | None = None, aov: str | Path | None = None) -> None:
-        check_writable(path, (".png",), "output")
-        if hdr is not None:
-            check_writable(hdr, HDR_SUFFIXES, "--hdr")
+        check_outputs(self.spec, path, hdr, aov)
         if aov is not None:
-            check_writable(aov, (".npz",), "--aov")
             if not self.aov:
                 raise SpecError("this chart was rendered with aovs=False; render it with aovs=True to save AOVs")
-        write_png(path, self.image, self.metadata())
+        # All or none: an .exr without OpenEXR, a full disk, a failed rename leave every old file.
+        items = [(path, png_writer(self.image, self.metadata()))]
         if hdr is not None:
-            write_hdr(hdr, self.hdr)
+            items.append((hdr, hdr_writer(hdr, self.hdr)))
         if aov is not None:
-            write_npz(aov, self.aov)
+            items.append((aov, npz_writer(self.aov)))
+        write_group(items)
 
     def _repr_png_(self) -> bytes:
         return png_bytes(self.image)

@@ -61,6 +61,37 @@ def write_bytes(path: str | Path, data: bytes, before_rename: Callable[[], None]
         f.write(data)
 
 
+def write_group(items: list[tuple[str | Path, Callable[[str], None]]]) -> None:
+    """Several files, all or none: each ``writer(tmp)`` writes its file to a temporary beside
+    its destination (same suffix, for writers that pick a format by it); when every one has
+    succeeded they are fsynced and renamed into place; if any fails, every temporary is removed
+    and every destination keeps what it had."""
+    staged: list[tuple[str, Path]] = []
+    try:
+        for path, writer in items:
+            p = Path(path)
+            try:
+                fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
+                                           suffix=f".{os.getpid()}.tmp{p.suffix}")
+                os.close(fd)
+            except OSError as exc:
+                raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+            staged.append((tmp, p))
+            try:
+                writer(tmp)
+                with open(tmp, "rb+") as f:
+                    os.fsync(f.fileno())
+                os.chmod(tmp, 0o644)
+            except OSError as exc:
+                raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+        for tmp, p in staged:
+            os.replace(tmp, p)
+    except BaseException:
+        for tmp, _ in staged:
+            _unlink(tmp)
+        raise
+
+
 def _unlink(path: str | Path) -> bool:
     try:
         os.unlink(path)

@@ -179,11 +179,154 @@ def test_full_disk_is_a_clean_error(tmp_path):
         r = sdfpbr("chart", "--size", "160x160", "-o", d / "chart.png")
         assert r.returncode == 2 and "No space left on device" in one_line(r.stderr)
         assert listing(d) == {"chart.npy": KEEP, "chart.png": KEEP}
-        # The PNG fits, the HDR after it does not: the PNG is complete, the HDR untouched.
+        # The PNG fits, the HDR after it does not: all or nothing, so neither is written.
         r = sdfpbr("chart", "--size", "48x48", "-o", d / "small.png", "--hdr", d / "chart.npy")
         assert r.returncode == 2 and "No space left on device" in one_line(r.stderr)
-        files = listing(d)
-        assert files["chart.npy"] == KEEP and set(files) == {"chart.npy", "chart.png", "small.png"}
-        from PIL import Image
-        with Image.open(d / "small.png") as im:
-            im.load()
+        assert listing(d) == {"chart.npy": KEEP, "chart.png": KEEP}
+
+
+# ---- a damaged cache heals --------------------------------------------------------------------
+
+def _entries(cache_dir):
+    return sorted(p for kind in ("ibl", "dfg") for p in (cache_dir / kind).glob("*.npz"))
+
+
+@pytest.mark.parametrize("damage", ["flip a byte", "truncate", "NaN inside"])
+def test_a_damaged_cache_entry_is_reported_deleted_and_rebuilt(tmp_path, damage):
+    """Issue 12: one byte flipped in an IBL or DFG entry, a truncated entry, or a well-formed
+    one whose floats are NaN: the next chart reports it on one stderr line, renders exactly
+    what a clean cache renders, and leaves a good entry in its place."""
+    import numpy as np
+    from sdfpbr.cache import CHECK, ArrayCache, checksum
+    args = ("chart", "--size", "64x64", "--no-labels")
+    cache_dir = tmp_path / "cache"
+    env = {"SDFPBR_CACHE_DIR": str(cache_dir)}
+    r = sdfpbr(*args, "-o", tmp_path / "clean.png", "--hdr", tmp_path / "clean.npy", env=env)
+    assert r.returncode == 0, r.stderr
+    entries = _entries(cache_dir)
+    assert entries
+    for path in entries:
+        data = bytearray(path.read_bytes())
+        if damage == "flip a byte":
+            data[len(data) // 2] ^= 0xFF
+            path.write_bytes(bytes(data))
+        elif damage == "truncate":
+            path.write_bytes(bytes(data[: len(data) // 3]))
+        else:   # well formed, checksum right, values NaN
+            with np.load(path) as npz:
+                arrays = {k: npz[k] for k in npz.files if k != CHECK}
+            name = next(k for k, a in arrays.items() if a.dtype.kind == "f" and a.size > 1)
+            arrays[name] = arrays[name].copy()
+            arrays[name].flat[0] = np.nan
+            key = path.name[: -len(".c.npz")]
+            ArrayCache(cache_dir).put(path.parent.name, key, arrays)
+            assert np.array_equal(np.load(path)[CHECK], checksum(key, arrays))
+    r = sdfpbr(*args, "-o", tmp_path / "again.png", "--hdr", tmp_path / "again.npy", env=env)
+    assert r.returncode == 0, r.stderr
+    reports = [line for line in r.stderr.splitlines() if "cache entry" in line]
+    assert len(reports) == len(entries) and "Traceback" not in r.stderr, r.stderr
+    assert np.array_equal(np.load(tmp_path / "clean.npy"), np.load(tmp_path / "again.npy"))
+    r = sdfpbr(*args, "-o", tmp_path / "third.png", env=env)   # the rebuilt entries verify
+    assert r.returncode == 0 and "cache entry" not in r.stderr, r.stderr
+
+
+# ---- environments that would render wrong --------------------------------------------------------
+
+def _npy_header_only(path, shape):
+    """A .npy whose header claims ``shape`` (float32) with no data behind it."""
+    import numpy as np
+    with open(path, "wb") as f:
+        np.lib.format.write_array_header_1_0(f, {"descr": "<f4", "fortran_order": False, "shape": shape})
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda np: np.full((4, 8, 3), 3.4e38, np.float32), "over-1e30"),
+    (lambda np: np.ones((4, 8, 3)) + 1j, "real numbers"),
+    (lambda np: np.full((4, 8, 3), "x"), "real numbers"),
+    (None, "cannot read environment"),
+])
+def test_environments_that_cannot_render_right_are_refused(tmp_path, make, message):
+    """Issue 12: values that overflow the bakes, complex or string arrays, and a header that
+    claims 200000 x 200000 x 3 texels: one line, exit 2, no output, nothing allocated."""
+    import numpy as np
+    env = tmp_path / "env.npy"
+    if make is None:
+        _npy_header_only(env, (200000, 200000, 3))
+    else:
+        np.save(env, make(np))
+    r = sdfpbr("chart", "--size", "32x32", "--env", env, "-o", tmp_path / "c.png")
+    assert r.returncode == 2 and message in one_line(r.stderr), r.stderr
+    assert not (tmp_path / "c.png").exists()
+
+
+def test_an_environment_wider_than_gl_allows_is_scaled_to_fit(session, tmp_path):
+    """Issue 12: an equirect wider than GL_MAX_TEXTURE_SIZE rendered all black; it is now
+    box-filtered down to fit, so a uniform one lights the chart as a uniform one that fits."""
+    import numpy as np
+    from sdfpbr.gpu.ibl import fit_texture
+    limit = int(session.ctx.info["GL_MAX_TEXTURE_SIZE"])
+    assert fit_texture(np.ones((8, limit + 2, 3), np.float32), limit).shape == (4, limit // 2 + 1, 3)
+    wide, narrow = tmp_path / "wide.npy", tmp_path / "narrow.npy"
+    np.save(wide, np.ones((8, limit + 2, 3), np.float32))
+    np.save(narrow, np.ones((8, 64, 3), np.float32))
+    spec = make_spec(width=48, height=48, lights="none", rows=1, cols=2)
+    a = session.render(make_spec(spec, env=str(wide))).hdr
+    b = session.render(make_spec(spec, env=str(narrow))).hdr
+    assert a.min() > 0.01
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+
+
+# ---- outputs: all or nothing, never an input -----------------------------------------------------
+
+def test_an_output_that_is_an_input_is_refused(tmp_path):
+    import numpy as np
+    env = tmp_path / "e.npy"
+    np.save(env, np.ones((4, 8, 3), np.float32))
+    before = env.read_bytes()
+    r = sdfpbr("chart", "--size", "32x32", "--env", env, "--hdr", env, "-o", tmp_path / "c.png")
+    assert r.returncode == 2 and "env input" in one_line(r.stderr)
+    assert env.read_bytes() == before and not (tmp_path / "c.png").exists()
+    tex = tmp_path / "t.png"
+    from PIL import Image
+    Image.new("RGB", (8, 4), (200, 100, 50)).save(tex)
+    before = tex.read_bytes()
+    r = sdfpbr("chart", "--size", "32x32", "--base-color-texture", tex, "-o", tex)
+    assert r.returncode == 2 and "base_color_texture input" in one_line(r.stderr)
+    assert tex.read_bytes() == before
+
+
+def test_an_exr_without_openexr_is_refused_before_anything_is_written(tmp_path):
+    """Issue 12: without OpenEXR, `chart -o k.png --hdr k.exr` rendered, replaced k.png, then
+    failed. Now it fails first and k.png keeps its bytes."""
+    blocker = tmp_path / "blocker"
+    blocker.mkdir()
+    (blocker / "OpenEXR.py").write_text("raise ImportError('blocked for this test')\n")
+    out = tmp_path / "k.png"
+    out.write_bytes(KEEP)
+    env = {"PYTHONPATH": os.pathsep.join([str(blocker), os.environ.get("PYTHONPATH", "")])}
+    r = sdfpbr("chart", "--size", "32x32", "-o", out, "--hdr", tmp_path / "k.exr", env=env)
+    assert r.returncode == 2 and "OpenEXR" in one_line(r.stderr)
+    assert out.read_bytes() == KEEP and not (tmp_path / "k.exr").exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp") or ".tmp." in p.name]
+
+
+# ---- hostile arguments: one line, never a traceback -----------------------------------------------
+
+@pytest.mark.parametrize("args, env, status, message", [
+    (("chart", "--spec", "NESTED"), None, 2, "nested too deeply"),
+    (("stress", "--seed", "-1"), None, 2, "must be in [0, 4294967295]"),
+    (("chart", "--frames", "3", "--fps", "0.001", "-o", "s.gif"), None, 2, "fps must be a number in [0.1, 100]"),
+    (("chart", "--size", "65536x65536"), None, 2, "GiB of memory"),
+    (("chart", "--backend", "osmesa", "--size", "32x32"), {"SDFPBR_LIBOSMESA": "libc.so.6"}, 3, "not an OSMesa library"),
+    (("chart", "--device-index", "7", "--size", "32x32"), None, 3, "device index 7"),
+])
+def test_hostile_arguments_get_one_line(tmp_path, args, env, status, message):
+    """Issue 12's tracebacks (RecursionError, a negative seed, a GIF delay overflow, a 48 GiB
+    allocation, a library that is not OSMesa) and its silent fallback (a device index that does
+    not exist rendered on OSMesa): each is one line with the documented exit status."""
+    nested = tmp_path / "nested.toml"
+    nested.write_text("roughness = " + "[" * 1000 + "0.5" + "]" * 1000 + "\n")
+    args = [str(nested) if a == "NESTED" else a for a in args]
+    r = sdfpbr(*args, env=env, cwd=tmp_path)
+    assert r.returncode == status and message in one_line(r.stderr), r.stderr
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.gif"))

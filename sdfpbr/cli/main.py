@@ -81,6 +81,22 @@ class Parser(argparse.ArgumentParser):
         raise SpecError(f"{sub}: {message}" if sub else message)
 
 
+def whole_number(lo: int, hi: int):
+    """An argparse type: an integer in [lo, hi] (a usage error, one line, otherwise)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {value}")
+        return value
+    return parse
+
+
+SEED = whole_number(0, 2**32 - 1)   # numpy's seeds are non-negative 32-bit words
+
+
 def _dashed(arg: str) -> str:
     if not arg.startswith("--"):
         return arg
@@ -145,14 +161,9 @@ def cmd_chart(args) -> int:
         from ..tools.animate import cmd_chart_animation
         return cmd_chart_animation(spec_from_args(args), args)
     from ..api import chart
-    from ..image.io import HDR_SUFFIXES, check_writable
+    from ..image.io import check_outputs
     spec = spec_from_args(args)
-    # Check every destination before spending time on the render.
-    check_writable(args.output, (".png",), "output")
-    if args.hdr:
-        check_writable(args.hdr, HDR_SUFFIXES, "--hdr")
-    if args.aov:
-        check_writable(args.aov, (".npz",), "--aov")
+    check_outputs(spec, args.output, args.hdr, args.aov)   # before spending time on the render
     start = time.perf_counter()
     result = chart(spec, aovs=bool(args.aov))
     result.save(args.output, hdr=args.hdr, aov=args.aov)
@@ -230,6 +241,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("sdfpbr: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:   # what check_memory could not foresee (another process took it first)
+        print("sdfpbr: error: out of memory: render a smaller chart", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

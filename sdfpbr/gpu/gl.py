@@ -41,6 +41,10 @@ class _OSMesaLoader:
                 continue
         if lib is None:
             raise GLUnavailable(f"OSMesa backend: {override or 'libOSMesa'} not found; apt-get install libosmesa6")
+        if not all(hasattr(lib, f) for f in ("OSMesaCreateContextAttribs", "OSMesaMakeCurrent",
+                                             "OSMesaGetProcAddress", "OSMesaDestroyContext")):
+            raise GLUnavailable(f"OSMesa backend: {override or name} is not an OSMesa library "
+                                "(no OSMesaCreateContextAttribs); apt-get install libosmesa6")
         lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
         lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
         lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]
@@ -94,12 +98,17 @@ def create_context(backend: str = "auto", device_index: int = 0) -> moderngl.Con
     """A standalone GL 4.5 core context. 'auto' tries EGL, then OSMesa."""
     if backend not in BACKENDS:
         raise GLUnavailable(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
-    order = ("egl", "osmesa") if backend == "auto" else (backend,)
+    if backend == "osmesa" and device_index != 0:
+        raise GLUnavailable(f"device index {device_index}: OSMesa renders on the CPU and has one device, index 0")
+    # A device index beyond 0 names an EGL device: falling back to OSMesa would ignore it.
+    order = ("egl", "osmesa") if backend == "auto" and device_index == 0 else ("egl",) if backend == "auto" else (backend,)
     failures = []
     for name in order:
         try:
             ctx = _create(name, device_index)
         except GLUnavailable as exc:
+            if "device index" in str(exc):   # the driver works; the device does not exist
+                raise GLUnavailable(f"{exc} (--device-index counts EGL devices from 0)") from None
             failures.append(str(exc))
             continue
         # Set up, then leave no context current: OSMesa and Mesa's EGL driver share libglapi's

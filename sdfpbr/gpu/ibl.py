@@ -36,12 +36,18 @@ def _groups(n: int) -> int:
     return (n + LOCAL - 1) // LOCAL
 
 
+MAX_ENV_TEXELS = 1 << 28       # 16384 x 16384: beyond this an environment file is refused
+MAX_ENV_RADIANCE = 1e30        # finite but larger values overflow the bakes' float32 sums
+
+
 def load_env_file(path: str | Path) -> np.ndarray:
-    """An equirectangular environment as float32 (H, W, 3), row 0 at the zenith."""
+    """An equirectangular environment as float32 (H, W, 3), row 0 at the zenith. Real numbers
+    only (integer or float dtypes), at most MAX_ENV_TEXELS texels and MAX_ENV_RADIANCE; read
+    lazily, so a header claiming a huge array is refused before anything is allocated."""
     path = Path(path)
     if path.suffix.lower() == ".npy":
         try:
-            data = np.load(path)   # allow_pickle stays off: a pickle is refused, not run
+            data = np.load(path, mmap_mode="r")   # allow_pickle stays off: a pickle is refused, not run
         except (OSError, ValueError, EOFError) as exc:
             raise SpecError(f"cannot read environment {path}: {str(exc).splitlines()[0]}") from None
     else:
@@ -60,13 +66,28 @@ def load_env_file(path: str | Path) -> np.ndarray:
                     data = np.stack([channels[c].pixels for c in "RGB"], axis=-1)
         except Exception as exc:
             raise SpecError(f"cannot read environment {path}: {exc}") from None
-    data = np.asarray(data, dtype=np.float32)
+    if not isinstance(data, np.ndarray) or data.dtype.kind not in "iuf":
+        kind = getattr(data, "dtype", type(data))
+        raise SpecError(f"environment {path} must hold real numbers (integer or float), got {kind}")
     if data.ndim != 3 or data.shape[2] < 3 or data.shape[0] < 2 or data.shape[1] < 2:
         raise SpecError(f"environment {path} must be an H x W x 3 image, got shape {data.shape}")
-    data = data[..., :3]
-    if not np.all(np.isfinite(data)) or data.min() < 0:
-        raise SpecError(f"environment {path} has negative, NaN or Inf values")
+    if data.shape[0] * data.shape[1] > MAX_ENV_TEXELS:
+        raise SpecError(f"environment {path} is {data.shape[1]}x{data.shape[0]}; at most "
+                        f"{MAX_ENV_TEXELS} texels (16384 x 16384) are read: scale it down")
+    data = np.asarray(data[..., :3], dtype=np.float32)
+    if not np.all(np.isfinite(data)) or data.min() < 0 or data.max() > MAX_ENV_RADIANCE:
+        raise SpecError(f"environment {path} has negative, NaN, Inf or over-1e30 values")
     return np.ascontiguousarray(data)
+
+
+def fit_texture(data: np.ndarray, limit: int) -> np.ndarray:
+    """``data`` (H, W, C) halved by 2 x 2 box averages until both sides fit in ``limit``
+    texels (GL leaves a larger texture undefined: an all-black environment)."""
+    while max(data.shape[:2]) > limit:
+        h, w = data.shape[0] // 2 * 2, data.shape[1] // 2 * 2
+        d = data[:h, :w].astype(np.float64)
+        data = (0.25 * (d[0::2, 0::2] + d[1::2, 0::2] + d[0::2, 1::2] + d[1::2, 1::2])).astype(np.float32)
+    return data
 
 
 def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:
@@ -91,7 +112,7 @@ def make_environment(ctx: moderngl.Context, spec: ChartSpec) -> Environment:
     texture = None
     content = content_key(option, uniforms)
     if option == "file":
-        data = load_env_file(spec.env)
+        data = fit_texture(load_env_file(spec.env), int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384)))
         texture = ctx.texture((data.shape[1], data.shape[0]), 3, data.tobytes(), dtype="f4")
         texture.repeat_x, texture.repeat_y = True, False
         content = content_key(option, uniforms, data.tobytes())

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from ..errors import SpecError
 from ..shading import camera as camera_mod
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, render_plan
@@ -33,9 +34,47 @@ class RenderResult:
     timings: dict = field(default_factory=dict)
 
 
+# Host bytes a pixel of a render holds: hdr 12, alpha 4, image 4, the labelled copy 4, and the
+# PNG encoder's working copy 4; the AOVs add 32 (tests/test_tiling.py measures the arrays).
+HOST_BYTES_PER_PIXEL = 28
+AOV_BYTES_PER_PIXEL = 32
+
+
+def available_memory() -> int | None:
+    """Bytes this process may still allocate: MemAvailable, capped by RLIMIT_AS (None: unknown)."""
+    limits = []
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    limits.append(int(line.split()[1]) * 1024)
+    except OSError:
+        pass
+    try:
+        import resource
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft != resource.RLIM_INFINITY:
+            with open("/proc/self/statm") as f:
+                used = int(f.read().split()[0]) * resource.getpagesize()
+            limits.append(max(soft - used, 0))
+    except (ImportError, OSError, ValueError):
+        pass
+    return min(limits) if limits else None
+
+
+def check_memory(spec: ChartSpec, aovs: bool) -> None:
+    """Refuse, before any work, a chart whose arrays cannot fit in this process's memory."""
+    need = spec.width * spec.height * (HOST_BYTES_PER_PIXEL + (AOV_BYTES_PER_PIXEL if aovs else 0))
+    have = available_memory()
+    if have is not None and need > have:
+        raise SpecError(f"a {spec.width}x{spec.height} chart needs about {need / 2**30:.1f} GiB of memory"
+                        f"{' with AOVs' if aovs else ''}; about {have / 2**30:.1f} GiB are available: render it smaller")
+
+
 def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan | None = None) -> RenderResult:
     """``spec`` on ``session`` (entered by the caller). aovs=False skips reading back the AOV
     targets (28 bytes a pixel): result.aov is empty."""
+    check_memory(spec, aovs)
     ctx = session.ctx
     t0 = time.perf_counter()
     timings = {}

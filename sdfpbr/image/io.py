@@ -10,7 +10,7 @@ import numpy as np
 from PIL import Image, PngImagePlugin
 
 from ..errors import OutputError, SpecError
-from ..files import atomic_file, atomic_path, write_bytes
+from ..files import write_group
 
 HDR_SUFFIXES = (".npy", ".exr")
 
@@ -30,6 +30,31 @@ def check_writable(path: str | Path, suffixes: tuple[str, ...] | None = None, wh
     return p
 
 
+def check_outputs(spec, output: str | Path, hdr: str | Path | None = None, aov: str | Path | None = None) -> None:
+    """Before rendering, everything that would make writing a chart's files fail or destroy
+    something: each destination writable with its suffix, an .exr writer installed, no two
+    outputs the same file, and no output that is one of the spec's inputs (its environment or
+    texture files)."""
+    outputs = {"output": (output, (".png",))}
+    if hdr is not None:
+        outputs["--hdr"] = (hdr, HDR_SUFFIXES)
+    if aov is not None:
+        outputs["--aov"] = (aov, (".npz",))
+    seen: dict[Path, str] = {}
+    inputs = {name: getattr(spec, name) for name in ("env", "base_color_texture", "orm_texture", "normal_texture")}
+    inputs = {Path(v).resolve(): name for name, v in inputs.items() if v and Path(v).suffix}
+    for what, (path, suffixes) in outputs.items():
+        check_writable(path, suffixes, what)
+        where = Path(path).resolve()
+        if where in seen:
+            raise SpecError(f"{what} {path} is also the {seen[where]}: give each output its own file")
+        if where in inputs:
+            raise SpecError(f"{what} {path} is the chart's {inputs[where]} input: writing it would replace it")
+        seen[where] = what
+    if hdr is not None:
+        hdr_writer(hdr, np.zeros((1, 1, 3), np.float32))   # raises now if .exr cannot be written
+
+
 def png_bytes(rgba: np.ndarray, metadata: dict[str, str] | None = None) -> bytes:
     info = PngImagePlugin.PngInfo()
     for key, value in (metadata or {}).items():
@@ -43,27 +68,49 @@ def png_bytes(rgba: np.ndarray, metadata: dict[str, str] | None = None) -> bytes
     return buf.getvalue()
 
 
-def write_png(path: str | Path, rgba: np.ndarray, metadata: dict[str, str] | None = None) -> None:
-    write_bytes(path, png_bytes(rgba, metadata))
+def png_writer(rgba: np.ndarray, metadata: dict[str, str] | None = None):
+    """A writer for sdfpbr.files.write_group: the PNG of ``rgba``."""
+    data = png_bytes(rgba, metadata)
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
+            f.write(data)
+    return write
 
 
-def write_hdr(path: str | Path, hdr: np.ndarray) -> None:
-    """float32 linear radiance (H, W, 3), row 0 at the top, as .npy or .exr."""
+def hdr_writer(path: str | Path, hdr: np.ndarray):
+    """A writer of float32 linear radiance (H, W, 3), row 0 at the top, as .npy or .exr (by
+    ``path``'s suffix); refused before anything is written when .exr has no OpenEXR."""
     hdr = np.ascontiguousarray(hdr, np.float32)
-    p = Path(path)
-    if p.suffix.lower() == ".npy":
-        with atomic_file(p) as f:
-            np.save(f, hdr)
-        return
+    if Path(path).suffix.lower() == ".npy":
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as f:
+                np.save(f, hdr)
+        return write
     try:
         import OpenEXR
     except ImportError:
         raise SpecError("writing .exr needs OpenEXR: pip install 'sdfpbr[exr]' (or use .npy)") from None
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with atomic_path(p, ".exr") as tmp, OpenEXR.File(header, {"RGB": hdr}) as f:
-        f.write(tmp)
+    def write(tmp: str) -> None:
+        with OpenEXR.File(header, {"RGB": hdr}) as f:
+            f.write(tmp)
+    return write
+
+
+def npz_writer(arrays: dict[str, np.ndarray]):
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, **arrays)
+    return write
+
+
+def write_png(path: str | Path, rgba: np.ndarray, metadata: dict[str, str] | None = None) -> None:
+    write_group([(path, png_writer(rgba, metadata))])
+
+
+def write_hdr(path: str | Path, hdr: np.ndarray) -> None:
+    write_group([(path, hdr_writer(path, hdr))])
 
 
 def write_npz(path: str | Path, arrays: dict[str, np.ndarray]) -> None:
-    with atomic_file(path) as f:
-        np.savez_compressed(f, **arrays)
+    write_group([(path, npz_writer(arrays))])

@@ -20,6 +20,8 @@ def read_toml(path: str | Path, what: str = "spec file") -> dict:
         raise SpecError(f"cannot read {what} {p}: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{p}: malformed TOML: {exc}") from None
+    except RecursionError:
+        raise SpecError(f"{p}: values nested too deeply (a spec's arrays are at most 2 deep)") from None
 
 
 def parse_toml_text(text: str, where: str) -> dict:
@@ -28,3 +30,5 @@ def parse_toml_text(text: str, where: str) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{where}: malformed inline TOML: {exc}") from None
+    except RecursionError:
+        raise SpecError(f"{where}: values nested too deeply (a spec's arrays are at most 2 deep)") from None

@@ -52,9 +52,12 @@ def _check_frames(frames) -> int:
     return frames
 
 
+MIN_FPS, MAX_FPS = 0.1, 100.0   # a frame per 10 s at the slowest: every encoder's delay field holds it
+
+
 def _check_fps(fps) -> float:
-    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (math.isfinite(fps) and 0 < fps <= 100):
-        raise SpecError(f"fps must be a number in (0, 100], got {fps!r}")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
+        raise SpecError(f"fps must be a number in [{MIN_FPS:g}, {MAX_FPS:g}], got {fps!r}")
     return float(fps)
 
 

@@ -32,6 +32,7 @@ def _list(text: str) -> list[str]:
 
 
 def register(subparsers) -> None:
+    from ..main import SEED
     p = subparsers.add_parser("bench", help="time and error of each quality preset over a scene suite",
                               description="Benchmark render time, compile time, cold start and error "
                                           "against the reference renderer.",
@@ -44,7 +45,7 @@ def register(subparsers) -> None:
     p.add_argument("--repeats", type=int, metavar="N", help="timed draws per row (default 5)")
     p.add_argument("--warmup", type=int, metavar="N", help="untimed draws first (default 1)")
     p.add_argument("--ref-samples", type=int, metavar="N", help="reference samples per pixel (default 256)")
-    p.add_argument("--seed", type=int, default=0, help="reference seed (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="reference seed (default 0)")
     p.add_argument("--no-reference", action="store_true", help="skip the error columns")
     p.add_argument("--no-cold", action="store_true", help="skip the cold-process columns")
     p.add_argument("--ablation", action="store_true", help="add the feature ablation rows")

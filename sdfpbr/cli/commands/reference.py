@@ -38,7 +38,7 @@ def run(args) -> int:
     import time
 
     from ..main import spec_from_args
-    from ...image.io import HDR_SUFFIXES, check_writable
+    from ...image.io import check_outputs
     from ...tools.reference import DEFAULT_MAX_BOUNCES, validate_arguments
 
     start = time.perf_counter()
@@ -46,17 +46,14 @@ def run(args) -> int:
     bounces = DEFAULT_MAX_BOUNCES if args.bounces is None else args.bounces
     # Everything is checked before the render: a bad argument costs nothing and writes nothing.
     validate_arguments(spec, args.samples, args.target_error, args.seed, bounces)
-    check_writable(args.output, (".png",), "output")
-    if args.hdr:
-        check_writable(args.hdr, HDR_SUFFIXES, "--hdr")
-    if args.aov:
-        check_writable(args.aov, (".npz",), "--aov")
+    check_outputs(spec, args.output, args.hdr, args.aov)
 
     import json
 
     from ... import __version__
     from ...gpu.session import default_session
-    from ...image.io import write_hdr, write_npz, write_png
+    from ...files import write_group
+    from ...image.io import hdr_writer, npz_writer, png_writer
     from ...tools.reference import label, render_reference
 
     session = default_session(spec.backend, spec.device_index)
@@ -69,11 +66,12 @@ def run(args) -> int:
                                                 "mean_relative_stderr": result.error}),
                 "sdfpbr:shader-sha256": result.source.digest,
                 "sdfpbr:gl-renderer": session.renderer}
-    write_png(args.output, label(spec, result), metadata)
+    items = [(args.output, png_writer(label(spec, result), metadata))]   # all or none
     if args.hdr:
-        write_hdr(args.hdr, result.hdr)
+        items.append((args.hdr, hdr_writer(args.hdr, result.hdr)))
     if args.aov:
-        write_npz(args.aov, {**result.aov, "stderr": result.stderr})
+        items.append((args.aov, npz_writer({**result.aov, "stderr": result.stderr})))
+    write_group(items)
     if result.non_finite:
         print(f"sdfpbr reference: warning: {result.non_finite} non-finite samples were dropped", file=sys.stderr)
     if args.verbose:

@@ -16,6 +16,7 @@ def _positive(text: str) -> int:
 
 
 def register(sub) -> None:
+    from ..main import SEED
     p = sub.add_parser("stress", help="render thousands of edge-case configurations and check each one",
                        description="Seeded sweeps over roughness, metallic, base colour, silhouettes, exposure, "
                                    "light intensity, camera distance, sphere geometry, grid and image size, "
@@ -23,7 +24,7 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true", help=f"the CI subset ({QUICK_COUNT} configurations, small images)")
     p.add_argument("--count", type=_positive, help=f"configurations (default {FULL_COUNT}, --quick {QUICK_COUNT}; "
                    "very small counts are rounded up so that every kind of check runs)")
-    p.add_argument("--seed", type=int, default=0, help="the sweep is a pure function of the seed (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="the sweep is a pure function of the seed (default 0)")
     p.add_argument("--backend", choices=("all", "egl", "osmesa"), default="all", help="backends to sweep (default all)")
     p.add_argument("--failures", metavar="DIR", help="write each failing configuration here as a TOML spec")
     p.add_argument("--json", metavar="PATH", help="also write the summary as JSON")

@@ -61,7 +61,7 @@ def reference_key(spec: ChartSpec, samples: int, seed: int) -> str:
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
     from ..reference import render_reference
     key = reference_key(spec, samples, seed)
-    cached = session.cache.get("bench-reference", key)
+    cached = session.cache.get("bench-reference", key, require_finite=False)   # stderr may be NaN
     if cached is not None:
         return Reference(cached["hdr"], cached["image"], cached["stderr"], cached["row"], cached["col"],
                          int(cached["samples"]), float(cached["seconds"]), True)
