@@ -1,16 +1,17 @@
 // Punctual lights. Directional: direction towards the light, illuminance (colour x intensity)
 // and angular radius; point: position, intensity, range of the inverse-square window.
 // The composer emits the loops only for the light kinds the scene has.
-#if NUM_DIR_LIGHTS > 0
-uniform vec3 u_dir_light_direction[NUM_DIR_LIGHTS];
-uniform vec3 u_dir_light_illuminance[NUM_DIR_LIGHTS];
-uniform float u_dir_light_angular_radius[NUM_DIR_LIGHTS];
 
 // Roughness widening for a light of angular radius theta (Karis 2013): the disc spreads the
 // half vectors, which a wider GGX lobe approximates while keeping its energy.
 float alpha_for_disc(float alpha, float angular_radius) {
     return min(1.0, alpha + 0.5 * sin(angular_radius));
 }
+
+#if NUM_DIR_LIGHTS > 0
+uniform vec3 u_dir_light_direction[NUM_DIR_LIGHTS];
+uniform vec3 u_dir_light_illuminance[NUM_DIR_LIGHTS];
+uniform float u_dir_light_angular_radius[NUM_DIR_LIGHTS];
 
 // The lights as seen in the background: discs of uniform radiance E / (pi sin^2 theta).
 vec3 light_discs(vec3 rd) {

@@ -16,7 +16,7 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 // pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
 // at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
-vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground) {
+vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread) {
 #if STAGE == cells
     g_shading_point = p;   // for the probe's parallax correction
 #endif
@@ -70,7 +70,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
         vec3 l = u_dir_light_direction[i];
-        float alpha_light = alpha_for_disc(m.alpha, u_dir_light_angular_radius[i]);
+        float alpha_light = alpha_for_disc(m.alpha, max(u_dir_light_angular_radius[i], light_spread));
         vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_light, e_single) * u_dir_light_illuminance[i];
 #if USE_SHADOWS && STAGE == cells
         // The ground receives every light's shadow (exact on this stage, shadow.glsl).
@@ -89,7 +89,8 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         vec3 to_light = u_point_light_position[i] - p;
         float dist = length(to_light);
         vec3 l = to_light / dist;
-        vec3 c = brdf_cos(m, n, v, l, n_dot_v, m.alpha, e_single) * u_point_light_intensity[i]
+        vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_for_disc(m.alpha, light_spread), e_single)
+               * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
         if (ground) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
@@ -105,11 +106,18 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 }
 
 vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0);
+}
+
+// The sphere's light as a few bounce rays sample it: each punctual light's highlight spread as
+// if the light were `spread` radians wide (the rays' spacing), energy kept, so a near-mirror's
+// pinpoint image is averaged over the cap instead of hit by one ray or missed.
+vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread) {
+    return shade_point(p, n_geo, v, cell, pixel_size, false, spread);
 }
 
 vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {
-    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true);
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0);
 }
 
 // A hit of either kind (cell.x < 0: the ground).

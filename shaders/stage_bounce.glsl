@@ -29,7 +29,7 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
         float th = ray_sphere(q, w, vec3(0.0), u_radius);
         if (th <= 0.0) continue;
         vec3 s = q + w * th;
-        sum += cos_q * shade_sphere(s, s / u_radius, -w, cell, pixel_size);
+        sum += cos_q * shade_sphere_for_bounce(s, s / u_radius, -w, cell, pixel_size, ring);
         weight += cos_q;
     }
     if (weight <= 0.0) return vec3(0.0);

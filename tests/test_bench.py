@@ -229,3 +229,16 @@ def test_bad_argument_in_a_fresh_process_has_no_traceback(tmp_path):
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
+
+
+def test_timing_only_run_writes_json_and_no_plot(tmp_path):
+    """--no-reference measures no error, so no time-error plot is drawn beside --json (it
+    crashed on an empty log axis) and an explicit --plot is refused before the run."""
+    out = tmp_path / "t.json"
+    base = [sys.executable, "-m", "sdfpbr", "bench", "--no-reference", "--no-cold", "--scenes", "furnace",
+            "--presets", "draft", "--size", "32x32", "--repeats", "1", "-q"]
+    proc = subprocess.run(base + ["--json", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+    assert out.exists() and not out.with_suffix(".png").exists()
+    proc = subprocess.run(base + ["--plot", str(tmp_path / "p.png")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "--no-reference" in proc.stderr and not (tmp_path / "p.png").exists()

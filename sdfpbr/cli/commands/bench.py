@@ -68,7 +68,7 @@ def run(args) -> int:
     from ...tools.bench.report import format_table, write_json, write_plot
     from ...tools.bench.run import run_bench
     from ...tools.bench.suite import BenchConfig
-    from ...errors import SdfpbrError
+    from ...errors import SdfpbrError, SpecError
     from ...image.io import check_writable
     from ...spec.chart_spec import parse_size
 
@@ -92,7 +92,9 @@ def run(args) -> int:
     if args.json:
         check_writable(args.json, (".json",), "--json")
     plot = args.plot
-    if plot is None and args.json and not args.no_plot:
+    if plot and args.no_reference:
+        raise SpecError("--plot draws time against error, which --no-reference does not measure")
+    if plot is None and args.json and not args.no_plot and not args.no_reference:
         plot = str(Path(args.json).with_suffix(".png"))
     if args.no_plot:
         plot = None
