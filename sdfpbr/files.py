@@ -20,17 +20,23 @@ from .errors import OutputError
 TEMP_NAME = re.compile(r"^\..+\.(\d+)\.tmp(\.\w+)?$")
 
 
-@contextmanager
-def atomic_path(path: str | Path, suffix: str = ""):
-    """Yield a temporary path beside ``path`` (ending in ``suffix``, for writers that pick a
-    format by extension); rename it into place only if the block succeeds."""
-    p = Path(path)
+def _temp_beside(p: Path, suffix: str) -> str:
+    """A new empty temporary beside ``p``, named as TEMP_NAME describes."""
     try:
         fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
                                    suffix=f".{os.getpid()}.tmp{suffix}")
         os.close(fd)
     except OSError as exc:
         raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+    return tmp
+
+
+@contextmanager
+def atomic_path(path: str | Path, suffix: str = ""):
+    """Yield a temporary path beside ``path`` (ending in ``suffix``, for writers that pick a
+    format by extension); rename it into place only if the block succeeds."""
+    p = Path(path)
+    tmp = _temp_beside(p, suffix)
     try:
         yield tmp
         os.chmod(tmp, 0o644)
@@ -70,12 +76,7 @@ def write_group(items: list[tuple[str | Path, Callable[[str], None]]]) -> None:
     try:
         for path, writer in items:
             p = Path(path)
-            try:
-                fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
-                                           suffix=f".{os.getpid()}.tmp{p.suffix}")
-                os.close(fd)
-            except OSError as exc:
-                raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+            tmp = _temp_beside(p, p.suffix)
             staged.append((tmp, p))
             try:
                 writer(tmp)

@@ -2,37 +2,13 @@
 #include "hit.glsl"
 #include "scene.glsl"
 #include "camera.glsl"
-#include "ggx.glsl"
-#include "visibility.glsl"
-#include "brdf.glsl"
-#include "dfg.glsl"
-#include "material.glsl"
-#if USE_TEXTURES
-#include "textures.glsl"
-#endif
-#include "env.glsl"
-#include "lights.glsl"
-#if USE_IBL && BUG_FEWTAP_IBL
-#include "ibl_fewtap.glsl"
-#elif USE_IBL
-#include "ibl.glsl"
-#endif
-#if GROUND_IBL
-#include "ground_ibl.glsl"
-#endif
-#if USE_AO
-#include "ao.glsl"
-#endif
-#if USE_SHADOWS
-#include "shadow.glsl"
-#endif
+#include "surface_shading.glsl"
 #if INTERSECT == analytic
 #include "intersect.glsl"
 #else
 #include "normal.glsl"
 #include "march.glsl"
 #endif
-#include "shade.glsl"
 #if ANALYTIC_AA
 #include "edge_coverage.glsl"
 #endif

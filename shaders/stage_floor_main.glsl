@@ -2,26 +2,7 @@
 #include "hit.glsl"
 #include "scene.glsl"
 #include "camera.glsl"
-#include "ggx.glsl"
-#include "visibility.glsl"
-#include "brdf.glsl"
-#include "dfg.glsl"
-#include "material.glsl"
-#include "env.glsl"
-#include "lights.glsl"
-#if USE_IBL
-#include "ibl.glsl"
-#endif
-#if GROUND_IBL
-#include "ground_ibl.glsl"
-#endif
-#if USE_AO
-#include "ao.glsl"
-#endif
-#if USE_SHADOWS
-#include "shadow.glsl"
-#endif
-#include "shade.glsl"
+#include "surface_shading.glsl"
 
 // The cells stage's floor plate (FLOOR_PLATE): every cell shows the same floor under the same
 // camera, so the part of its light that does not depend on the cell's material (environment,

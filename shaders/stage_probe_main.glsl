@@ -1,26 +1,7 @@
 #include "common.glsl"
 #include "hit.glsl"
 #include "scene.glsl"
-#include "ggx.glsl"
-#include "visibility.glsl"
-#include "brdf.glsl"
-#include "dfg.glsl"
-#include "material.glsl"
-#include "env.glsl"
-#include "lights.glsl"
-#if USE_IBL
-#include "ibl.glsl"
-#endif
-#if GROUND_IBL
-#include "ground_ibl.glsl"
-#endif
-#if USE_AO
-#include "ao.glsl"
-#endif
-#if USE_SHADOWS
-#include "shadow.glsl"
-#endif
-#include "shade.glsl"
+#include "surface_shading.glsl"
 #include "cubemap.glsl"
 
 // The stage probe of the cells stage: the radiance a cell's sphere sees from its centre, for

@@ -318,3 +318,16 @@ def test_the_project_gallery_covers_the_issue_list():
     assert (furnace.env, furnace.lights, furnace.ground, furnace.ao, furnace.base_color) == (
         "uniform", (), False, False, (1.0, 1.0, 1.0))
     assert all(max(s.width, s.height) <= 1024 for i in items.values() for s in i.specs)
+
+
+def test_the_gallery_page_leads_with_the_default_chart():
+    from sdfpbr.tools.gallery.page import gallery_html, page_order
+    images = [{"name": n, "kind": k} for n, k in (("bug-catalog", "bug-sheet"), ("bugs-x", "compare"),
+                                                  ("exposure", "sweep"), ("default", "chart"), ("furnace", "chart"))]
+    assert [i["name"] for i in page_order(images)] == ["default", "furnace", "exposure", "bugs-x", "bug-catalog"]
+
+
+def test_gallery_summaries_print_clean_values():
+    from sdfpbr.tools.gallery.page import param_text
+    assert param_text({"lights": (), "metallic": (1.0, 1.0), "roughness": (0.0, 1.0)}) == \
+        "lights = none; metallic = 1.0; roughness = 0.0, 1.0"

@@ -7,11 +7,18 @@ from typing import Any
 from urllib.parse import quote
 
 
-def _param_text(value: Any) -> str:
+RANGES = ("roughness", "metallic")   # (lo, hi) pairs: one value when lo == hi
+
+
+def param_text(value: Any, key: str = "") -> str:
     if isinstance(value, (list, tuple)):
-        return ", ".join(_param_text(v) for v in value)
+        if not value:
+            return "none"
+        if key in RANGES and len(value) == 2 and value[0] == value[1]:
+            return param_text(value[0])
+        return ", ".join(param_text(v) for v in value)
     if isinstance(value, dict):
-        return "; ".join(f"{k} = {_param_text(v)}" for k, v in value.items())
+        return "; ".join(f"{k} = {param_text(v, k)}" for k, v in value.items())
     return str(value)
 
 
@@ -29,13 +36,25 @@ details { font-size: 12px; color: #999; } pre { white-space: pre-wrap; }
 """
 
 
+# The page leads with what a newcomer wants first: the default chart, then the other single
+# charts and sweeps, then the bug comparisons, and the contact sheet of them all last.
+KIND_ORDER = ("chart", "sweep", "compare", "bug-sheet")
+
+
+def page_order(images: list[dict]) -> list[dict]:
+    def key(image):
+        kind = KIND_ORDER.index(image["kind"]) if image["kind"] in KIND_ORDER else len(KIND_ORDER)
+        return (image["name"] != "default", kind)
+    return sorted(images, key=key)   # stable: the manifest's order within a kind
+
+
 def gallery_html(manifest: dict) -> str:
     """A static page: every image with its caption and parameters; all text escaped."""
     e = html.escape
     figures = []
-    for image in manifest["images"]:
+    for image in page_order(manifest["images"]):
         params = "".join(
-            f"<dt>{e(str(k))}</dt><dd>{e(_param_text(v))}</dd>"
+            f"<dt>{e(str(k))}</dt><dd>{e(param_text(v))}</dd>"
             for k, v in image["params"].items() if v not in ({}, [], "")
         )
         specs = e(json.dumps(image["specs"], indent=1, ensure_ascii=False))

@@ -1,0 +1,28 @@
+// What shading a surface point takes (shade.glsl and every module it calls), included by each
+// program that shades one: the chart, the cells stage's probe and its floor plate. The program
+// includes common, hit and scene first.
+#include "ggx.glsl"
+#include "visibility.glsl"
+#include "brdf.glsl"
+#include "dfg.glsl"
+#include "material.glsl"
+#if USE_TEXTURES
+#include "textures.glsl"
+#endif
+#include "env.glsl"
+#include "lights.glsl"
+#if USE_IBL && BUG_FEWTAP_IBL
+#include "ibl_fewtap.glsl"
+#elif USE_IBL
+#include "ibl.glsl"
+#endif
+#if GROUND_IBL
+#include "ground_ibl.glsl"
+#endif
+#if USE_AO
+#include "ao.glsl"
+#endif
+#if USE_SHADOWS
+#include "shadow.glsl"
+#endif
+#include "shade.glsl"
