@@ -12,7 +12,7 @@ from .errors import SpecError
 from .files import write_group
 from .image.io import check_outputs, hdr_writer, npz_writer, png_bytes, png_writer
 from .image.chart_labels import label
-from .gpu.render import RenderResult
+from .gpu.render import RenderResult, check_memory
 from .gpu.session import Session, default_session
 from .spec.chart_spec import ChartSpec, as_spec, make_spec
 
@@ -61,6 +61,7 @@ def chart(spec: ChartSpec | str | Path | None = None, *, aovs: bool = True, sess
     ``session``: the GL session to render on (default: the process's for the spec's backend
     and device, created on first use)."""
     spec = make_spec(as_spec(spec), **options)
+    check_memory(spec, aovs)   # before a GL context is made (some drivers reserve much address space)
     session = session or default_session(spec.backend, spec.device_index)
     result = session.render(spec, aovs=aovs)
     return Chart(spec, result, label(spec, result), session.renderer)
