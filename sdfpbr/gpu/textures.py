@@ -83,16 +83,12 @@ def _load_png(path: str, what: str) -> np.ndarray:
 
 def texture_set(spec) -> TextureSet:
     """The maps the plan composes in (shading.plan.texture_maps): the spec's PNGs where given,
-    the procedural ones elsewhere."""
-    from ..shading.plan import texture_maps
-    present = texture_maps(spec)
-    base = procedural_set() if any(present) else None
-    maps = []
-    for here, path, what, procedural in zip(present, (spec.base_color_texture, spec.orm_texture, spec.normal_texture),
-                                            ("base_color_texture", "orm_texture", "normal_texture"),
-                                            (base.base_color_srgb8, base.orm_linear8, base.normal_linear8) if base else (None,) * 3):
-        maps.append(None if not here else _load_png(path, what) if path else procedural)
-    return TextureSet(*maps)
+    the procedural ones elsewhere in procedural mode, none otherwise."""
+    fallback = procedural_set() if spec.textures == "procedural" else TextureSet(None, None, None)
+    return TextureSet(*(_load_png(getattr(spec, name), name) if getattr(spec, name) else getattr(fallback, field)
+                        for name, field in (("base_color_texture", "base_color_srgb8"),
+                                            ("orm_texture", "orm_linear8"),
+                                            ("normal_texture", "normal_linear8"))))
 
 
 def upload(ctx, maps: TextureSet) -> dict:
