@@ -165,7 +165,7 @@ def cmd_chart(args) -> int:
     spec = spec_from_args(args)
     check_outputs(spec, args.output, args.hdr, args.aov)   # before spending time on the render
     start = time.perf_counter()
-    result = chart(spec, aovs=bool(args.aov))
+    result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov))
     result.save(args.output, hdr=args.hdr, aov=args.aov)
     if args.verbose:
         t = result.result.timings

@@ -24,19 +24,20 @@ TILE = 2048   # largest tile edge; also bounds the float targets' memory
 
 @dataclass
 class RenderResult:
-    hdr: np.ndarray          # (H, W, 3) float32 linear radiance, before exposure
-    alpha: np.ndarray        # (H, W) coverage
+    hdr: np.ndarray | None   # (H, W, 3) float32 linear radiance, before exposure (None: not read)
+    alpha: np.ndarray | None # (H, W) coverage, read with hdr
     image: np.ndarray        # (H, W, 4) uint8 display image (sRGB)
-    aov: dict                # normal, depth, row, col, roughness, metallic, ndotv
+    aov: dict                # normal, depth, row, col, roughness, metallic, ndotv, coverage ({}: not read)
     camera: camera_mod.Camera
     chart_source: ComposedSource
     display_source: ComposedSource
     timings: dict = field(default_factory=dict)
 
 
-# Host bytes a pixel of a render holds: hdr 12, alpha 4, image 4, the labelled copy 4, and the
-# PNG encoder's working copy 4; the AOVs add 32 (tests/test_tiling.py measures the arrays).
-HOST_BYTES_PER_PIXEL = 28
+# Host bytes a pixel of a render holds: image 4, the labelled copy 4 and the PNG encoder's
+# working copy 4; hdr adds 12 and alpha 4, the AOVs 32 (tests/test_tiling.py measures the arrays).
+HOST_BYTES_PER_PIXEL = 12
+HDR_BYTES_PER_PIXEL = 16
 AOV_BYTES_PER_PIXEL = 32
 
 
@@ -62,19 +63,25 @@ def available_memory() -> int | None:
     return min(limits) if limits else None
 
 
-def check_memory(spec: ChartSpec, aovs: bool) -> None:
+def check_memory(spec: ChartSpec, aovs: bool, hdr: bool = True) -> None:
     """Refuse, before any work, a chart whose arrays cannot fit in this process's memory."""
-    need = spec.width * spec.height * (HOST_BYTES_PER_PIXEL + (AOV_BYTES_PER_PIXEL if aovs else 0))
+    per_pixel = HOST_BYTES_PER_PIXEL + (HDR_BYTES_PER_PIXEL if hdr else 0) + (AOV_BYTES_PER_PIXEL if aovs else 0)
+    need = spec.width * spec.height * per_pixel
     have = available_memory()
     if have is not None and need > have:
+        extras = " and ".join(name for name, on in (("HDR", hdr), ("AOVs", aovs)) if on)
         raise SpecError(f"a {spec.width}x{spec.height} chart needs about {need / 2**30:.1f} GiB of memory"
-                        f"{' with AOVs' if aovs else ''}; about {have / 2**30:.1f} GiB are available: render it smaller")
+                        f"{' with ' + extras if extras else ''}; about {have / 2**30:.1f} GiB are available: "
+                        f"render it smaller")
 
 
-def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan | None = None) -> RenderResult:
-    """``spec`` on ``session`` (entered by the caller). aovs=False skips reading back the AOV
-    targets (28 bytes a pixel): result.aov is empty."""
-    check_memory(spec, aovs)
+def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan | None = None,
+                 hdr: bool = True) -> RenderResult:
+    """``spec`` on ``session`` (entered by the caller). Only what is asked is read back: the
+    display image always; linear radiance and coverage with ``hdr`` (result.hdr, .alpha: None
+    otherwise); the AOVs with ``aovs`` (result.aov: {} otherwise, and their targets are not
+    even attached)."""
+    check_memory(spec, aovs, hdr)
     ctx = session.ctx
     t0 = time.perf_counter()
     timings = {}
@@ -89,11 +96,11 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
         timings["setup_s"] = time.perf_counter() - t1
         t2 = time.perf_counter()
         bind_frame(session, plan, scene, program)
-        hdr, alpha, image, aov = _draw(ctx, program, display, spec, session.tile, aovs)
+        radiance, alpha, image, aov = _draw(session, program, display, spec, aovs, hdr)
         timings["render_s"] = time.perf_counter() - t2
     finally:
         scene.release()
-    return RenderResult(hdr, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
+    return RenderResult(radiance, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
 
 
 def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
@@ -155,33 +162,39 @@ def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> mod
     return plate
 
 
-def _draw(ctx, program, display, spec: ChartSpec, tile: int, aovs: bool):
+def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool):
+    ctx, pool = session.ctx, session.targets
     W, H = spec.width, spec.height
     # Tiles are read straight into the final arrays: no full-size 4-channel staging copies.
-    hdr = np.empty((H, W, 3), np.float32)
-    alpha = np.empty((H, W), np.float32)
+    hdr = np.empty((H, W, 3), np.float32) if read_hdr else None
+    alpha = np.empty((H, W), np.float32) if read_hdr else None
     image = np.empty((H, W, 4), np.uint8)
     aov = AOVBuffers(spec, H, W) if aovs else None
     half = spec.hdr_precision == "float16"
+    # Radiance, then (normal, depth) and (col, row, NdotV, coverage) when the AOVs are read:
+    # without their targets the program's writes to those outputs go nowhere.
+    dtypes = ("f2" if half else "f4",) + (("f4", "f4") if aovs else ())
     vao = ctx.vertex_array(program, [])
     try:
-        for x0, y0, tw, th in tiles(W, H, tile):
-            targets = [ctx.texture((tw, th), 4, dtype="f2" if half and k == 0 else "f4") for k in range(3)]
+        for x0, y0, tw, th in tiles(W, H, session.tile):
+            targets = [pool.take(tw, th, dtype) for dtype in dtypes]
             fbo = ctx.framebuffer(color_attachments=targets)
             try:
                 fbo.use()
                 program["u_tile_origin"].value = (x0, y0)
                 vao.render(moderngl.TRIANGLES, vertices=3)
                 where = image_slices(H, x0, y0, tw, th)
-                image[where] = display_pass(ctx, display, targets[0], spec, tw, th)
-                radiance = read_rgba(targets[0], tw, th, np.float16 if half else np.float32)
-                hdr[where] = radiance[..., :3]
-                alpha[where] = radiance[..., 3]
+                image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool)
+                if read_hdr:
+                    radiance = read_rgba(targets[0], tw, th, np.float16 if half else np.float32)
+                    hdr[where] = radiance[..., :3]
+                    alpha[where] = radiance[..., 3]
                 if aov is not None:
                     aov.write(where, read_rgba(targets[1], tw, th), read_rgba(targets[2], tw, th))
             finally:
-                for obj in (*targets, fbo):
-                    obj.release()
+                fbo.release()
+                for tex in targets:
+                    pool.give(tex)
     finally:
         vao.release()
     return hdr, alpha, image, (aov.finish() if aov is not None else {})

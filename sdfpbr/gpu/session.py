@@ -15,6 +15,7 @@ from ..cache import ArrayCache
 from .gl import create_context, renderer_string
 from .ibl import IBLBaker
 from .programs import ProgramCache
+from .frame import TargetPool
 from .render import TILE, RenderResult, render_chart
 
 
@@ -31,6 +32,7 @@ class Session:
         self.ibl = IBLBaker(self.ctx, self.programs, self.cache)
         self.tables: dict = {}   # GPU tables other integrators keep per session (the reference's)
         self.renderer = renderer_string(self.ctx)
+        self.targets = TargetPool(self.ctx)   # render targets kept between renders
         # Tiles never exceed what the context can render into; images larger than that are tiled.
         # Tile edges are whole multiples of 4, so every tile starts on the 4x4 pixel blocks of the
         # untiled render: llvmpipe takes some sampling decisions (cube-map faces) per block, and
@@ -59,12 +61,15 @@ class Session:
         finally:
             self.lock.release()
 
-    def render(self, spec, aovs: bool = True) -> RenderResult:
-        """Render ``spec`` (see gpu.render.render_chart)."""
+    def render(self, spec, aovs: bool = True, hdr: bool = True) -> RenderResult:
+        """Render ``spec``, reading back the display image and what else is asked (see
+        gpu.render.render_chart)."""
         with self:
-            return render_chart(self, spec, aovs)
+            return render_chart(self, spec, aovs, hdr=hdr)
 
     def release(self) -> None:
+        with self:
+            self.targets.release()
         with self.lock:
             self.ctx.release()
 

@@ -1,0 +1,67 @@
+"""A render reads back only what is asked: the display image always, linear radiance and the
+AOVs on request (or, through the API, on first use), from targets the session keeps."""
+import numpy as np
+
+import sdfpbr
+from sdfpbr.gpu.frame import TargetPool
+from sdfpbr.gpu.session import Session
+from sdfpbr.spec.chart_spec import make_spec
+
+SMALL = dict(width=64, height=48, rows=2, cols=3, quality="draft")
+
+
+def test_the_image_alone_is_read_unless_more_is_asked(session):
+    spec = make_spec(**SMALL)
+    bare = session.render(spec, aovs=False, hdr=False)
+    full = session.render(spec, aovs=True, hdr=True)
+    assert bare.hdr is None and bare.alpha is None and bare.aov == {}
+    np.testing.assert_array_equal(bare.image, full.image)   # the same draw, less read back
+    assert full.hdr.shape == (48, 64, 3) and set(full.aov) >= {"normal", "depth", "row", "col", "coverage"}
+
+
+def test_the_api_reads_hdr_and_aovs_lazily_and_gets_the_same_pixels(session):
+    eager = sdfpbr.chart(**SMALL, hdr=True, aovs=True, session=session)
+    lazy = sdfpbr.chart(**SMALL, session=session)
+    assert lazy.result.hdr is None and lazy.result.aov == {}
+    np.testing.assert_array_equal(lazy.hdr, eager.hdr)      # first use renders again: same pixels
+    assert lazy.result.hdr is not None                       # and keeps what it read
+    for name, values in eager.aov.items():
+        np.testing.assert_array_equal(lazy.aov[name], values)
+    np.testing.assert_array_equal(lazy.image, eager.image)
+
+
+def test_saving_hdr_and_aovs_from_a_lazy_chart(session, tmp_path):
+    lazy = sdfpbr.chart(**SMALL, session=session)
+    lazy.save(tmp_path / "c.png", hdr=tmp_path / "c.npy", aov=tmp_path / "c.npz")
+    eager = sdfpbr.chart(**SMALL, hdr=True, aovs=True, session=session)
+    np.testing.assert_array_equal(np.load(tmp_path / "c.npy"), eager.hdr)
+    with np.load(tmp_path / "c.npz") as aov:
+        np.testing.assert_array_equal(aov["depth"], eager.aov["depth"])
+
+
+def test_kept_targets_stay_within_the_pool_budget(session):
+    with session:
+        pool = TargetPool(session.ctx, budget=3 * 64 * 64 * 16)   # three 64² float RGBA textures
+        taken = [pool.take(64, 64, "f4") for _ in range(5)]
+        for tex in taken:
+            pool.give(tex)
+        again = pool.take(64, 64, "f4")
+        assert again in taken                                   # reused, not made anew
+        pool.give(again)
+        assert pool.kept() == {(64, 64, "f4"): 3}
+        big = pool.take(256, 256, "f4")                         # over budget by itself: not kept
+        pool.give(big)
+        assert pool.kept() == {(64, 64, "f4"): 3}
+        pool.release()
+
+
+def test_reused_targets_do_not_leak_one_render_into_the_next(session):
+    """A kept target holds the last render's pixels; the next render must cover all of them
+    (the background and a smaller chart included)."""
+    own = Session(session.ctx, session.cache)
+    a = own.render(make_spec(**SMALL, metallic=(1.0, 1.0)))
+    b = own.render(make_spec(**SMALL, transparent=True, ground=False))
+    fresh = Session(session.ctx, session.cache).render(make_spec(**SMALL, transparent=True, ground=False))
+    np.testing.assert_array_equal(b.image, fresh.image)
+    np.testing.assert_array_equal(b.hdr, fresh.hdr)
+    assert not np.array_equal(a.image, b.image)
