@@ -321,7 +321,7 @@ def test_the_project_gallery_covers_the_issue_list():
 
 
 def test_the_gallery_page_leads_with_the_default_chart():
-    from sdfpbr.tools.gallery.page import gallery_html, page_order
+    from sdfpbr.tools.gallery.page import page_order
     images = [{"name": n, "kind": k} for n, k in (("bug-catalog", "bug-sheet"), ("bugs-x", "compare"),
                                                   ("exposure", "sweep"), ("default", "chart"), ("furnace", "chart"))]
     assert [i["name"] for i in page_order(images)] == ["default", "furnace", "exposure", "bugs-x", "bug-catalog"]

@@ -82,7 +82,6 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
     otherwise); the AOVs with ``aovs`` (result.aov: {} otherwise, and their targets are not
     even attached)."""
     check_memory(spec, aovs, hdr)
-    ctx = session.ctx
     t0 = time.perf_counter()
     timings = {}
     plan = plan or render_plan(spec)
