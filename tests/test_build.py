@@ -331,3 +331,32 @@ def test_gallery_summaries_print_clean_values():
     from sdfpbr.tools.gallery.page import param_text
     assert param_text({"lights": (), "metallic": (1.0, 1.0), "roughness": (0.0, 1.0)}) == \
         "lights = none; metallic = 1.0; roughness = 0.0, 1.0"
+
+
+def test_a_flipped_byte_anywhere_in_a_cached_image_is_caught(env):
+    charts = make_charts(env, {"plain.toml": ENTRIES["plain.toml"]})
+    entry = build(charts, env / "out")["images"][0]
+    data = ImageCache().path(entry["key"]).read_bytes()
+    assert png_key(data) == entry["key"]
+    for pos in range(8, len(data), max(1, len(data) // 97)):   # past the signature, every chunk kind
+        damaged = data[:pos] + bytes([data[pos] ^ 0x10]) + data[pos + 1:]
+        assert png_key(damaged) is None, f"flipped byte {pos} of {len(data)} went unnoticed"
+    assert png_key(data + b"junk") is None and png_key(data[:-1]) is None
+
+
+def test_remembered_keys_are_the_exact_keys_and_a_bad_memo_is_rebuilt(env):
+    from sdfpbr.tools.gallery.keys import gl_renderers, item_key, item_keys
+    charts = make_charts(env, {k: ENTRIES[k] for k in ("plain.toml", "sweep.toml")})
+    items = collect(charts)
+    renderers = gl_renderers(items)
+    exact = {item.name: item_key(item, renderers) for item in items}
+    memo = env / "keys.json"
+    assert item_keys(items, renderers, memo) == exact           # composed, then remembered
+    assert item_keys(items, renderers, memo) == exact           # remembered
+    assert len(json.loads(memo.read_text())) == len(items)
+    memo.write_text("{not json")                                      # an unreadable memo is rebuilt
+    assert item_keys(items, renderers, memo) == exact
+    shader = env / "shaders" / "shade.glsl"                           # a touched module recomposes
+    shader.write_text(shader.read_text() + "\n// edited\n")
+    edited = item_keys(items, renderers, memo)
+    assert edited == {item.name: item_key(item, renderers) for item in items} != exact

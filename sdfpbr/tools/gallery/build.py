@@ -17,7 +17,7 @@ from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from .entries import Item, collect
 from .images import ImageCache, Rendered, checkpoint, render_item, write_file
-from .keys import gl_renderers, item_key
+from .keys import gl_renderers, item_keys
 from .page import gallery_html
 
 
@@ -65,8 +65,8 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     jobs = jobs or os.cpu_count() or 1
 
     renderers = gl_renderers(items)
-    keys = {item.name: item_key(item, renderers) for item in items}
     cache = ImageCache()
+    keys = item_keys(items, renderers, cache.dir / "keys.json")
     cache.remove_stale_temps()
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -2,8 +2,8 @@
 key, and the kill-point test hook every build write passes through."""
 from __future__ import annotations
 
-import io
 import os
+import zlib
 import signal
 import time
 from collections import Counter
@@ -44,15 +44,35 @@ def write_file(path: Path, data: bytes, phase: str) -> None:
     checkpoint(phase)
 
 
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
 def png_key(data: bytes) -> str | None:
-    """The build key stored in a PNG, or None if the bytes are not a complete, valid PNG."""
-    from PIL import Image
-    try:
-        with Image.open(io.BytesIO(data)) as im:
-            im.load()   # decodes every row: a truncated or damaged file fails here
-            return im.text.get(KEY_FIELD)
-    except Exception:
+    """The build key stored in a PNG, or None if the bytes are not a complete, intact PNG: every
+    chunk's CRC-32 must match and the file must end in IEND, which catches a truncated file or
+    a flipped byte anywhere without decoding the pixels (decoding cost 14 ms an image, most of
+    a no-change gallery build)."""
+    if not data.startswith(PNG_SIGNATURE):
         return None
+    key, pos, end = None, len(PNG_SIGNATURE), len(data)
+    while pos + 12 <= end:
+        length = int.from_bytes(data[pos:pos + 4], "big")
+        kind = data[pos + 4:pos + 8]
+        body_end = pos + 8 + length
+        if body_end + 4 > end or zlib.crc32(data[pos + 4:body_end]) != int.from_bytes(data[body_end:body_end + 4], "big"):
+            return None
+        if kind == b"iTXt":
+            keyword, _, rest = data[pos + 8:body_end].partition(b"\0")
+            if keyword == KEY_FIELD.encode() and len(rest) >= 2:
+                compressed, text = rest[0], rest[2:].split(b"\0", 2)[-1]   # after language and translated keyword
+                try:
+                    key = (zlib.decompress(text) if compressed else text).decode()
+                except (zlib.error, UnicodeDecodeError):
+                    return None
+        pos = body_end + 4
+        if kind == b"IEND":
+            return key if pos == end else None
+    return None
 
 
 class ImageCache:
