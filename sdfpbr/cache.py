@@ -1,18 +1,24 @@
 """An on-disk cache of arrays keyed by content hashes. Writes are atomic (``sdfpbr.files``),
 so an interrupted process never leaves a corrupt entry, and concurrent writers of one key
-simply write the same bytes."""
+simply write the same bytes.
+
+The whole cache directory (bakes, bench references, built images) is held under a size cap,
+$SDFPBR_CACHE_MAX (default 2G): after each write the least recently used entries go first
+(a read marks an entry used). ``sdfpbr cache`` lists and clears it."""
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import re
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from .errors import OutputError
-from .files import atomic_file
+from .errors import OutputError, SpecError
+from .files import TEMP_NAME, atomic_file, remove_stale_temps
 
 
 def default_cache_dir() -> Path:
@@ -21,6 +27,85 @@ def default_cache_dir() -> Path:
         return Path(env)
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "sdfpbr"
+
+
+DEFAULT_CACHE_MAX = "2G"
+_UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+
+
+def cache_max() -> int | None:
+    """The cache's size cap in bytes from $SDFPBR_CACHE_MAX ('500M', '2G', a byte count;
+    'none': no cap)."""
+    text = os.environ.get("SDFPBR_CACHE_MAX", DEFAULT_CACHE_MAX).strip()
+    if text.lower() in ("none", "unlimited"):
+        return None
+    m = re.fullmatch(r"(\d+(?:\.\d*)?|\.\d+)\s*([kmgt]?)(?:i?b)?", text, re.I)
+    value = float(m.group(1)) * _UNITS[m.group(2).upper()] if m else None
+    if value is None or not value < 2**63:
+        raise SpecError(f"SDFPBR_CACHE_MAX={text!r} is not a size: give bytes with an optional K, M, G or T "
+                        f"suffix (e.g. 500M, 2G), or 'none' for no cap")
+    return int(value)
+
+
+def cache_entries(root: Path) -> list[tuple[Path, int, float]]:
+    """(path, bytes, last use) of every cache file under ``root``, temporaries of live writers
+    excluded."""
+    out = []
+    for dirpath, _, names in os.walk(root):
+        for name in names:
+            if TEMP_NAME.match(name):
+                continue
+            path = Path(dirpath) / name
+            try:
+                st = path.stat()
+            except OSError:
+                continue     # removed by another process meanwhile
+            out.append((path, st.st_size, st.st_mtime))
+    return out
+
+
+def touch(path: Path) -> None:
+    """Mark an entry used now (its mtime is its last use)."""
+    try:
+        os.utime(path)
+    except OSError:
+        pass
+
+
+def enforce_cap(root: Path, limit: int | None = None) -> int:
+    """Delete least recently used entries under ``root`` until it holds at most ``limit`` bytes
+    (default: cache_max()); returns the bytes freed."""
+    limit = cache_max() if limit is None else limit
+    if limit is None:
+        return 0
+    entries = cache_entries(root)
+    total = sum(size for _, size, _ in entries)
+    freed = 0
+    for path, size, _ in sorted(entries, key=lambda e: e[2]):
+        if total - freed <= limit:
+            break
+        try:
+            path.unlink()
+            freed += size
+        except OSError:
+            pass
+    return freed
+
+
+def clear(root: Path, kind: str | None = None) -> tuple[int, int]:
+    """Delete every entry (or those of one kind: a subdirectory such as 'ibl' or 'build') and
+    stale temporaries; returns (files, bytes) removed."""
+    where = root / kind if kind else root
+    files = size = 0
+    for path, n, _ in cache_entries(where):
+        try:
+            path.unlink()
+            files, size = files + 1, size + n
+        except OSError:
+            pass
+    for dirpath, _, _ in os.walk(where):
+        remove_stale_temps(Path(dirpath))
+    return files, size
 
 
 def content_key(*parts) -> str:
@@ -56,6 +141,9 @@ class ArrayCache:
     def __init__(self, root: Path | None = None, enabled: bool = True):
         self.root = Path(root) if root else default_cache_dir()
         self.enabled = enabled
+        self.writable = True
+        if enabled:
+            cache_max()   # a malformed $SDFPBR_CACHE_MAX is refused before any work
 
     def _path(self, kind: str, key: str) -> Path:
         return self.root / kind / f"{key}.c.npz"   # .c: checksummed (older entries are not read)
@@ -76,6 +164,7 @@ class ArrayCache:
             return self._discard(path, "checksum mismatch")
         if require_finite and any(a.dtype.kind == "f" and not np.isfinite(a).all() for a in arrays.values()):
             return self._discard(path, "non-finite values")
+        touch(path)
         return arrays
 
     def _discard(self, path: Path, reason: str) -> None:
@@ -86,13 +175,25 @@ class ArrayCache:
             pass
         return None
 
+    @contextmanager
+    def reading_only(self):
+        """Entries are read but none are written in the block: an animation's frames each bake
+        their own stage probe (the light moves), which would fill the cache for nothing."""
+        was, self.writable = self.writable, False
+        try:
+            yield self
+        finally:
+            self.writable = was
+
     def put(self, kind: str, key: str, arrays: dict[str, np.ndarray]) -> None:
-        if not self.enabled:
+        if not (self.enabled and self.writable):
             return
         path = self._path(kind, key)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
+            remove_stale_temps(path.parent)   # a killed bake's temporaries
             with atomic_file(path) as f:
                 np.savez(f, **arrays, **{CHECK: checksum(key, arrays)})
+            enforce_cap(self.root)
         except (OSError, OutputError):
             pass    # a read-only or full cache location only costs speed

@@ -21,7 +21,9 @@ TEMP_NAME = re.compile(r"^\..+\.(\d+)\.tmp(\.\w+)?$")
 
 
 def _temp_beside(p: Path, suffix: str) -> str:
-    """A new empty temporary beside ``p``, named as TEMP_NAME describes."""
+    """A new empty temporary beside ``p``, named as TEMP_NAME describes; the temporaries a
+    killed writer of ``p`` left behind are removed first."""
+    remove_stale_temps(p.parent if str(p.parent) else ".", prefix=f".{p.name}.")
     try:
         fd, tmp = tempfile.mkstemp(dir=p.parent if str(p.parent) else ".", prefix=f".{p.name}.",
                                    suffix=f".{os.getpid()}.tmp{suffix}")
@@ -113,16 +115,17 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_temps(directory: str | Path) -> int:
-    """Delete temporary files of writers that no longer run (a killed process); a live writer's
-    temporaries are left alone, so processes sharing a directory cannot hurt each other."""
+def remove_stale_temps(directory: str | Path, prefix: str = "") -> int:
+    """Delete temporary files (those whose names start with ``prefix``) of writers that no
+    longer run (a killed process); a live writer's temporaries are left alone, so processes
+    sharing a directory cannot hurt each other."""
     try:
         names = os.listdir(directory)
     except OSError:
         return 0
     removed = 0
     for name in names:
-        m = TEMP_NAME.match(name)
+        m = TEMP_NAME.match(name) if name.startswith(prefix) else None
         if m and not _alive(int(m.group(1))):
             removed += _unlink(Path(directory) / name)
     return removed

@@ -3,6 +3,7 @@ frame count and size written, and bad input stops before anything renders."""
 import math
 import subprocess
 import sys
+import tracemalloc
 
 import imageio.v3 as iio
 import numpy as np
@@ -54,7 +55,7 @@ def test_orbit_checks():
 def test_light_orbit_gif_reads_back_and_frame_0_is_the_chart(tmp_path):
     spec = make_spec(**SMALL)
     out = tmp_path / "orbit.gif"
-    anim = animate(spec, 4, "light", output=out, fps=10, progress=False)
+    anim = animate(spec, 4, "light", output=out, fps=10, progress=False, keep_frames=True)
     n, h, w, _ = anim.frames.shape
     assert n == 4
     np.testing.assert_array_equal(anim.frames[0], chart(spec).image)
@@ -71,7 +72,7 @@ def test_light_orbit_gif_reads_back_and_frame_0_is_the_chart(tmp_path):
 @pytest.mark.requires_extra("imageio_ffmpeg")
 def test_camera_orbit_webp_is_lossless_and_mp4_has_every_frame(tmp_path):
     spec = make_spec(**SMALL)
-    anim = animate(spec, 3, "camera", output=tmp_path / "cam.webp", progress=False)
+    anim = animate(spec, 3, "camera", output=tmp_path / "cam.webp", progress=False, keep_frames=True, lossless=True)
     np.testing.assert_array_equal(read_frames(tmp_path / "cam.webp")[..., :3], anim.frames[..., :3])
     for i in range(1, 3):
         np.testing.assert_array_equal(anim.frames[i], chart(make_spec(spec, camera_azimuth=120.0 * i)).image)
@@ -83,7 +84,7 @@ def test_camera_orbit_webp_is_lossless_and_mp4_has_every_frame(tmp_path):
 
 def test_compare_animation_shows_the_pair_side_by_side(tmp_path):
     spec = make_spec(**SMALL)
-    anim = animate_compare(spec, "double-gamma", 3, "light", output=tmp_path / "pair.webp", progress=False)
+    anim = animate_compare(spec, "double-gamma", 3, "light", output=tmp_path / "pair.webp", progress=False, keep_frames=True)
     assert read_frames(tmp_path / "pair.webp").shape[0] == 3
     assert [s.bugs for s in anim.specs[:2]] == [(), ("double-gamma",)]
     for i in (0, 2):   # frame i holds both renders of orbit step i, unresampled, correct on the left
@@ -102,17 +103,62 @@ def where(image, patch):
     raise AssertionError("patch not found")
 
 
-def test_a_failed_write_leaves_the_old_file(tmp_path, monkeypatch):
+def test_a_failed_write_leaves_the_old_file(tmp_path):
+    """Interrupted after two frames are in: the old file stays, no temporary is left."""
     out = tmp_path / "a.gif"
     out.write_bytes(b"keep me")
 
-    def broken(*args, **kwargs):
+    def frames():
+        yield np.zeros((8, 8, 4), np.uint8) + 255
+        yield np.zeros((8, 8, 4), np.uint8) + 255
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(iio, "imwrite", broken)
     with pytest.raises(KeyboardInterrupt):
-        write_animation(out, np.zeros((2, 8, 8, 4), np.uint8), 10)
+        write_animation(out, frames(), 10)
     assert out.read_bytes() == b"keep me" and [p.name for p in tmp_path.iterdir()] == ["a.gif"]
+
+
+@pytest.mark.parametrize("suffix", [".gif", ".webp"])
+def test_streamed_files_hold_every_frame_with_its_timing(tmp_path, suffix):
+    """Frames written one at a time read back in order, with the delay and endless loop asked
+    for, transparent WebP frames with their alpha."""
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 256, (5, 12, 20, 4), dtype=np.uint8)
+    frames[..., 3] = 255 if suffix == ".gif" else frames[..., 3]
+    out = tmp_path / f"s{suffix}"
+    write_animation(out, frames, 20, lossless=True)
+    back = read_frames(out)
+    assert back.shape[:3] == (5, 12, 20)
+    if suffix == ".webp":
+        np.testing.assert_array_equal(back, frames)          # lossless, alpha and colour under it kept
+    else:
+        for got, want in zip(back, frames):                   # 256 colours, dithered: close on average
+            assert np.abs(got[..., :3].astype(int) - want[..., :3]).mean() < 40
+    from PIL import Image
+    with Image.open(out) as im:
+        durations = []
+        for i in range(im.n_frames):
+            im.seek(i)
+            im.load()   # WebP frames carry their duration once decoded
+            durations.append(im.info.get("duration"))
+        assert im.info.get("loop") == 0 and durations == [50] * 5
+
+
+def test_animation_memory_is_flat_in_the_frame_count(tmp_path):
+    spec = make_spec(**SMALL)
+    animate(spec, 2, "light", output=tmp_path / "warm.webp", progress=False)     # compile and bake first
+    peaks = []
+    for n in (2, 10):
+        tracemalloc.start()
+        try:
+            anim = animate(spec, n, "light", output=tmp_path / f"a{n}.webp", progress=False)
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+        assert anim.frames is None and anim.count == n
+        assert read_frames(tmp_path / f"a{n}.webp").shape[0] == n
+    frame_bytes = anim.size[0] * anim.size[1] * 4
+    assert peaks[1] < peaks[0] + 2 * frame_bytes, f"peak grew from {peaks[0]} to {peaks[1]} bytes"
 
 
 def test_mp4_without_ffmpeg_is_refused_before_rendering(tmp_path, monkeypatch):
@@ -152,3 +198,16 @@ def test_animation_commands(tmp_path):
             "-o", str(tmp_path / "p.gif"))
     assert r.returncode == 0, r.stderr
     assert iio.imread(tmp_path / "p.gif", index=None).shape[0] == 2
+
+
+def test_frames_after_the_first_leave_no_bakes_in_the_disk_cache():
+    """A light orbit re-bakes the cells stage's probe every frame; only frame 0's bakes (those a
+    still chart of the same spec reads) reach the disk cache."""
+    from sdfpbr.gpu.session import default_session
+    spec = make_spec(**SMALL, lights=(Light("directional", direction=(0.3, 0.7, 0.2)),))
+    chart(spec)                                                   # frame 0's bakes, as a still chart
+    root = default_session().cache.root
+    before = sorted(p.name for p in root.rglob("*.npz"))
+    anim = animate(spec, 4, "light", progress=False)
+    assert anim.count == 4
+    assert sorted(p.name for p in root.rglob("*.npz")) == before

@@ -78,7 +78,7 @@ def test_exposure_difference_is_large_on_spheres_and_nil_far_from_them():
     brighter = make_spec(spec, exposure=3.0)
     sheet = compare_specs(spec, brighter)
     d = sheet.differences[0]
-    res = chart(spec).result
+    res = chart(spec)
     interior = (res.aov["row"] >= 0) & (res.aov["ndotv"] > 0.3)
     assert d.error_map[interior].mean() > 0.4
     assert d.error_map[background_far_from_spheres(spec, 8)].max() < 0.02
@@ -94,7 +94,7 @@ def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
     d = sheet.differences[0]
     # Independently: render both, FLIP them, average per sphere.
     mean, error_map = flip_ldr(display(test), display(spec))
-    aov = chart(spec).result.aov
+    aov = chart(spec).aov
     want = per_cell_mean(error_map, aov["row"], aov["col"], spec.rows, spec.cols)
     np.testing.assert_allclose(d.per_cell, want, rtol=1e-6, atol=1e-7)
     printed = {(c.row, c.col): c for c in d.cells}

@@ -104,6 +104,16 @@ def _dashed(arg: str) -> str:
     return name.replace("_", "-") + eq + value
 
 
+def add_animation_options(p: Parser, frames_help: str) -> None:
+    """--frames, --orbit, --fps and --lossless, for every command that animates."""
+    from ..spec.presets import DEFAULT_FPS, ORBITS
+    p.add_argument("--frames", type=int, metavar="N", help=frames_help)
+    p.add_argument("--orbit", choices=ORBITS, default=ORBITS[0], help=f"what turns in the animation (default {ORBITS[0]})")
+    p.add_argument("--fps", type=float, default=DEFAULT_FPS, help=f"animation frames per second (default {DEFAULT_FPS:g})")
+    p.add_argument("--lossless", action="store_true",
+                   help="WebP animation frames stored exactly (about 4x larger than the default quality 92)")
+
+
 def add_chart_options(p: Parser) -> None:
     """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
     one per field of the spec table, named as the field, plus its aliases. A flag the command
@@ -206,9 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
     p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv, coverage")
     p.add_argument("-v", "--verbose", action="store_true")
-    p.add_argument("--frames", type=int, metavar="N", help="render an N-frame orbit animation instead (-o .gif, .webp or .mp4)")
-    p.add_argument("--orbit", choices=("light", "camera"), default="light", help="what turns in the animation (default light)")
-    p.add_argument("--fps", type=float, default=15.0, help="animation frames per second (default 15)")
+    add_animation_options(p, "render an N-frame orbit animation instead (-o .gif, .webp or .mp4)")
     add_chart_options(p)
     p.set_defaults(run=cmd_chart)
 
@@ -244,6 +252,10 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError:   # what check_memory could not foresee (another process took it first)
         print("sdfpbr: error: out of memory: render a smaller chart", file=sys.stderr)
         return 2
+    except BrokenPipeError:   # stdout closed early (`sdfpbr cache -v | head`): stop quietly
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())   # no second error at exit
+        return 1
 
 
 if __name__ == "__main__":

@@ -108,7 +108,9 @@ class Environment:
 
 def make_environment(ctx: moderngl.Context, spec: ChartSpec) -> Environment:
     option = env_option(spec)
-    uniforms = {"u_env_intensity": spec.env_intensity, "u_sun_direction": sun_direction(spec)}
+    uniforms = {"u_env_intensity": spec.env_intensity}
+    if option == "sky":   # only the sky has a sun: other environments keep one bake as lights turn
+        uniforms["u_sun_direction"] = sun_direction(spec)
     texture = None
     content = content_key(option, uniforms)
     if option == "file":
@@ -136,13 +138,32 @@ class GroundTable:
     key: str
 
 
+KEPT_BAKES = 8   # bakes a session keeps on the GPU per kind; an orbit bakes a stage probe a frame
+
+
+def _remember(store: dict, key: str, value, release) -> None:
+    """Keep ``value`` under ``key``, the most recent last; beyond KEPT_BAKES the least
+    recently used is released (its texture freed)."""
+    store[key] = value
+    while len(store) > KEPT_BAKES:
+        release(store.pop(next(iter(store))))
+
+
+def _recall(store: dict, key: str):
+    """The value under ``key`` (marked most recently used), or None."""
+    value = store.pop(key, None)
+    if value is not None:
+        store[key] = value
+    return value
+
+
 class IBLBaker:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache):
         self.ctx = ctx
         self.programs = programs
         self.cache = cache
         self._dfg: dict[str, moderngl.Texture] = {}
-        self._lighting: dict[str, EnvironmentLighting] = {}
+        self._lighting: dict[str, EnvironmentLighting] = {}   # least recently used first
         self._ground: dict[str, GroundTable] = {}
 
     # ---- DFG LUT -------------------------------------------------------------------------
@@ -195,7 +216,7 @@ class IBLBaker:
         uniforms = {**scene_uniforms, **environment.uniforms()}
         read = {k: v for k, v in uniforms.items() if k in program}
         key = content_key(source.text, size, read, environment.key, self.dfg_key(plan))
-        if key not in self._ground:
+        if _recall(self._ground, key) is None:
             cached = self.cache.get("ibl", key)
             if cached is not None:
                 table = cached["table"]
@@ -213,7 +234,7 @@ class IBLBaker:
             tex = self.ctx.texture((size, size), 4, np.ascontiguousarray(table, np.float32).tobytes(), dtype="f4")
             tex.repeat_x = tex.repeat_y = False   # CLAMP_TO_EDGE: the square's edge is the horizon
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self._ground[key] = GroundTable(tex, key)
+            _remember(self._ground, key, GroundTable(tex, key), lambda table: table.texture.release())
         return self._ground[key]
 
     def stage_lighting(self, plan: IBLPlan, probe: ComposedSource, environment: EnvironmentLighting,
@@ -240,8 +261,9 @@ class IBLBaker:
         key = content_key(program.text, plan.prefilter.text, plan.irradiance.text, content,
                           plan.env_bake_size, size, plan.sh_size, levels,
                           [prefilter_samples(plan.samples, k) for k in range(levels)])
-        if key in self._lighting:
-            return self._lighting[key]
+        kept = _recall(self._lighting, key)
+        if kept is not None:
+            return kept
         cached = self.cache.get("ibl", key)
         if cached is not None:
             cube = self._cube_from_levels(plan.copy_to_cube, [cached[f"level{k}"] for k in range(levels)])
@@ -253,7 +275,7 @@ class IBLBaker:
                       for k in range(levels)}
             arrays["sh"] = result.sh
             self.cache.put("ibl", key, arrays)
-        self._lighting[key] = result
+        _remember(self._lighting, key, result, lambda lighting: lighting.prefiltered.release())
         return result
 
     def read_level(self, plan: IBLPlan, lighting: EnvironmentLighting, level: int) -> np.ndarray:

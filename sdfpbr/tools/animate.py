@@ -8,17 +8,20 @@ from __future__ import annotations
 
 import math
 import sys
+from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import SpecError
-from ..files import atomic_path
+from ..image.animation_writer import AnimationWriter
 from ..image.io import check_writable
-from ..image.sheet import assemble, flatten, sheet_text_size
+from ..image.sheet import assemble, sheet_text_size
+from ..gpu.session import default_session
 from ..progress import Progress
 from ..spec.chart_spec import ChartSpec, make_spec
+from ..spec.presets import DEFAULT_FPS, ORBITS
 from ..image.chart_labels import label
 from ..spec.chart_spec import as_spec
 from .compare import bug_pair, chart_panel, render_chart
@@ -27,18 +30,21 @@ __all__ = ["Animation", "animate", "animate_compare", "orbit_specs", "check_anim
            "write_animation", "ANIMATION_SUFFIXES", "ORBITS"]
 
 ANIMATION_SUFFIXES = (".gif", ".webp", ".mp4")
-ORBITS = ("light", "camera")
 MAX_FRAMES = 3600
-DEFAULT_FPS = 15.0
 
 
 @dataclass
 class Animation:
-    frames: np.ndarray                  # (N, H, W, 4) uint8 sRGB
+    frames: np.ndarray | None           # (N, H, W, 4) uint8 sRGB; None when streamed to a file only
     fps: float
     specs: list[ChartSpec] = field(default_factory=list)   # one per frame (pairs: correct, buggy, ...)
+    count: int = 0                      # frames rendered
+    size: tuple[int, int] = (0, 0)      # (width, height) of a frame
 
     def save(self, path: str | Path) -> None:
+        if self.frames is None:
+            raise SpecError("this animation was streamed to its file without keeping frames; "
+                            "render it with keep_frames=True to save it again")
         check_animation_output(path, self.fps)
         write_animation(path, self.frames, self.fps)
 
@@ -103,10 +109,15 @@ def orbit_specs(spec: ChartSpec, frames: int, orbit: str = "light") -> list[Char
 # Rendering.
 
 def _frames(specs: list, desc: str, enabled: bool | None):
-    """``specs`` one by one, reporting progress; None: only on a terminal."""
+    """``specs`` one by one, reporting progress; None: only on a terminal. Bakes made after
+    the first frame are not written to the disk cache (a moving light re-bakes the cells
+    stage's probe every frame: 2 MB a frame that no later render reads)."""
+    first = specs[0][0] if isinstance(specs[0], tuple) else specs[0]
+    cache = default_session(first.backend, first.device_index).cache
     with Progress(len(specs), desc, "frames", enabled=sys.stderr.isatty() if enabled is None else enabled) as bar:
-        for spec in specs:
-            yield spec
+        for i, spec in enumerate(specs):
+            with cache.reading_only() if i else nullcontext():
+                yield spec
             bar.update(1)
 
 
@@ -114,34 +125,47 @@ def _chart_frame(spec: ChartSpec) -> np.ndarray:
     return label(spec, render_chart(spec).result)   # labels need the camera only, no AOVs
 
 
-def _stack(frames: list[np.ndarray]) -> np.ndarray:
-    shapes = {f.shape for f in frames}
-    if len(shapes) != 1:   # the layout depends only on text that does not change; guard anyway
-        raise RuntimeError(f"animation frames differ in size: {sorted(shapes)}")
-    return np.stack(frames)
+def _stream(images, output: str | Path | None, fps: float, keep: bool | None, specs: list,
+            lossless: bool = False) -> Animation:
+    """Each image of ``images`` (an iterator that renders as it goes) to ``output``'s encoder as
+    it comes, so memory stays flat in the frame count; the frames stacked only when ``keep``
+    (default: when there is no output)."""
+    keep = output is None if keep is None else keep
+    kept, count, size = [], 0, (0, 0)
+    writer = (AnimationWriter(output, fps, Path(output).suffix.lower(), lossless) if output is not None
+              else nullcontext())
+    with writer as w:
+        for image in images:
+            if w is not None:
+                w.add(image)
+            if keep:
+                kept.append(image)
+            count, size = count + 1, (image.shape[1], image.shape[0])
+    return Animation(np.stack(kept) if keep else None, float(fps), specs, count, size)
 
 
 def animate(spec: ChartSpec | str | Path | None = None, frames: int = 36, orbit: str = "light", *,
-            output: str | Path | None = None, fps: float = DEFAULT_FPS, progress: bool | None = None) -> Animation:
-    """Render ``frames`` charts of one orbit (see orbit_specs); write them to ``output`` (.gif,
-    .webp or .mp4) when given, checked before the first frame is rendered."""
+            output: str | Path | None = None, fps: float = DEFAULT_FPS, progress: bool | None = None,
+            keep_frames: bool | None = None, lossless: bool = False) -> Animation:
+    """Render ``frames`` charts of one orbit (see orbit_specs). With ``output`` (.gif, .webp or
+    .mp4, checked before the first frame is rendered) each frame goes to the file as it is
+    rendered and is not kept unless ``keep_frames``; without, the frames are returned.
+    ``lossless``: WebP frames stored exactly (about 4x larger than the default quality 92)."""
     spec = as_spec(spec, "spec")
     specs = orbit_specs(spec, frames, orbit)
     if output is not None:
         check_animation_output(output, fps)
     _check_fps(fps)
-    images = [_chart_frame(s) for s in _frames(specs, f"orbit {orbit}", progress)]
-    animation = Animation(_stack(images), float(fps), specs)
-    if output is not None:
-        write_animation(output, animation.frames, animation.fps)
-    return animation
+    images = (_chart_frame(s) for s in _frames(specs, f"orbit {orbit}", progress))
+    return _stream(images, output, fps, keep_frames, specs, lossless)
 
 
 def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: int = 36, orbit: str = "light", *,
                     output: str | Path | None = None, fps: float = DEFAULT_FPS, progress: bool | None = None,
-                    axes: bool | None = None) -> Animation:
+                    axes: bool | None = None, keep_frames: bool | None = None, lossless: bool = False) -> Animation:
     """The correct chart and the same chart with ``bug_name`` on, side by side, both orbiting
-    in step; titled with the bug's name and summary, captioned with its explanation."""
+    in step; titled with the bug's name and summary, captioned with its explanation. Frames
+    stream to ``output`` as in animate()."""
     spec = as_spec(spec, "spec")
     bug, correct, buggy = bug_pair(spec, bug_name)
     pairs = list(zip(orbit_specs(correct, frames, orbit), orbit_specs(buggy, frames, orbit)))
@@ -150,56 +174,28 @@ def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: 
     _check_fps(fps)
     axes = correct.labels if axes is None else axes
     text_size = sheet_text_size(correct.height)
-    images, specs = [], []
-    for c, b in _frames(pairs, f"{bug.name} orbit {orbit}", progress):
-        panels = [chart_panel("correct", render_chart(c), axes, text_size),
-                  chart_panel(f"buggy: {bug.name}", render_chart(b), axes, text_size)]
-        sheet = assemble([panels], title=f"{bug.name}: {bug.summary}", caption=bug.caption, text_size=text_size)
-        images.append(np.array(sheet))
-        specs += [c, b]
-    animation = Animation(_stack(images), float(fps), specs)
-    if output is not None:
-        write_animation(output, animation.frames, animation.fps)
-    return animation
+
+    def images():
+        for c, b in _frames(pairs, f"{bug.name} orbit {orbit}", progress):
+            panels = [chart_panel("correct", render_chart(c), axes, text_size),
+                      chart_panel(f"buggy: {bug.name}", render_chart(b), axes, text_size)]
+            yield np.array(assemble([panels], title=f"{bug.name}: {bug.summary}", caption=bug.caption,
+                                    text_size=text_size))
+    return _stream(images(), output, fps, keep_frames, [s for pair in pairs for s in pair], lossless)
 
 
 # ---------------------------------------------------------------------------------------------
 # Writing.
 
-def _opaque(frames: np.ndarray) -> np.ndarray:
-    """RGB frames for formats without alpha: transparent pixels over the chart background."""
-    if frames[..., 3].min() == 255:
-        return np.ascontiguousarray(frames[..., :3])
-    return np.stack([flatten(f)[..., :3] for f in frames])
-
-
-def write_animation(path: str | Path, frames: np.ndarray, fps: float = DEFAULT_FPS) -> None:
-    """(N, H, W, 4) uint8 frames to .gif / .webp (loop forever) or .mp4, atomically."""
-    import imageio.v3 as iio
-    frames = np.asarray(frames, np.uint8)
-    if frames.ndim != 4 or frames.shape[-1] != 4 or len(frames) == 0:
-        raise ValueError(f"expected (N, H, W, 4) uint8 frames, got {frames.shape}")
-    p = Path(path)
-    suffix = p.suffix.lower()
-    duration_ms = 1000.0 / fps
-    with atomic_path(p, suffix) as tmp:
-        if suffix == ".gif":
-            # GIF delays are whole centiseconds, and viewers slow delays under 20 ms down to 100 ms.
-            delay_ms = max(20, 10 * round(duration_ms / 10))
-            iio.imwrite(tmp, _opaque(frames), plugin="pillow", extension=".gif", duration=delay_ms, loop=0)
-        elif suffix == ".webp":
-            rgba = frames if frames[..., 3].min() < 255 else np.ascontiguousarray(frames[..., :3])
-            iio.imwrite(tmp, rgba, plugin="pillow", extension=".webp", duration=round(duration_ms), loop=0,
-                        lossless=True)
-        elif suffix == ".mp4":
-            rgb = _opaque(frames)
-            # H.264 in yuv420p needs even sizes: pad by a row / column of the edge, never scale.
-            h, w = rgb.shape[1:3]
-            rgb = np.pad(rgb, ((0, 0), (0, h % 2), (0, w % 2), (0, 0)), mode="edge")
-            iio.imwrite(tmp, rgb, plugin="FFMPEG", extension=".mp4", fps=fps, codec="libx264",
-                        macro_block_size=1, pixelformat="yuv420p", output_params=["-movflags", "+faststart"])
-        else:
-            raise SpecError(f"output {p} must end in {' or '.join(ANIMATION_SUFFIXES)}")
+def write_animation(path: str | Path, frames, fps: float = DEFAULT_FPS, lossless: bool = False) -> None:
+    """Frames ((N, H, W, 4) uint8, or an iterable of (H, W, 4) frames, encoded as they come) to
+    .gif / .webp (loop forever) or .mp4, atomically; ``lossless`` WebP on request."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in ANIMATION_SUFFIXES:
+        raise SpecError(f"output {path} must end in {' or '.join(ANIMATION_SUFFIXES)}")
+    with AnimationWriter(path, fps, suffix, lossless) as writer:
+        for frame in frames:
+            writer.add(frame)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -216,9 +212,10 @@ def cmd_chart_animation(spec: ChartSpec, args) -> int:
         raise SpecError(f"--frames writes an animation: give -o NAME.gif, .webp or .mp4 (got {args.output})")
     check_animation_output(args.output, args.fps)
     start = time.perf_counter()
-    animation = animate(spec, args.frames, args.orbit, output=args.output, fps=args.fps)
+    animation = animate(spec, args.frames, args.orbit, output=args.output, fps=args.fps,
+                        progress=args.verbose or None, lossless=args.lossless)
     if args.verbose:
-        n, h, w = animation.frames.shape[:3]
-        print(f"{args.output}: {n} frames {w}x{h} at {args.fps:g} fps, orbit {args.orbit}, "
-              f"{time.perf_counter() - start:.2f} s")
+        w, h = animation.size
+        print(f"{args.output}: {animation.count} frames {w}x{h} at {args.fps:g} fps, "
+              f"orbit {args.orbit}, {time.perf_counter() - start:.2f} s")
     return 0

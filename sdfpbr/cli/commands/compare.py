@@ -14,7 +14,7 @@ DEFAULT_CONTACT_PANEL = 192  # --bugs: one small row per bug
 
 
 def register(subparsers) -> None:
-    from ..main import add_chart_options
+    from ..main import add_animation_options, add_chart_options
     p = subparsers.add_parser(
         "compare", help="compare two specs, or a catalogued bug with the correct chart (FLIP difference)",
         description="Render two charts side by side with their LDR-FLIP difference map and the mean "
@@ -31,9 +31,7 @@ def register(subparsers) -> None:
     p.add_argument("--panel-size", type=int, metavar="PX",
                    help=f"render each panel with this longer edge (--bug default {DEFAULT_PANEL} unless "
                         f"--size/--spec give one; --bugs default {DEFAULT_CONTACT_PANEL})")
-    p.add_argument("--frames", type=int, metavar="N", help="with --bug: an N-frame orbit animation of the pair")
-    p.add_argument("--orbit", choices=("light", "camera"), default="light", help="what turns in the animation")
-    p.add_argument("--fps", type=float, default=15.0, help="animation frames per second (default 15)")
+    add_animation_options(p, "with --bug: an N-frame orbit animation of the pair")
     p.add_argument("-v", "--verbose", action="store_true", help="print the mean and per-sphere FLIP")
     add_chart_options(p)   # its --bug NAME (repeatable) names the bug to compare
     p.set_defaults(run=run)
@@ -146,9 +144,10 @@ def _animate_bug(args, start: float) -> int:
     output = args.output or f"compare-{name}.gif"
     orbit_specs(spec, args.frames, args.orbit)
     check_animation_output(output, args.fps)
-    animation = animate_compare(spec, name, args.frames, args.orbit, output=output, fps=args.fps)
+    animation = animate_compare(spec, name, args.frames, args.orbit, output=output, fps=args.fps,
+                                progress=args.verbose or None, lossless=args.lossless)
     if args.verbose:
-        n, h, w = animation.frames.shape[:3]
+        (w, h), n = animation.size, animation.count
         print(f"{output}: {n} frames {w}x{h} at {args.fps:g} fps, orbit {args.orbit}, "
               f"{time.perf_counter() - start:.2f} s")
     return 0

@@ -10,7 +10,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...cache import default_cache_dir
+from ...cache import cache_max, default_cache_dir, enforce_cap, touch
 from ...errors import OutputError
 from ...files import remove_stale_temps, write_bytes
 from .entries import Item
@@ -79,7 +79,9 @@ class ImageCache:
     """Rendered images by key in ``<root>/build``; an entry is used only if it verifies."""
 
     def __init__(self, root: str | Path | None = None):
-        self.dir = Path(root or default_cache_dir()) / "build"
+        self.root = Path(root or default_cache_dir())
+        self.dir = self.root / "build"
+        cache_max()   # a malformed $SDFPBR_CACHE_MAX is refused before any work
 
     def path(self, key: str) -> Path:
         return self.dir / f"{key}.png"
@@ -89,13 +91,17 @@ class ImageCache:
             data = self.path(key).read_bytes()
         except OSError:
             return None
-        return data if png_key(data) == key else None
+        if png_key(data) != key:
+            return None
+        touch(self.path(key))
+        return data
 
     def put(self, key: str, data: bytes) -> bool:
         """Best effort: an unwritable cache only costs speed."""
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
             write_file(self.path(key), data, "cache")
+            enforce_cap(self.root)
             return True
         except (OSError, OutputError):
             return False

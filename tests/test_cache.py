@@ -1,0 +1,106 @@
+"""The on-disk cache: a size cap with least-recently-used eviction, `sdfpbr cache` to list and
+clear it, and the temporaries of killed writers cleaned up by the next write."""
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from sdfpbr.cache import ArrayCache, cache_max, enforce_cap
+from sdfpbr.errors import SpecError
+from sdfpbr.files import write_bytes
+
+
+def entry(cache: ArrayCache, name: str, kib: int, used: float) -> None:
+    """An entry of about ``kib`` KiB, last used at ``used`` (seconds since the epoch)."""
+    cache.put("ibl", name, {"a": np.zeros(kib * 256, np.float32)})
+    os.utime(cache.root / "ibl" / f"{name}.c.npz", (used, used))
+
+
+def test_the_cap_evicts_least_recently_used_first(tmp_path, monkeypatch):
+    monkeypatch.setenv("SDFPBR_CACHE_MAX", "none")
+    cache = ArrayCache(tmp_path)
+    now = time.time()
+    for i, name in enumerate("abcd"):
+        entry(cache, name, 100, now - 100 + i)      # a oldest ... d newest
+    assert cache.get("ibl", "a") is not None          # a read marks a used now
+    enforce_cap(tmp_path, 250 * 1024)                 # room for two of the four
+    left = sorted(p.name.split(".")[0] for p in (tmp_path / "ibl").iterdir())
+    assert left == ["a", "d"]
+
+
+def test_a_put_keeps_the_cache_under_its_cap(tmp_path, monkeypatch):
+    monkeypatch.setenv("SDFPBR_CACHE_MAX", "300K")
+    cache = ArrayCache(tmp_path)
+    for i in range(6):
+        cache.put("ibl", f"k{i}", {"a": np.full(100 * 256, i, np.float32)})
+    sizes = [p.stat().st_size for p in (tmp_path / "ibl").iterdir()]
+    assert sum(sizes) <= 300 * 1024 and len(sizes) == 2
+    assert cache.get("ibl", "k5")["a"][0] == 5       # the newest survive
+
+
+@pytest.mark.parametrize("text, want", [("2G", 2 << 30), ("500M", 500 << 20), ("1.5k", 1536), ("123", 123),
+                                        ("none", None), ("64MiB", 64 << 20)])
+def test_cache_max_parses_sizes(monkeypatch, text, want):
+    monkeypatch.setenv("SDFPBR_CACHE_MAX", text)
+    assert cache_max() == want
+
+
+@pytest.mark.parametrize("text", ["2X", "-1G", "lots", "", "1e400"])
+def test_a_bad_cache_max_is_one_line(monkeypatch, text):
+    monkeypatch.setenv("SDFPBR_CACHE_MAX", text)
+    with pytest.raises(SpecError, match="SDFPBR_CACHE_MAX"):
+        cache_max()
+
+
+def run(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True,
+                          env={**os.environ, **(env or {})})
+
+
+def test_cache_command_lists_by_kind_and_clears(tmp_path):
+    cache = ArrayCache(tmp_path)
+    cache.put("ibl", "x", {"a": np.zeros(1000, np.float32)})
+    cache.put("dfg", "y", {"a": np.zeros(10, np.float32)})
+    env = {"SDFPBR_CACHE_DIR": str(tmp_path)}
+    r = run("cache", env=env)
+    assert r.returncode == 0 and "2 entries" in r.stdout
+    assert [line.split()[:2] for line in r.stdout.splitlines()[1:]] == [["dfg", "1"], ["ibl", "1"]]
+    r = run("cache", "--clear", "--kind", "ibl", env=env)
+    assert r.returncode == 0 and "removed 1 entries" in r.stdout
+    assert not list((tmp_path / "ibl").iterdir()) and list((tmp_path / "dfg").iterdir())
+    r = run("cache", "--kind", "nope", env=env)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "kinds: dfg, ibl" in r.stderr
+    r = run("cache", env={**env, "SDFPBR_CACHE_MAX": "2X"})
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def dead_pid() -> int:
+    """The pid of a process that has exited."""
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_a_killed_writers_temporaries_go_with_the_next_write(tmp_path):
+    """A chart killed while writing leaves `.c.png.<random>.<pid>.tmp.png`; the next write of
+    that file removes it, and leaves a live writer's and other files' temporaries alone."""
+    pid = dead_pid()
+    stale = tmp_path / f".c.png.abc123.{pid}.tmp.png"
+    live = tmp_path / f".c.png.def456.{os.getpid()}.tmp.png"
+    other = tmp_path / f".d.png.abc123.{pid}.tmp.png"
+    for p in (stale, live, other):
+        p.write_bytes(b"partial")
+    write_bytes(tmp_path / "c.png", b"new")
+    assert not stale.exists() and live.exists() and other.exists()
+    assert (tmp_path / "c.png").read_bytes() == b"new"
+
+
+def test_a_killed_bakes_temporaries_go_with_the_next_bake(tmp_path):
+    stale = tmp_path / "ibl" / f".k.c.npz.abc123.{dead_pid()}.tmp"
+    stale.parent.mkdir()
+    stale.write_bytes(b"partial")
+    ArrayCache(tmp_path).put("ibl", "other", {"a": np.zeros(4, np.float32)})
+    assert not stale.exists()
