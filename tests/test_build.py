@@ -20,6 +20,7 @@ from sdfpbr.tools.gallery.build import build
 from sdfpbr.tools.gallery.images import KEY_FIELD, ImageCache, png_key
 from sdfpbr.tools.gallery.keys import program_sources
 from sdfpbr.cache import ArrayCache
+from sdfpbr.errors import SpecError
 from sdfpbr.shading.plan import render_plan
 from sdfpbr.gpu.session import Session
 from sdfpbr.spec.chart_spec import make_spec
@@ -360,3 +361,38 @@ def test_remembered_keys_are_the_exact_keys_and_a_bad_memo_is_rebuilt(env):
     shader.write_text(shader.read_text() + "\n// edited\n")
     edited = item_keys(items, renderers, memo)
     assert edited == {item.name: item_key(item, renderers) for item in items} != exact
+
+
+def test_shards_merge_into_the_gallery_a_single_build_makes(env):
+    entries = {k: ENTRIES[k] for k in ("plain.toml", "noground.toml", "noibl.toml", "sweep.toml")}
+    charts = make_charts(env, entries)
+    whole = build(charts, env / "whole")
+    parts = [env / f"part{i}" for i in (1, 2, 3)]
+    shards = [build(charts, part, shard=(i, 3)) for i, part in enumerate(parts, start=1)]
+    names = [e["name"] for e in whole["images"]]
+    assert [[e["name"] for e in m["images"]] for m in shards] == [names[0::3], names[1::3], names[2::3]]
+    assert not (parts[0] / "index.html").exists()               # a shard is not a page
+    from sdfpbr.tools.gallery.build import merge
+    merged = merge(charts, parts, env / "site")
+    assert [e["name"] for e in merged["images"]] == names
+    assert images(env / "site") == images(env / "whole")
+    assert (env / "site" / "index.html").is_file()
+
+    with pytest.raises(SpecError, match="no shard holds"):
+        merge(charts, parts[:2], env / "site2")
+    damaged = parts[1] / f"{shards[1]['images'][0]['name']}.png"
+    damaged.write_bytes(damaged.read_bytes()[:-10])
+    with pytest.raises(SpecError, match="sha256 differs"):
+        merge(charts, parts, env / "site3")
+    with pytest.raises(SpecError, match="in both"):
+        merge(charts, [parts[0], parts[0]], env / "site4")
+    assert not (env / "site2").exists() and not (env / "site3").exists()
+
+
+@pytest.mark.parametrize("args, needle", [(["--shard", "0/2"], "1 <= I <= N"), (["--shard", "x"], "I/N"),
+                                          (["--merge", "a", "--force"], "renders nothing")])
+def test_shard_and_merge_flags_are_checked(tmp_path, args, needle):
+    charts = make_charts(tmp_path, {"plain.toml": ENTRIES["plain.toml"]})
+    r = subprocess.run([sys.executable, "-m", "sdfpbr", "build", str(charts), "-o", str(tmp_path / "o"), *args],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1

@@ -1,6 +1,11 @@
 """The build: every item through the image cache (rendering the missing ones, in worker
 processes with -j), then the images, ``manifest.json`` and ``index.html`` in the output
-directory; the main process alone writes files."""
+directory; the main process alone writes files.
+
+A large gallery shards across machines: ``build(..., shard=(i, n))`` renders every n-th item
+(from the i-th, in entry order) into its own directory with a partial manifest, and ``merge``
+joins the shards' directories into the gallery (images checked against their manifests'
+hashes, no GL needed) — a CI matrix runs the shards, a last job the merge."""
 from __future__ import annotations
 
 import hashlib
@@ -48,18 +53,52 @@ class Result:
     timings: dict = field(default_factory=dict)
 
 
-def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool = False,
-          log: Callable[[str], None] | None = None, verbose: bool = False) -> dict:
-    """Build the gallery of ``chart_dir`` into ``out_dir``; returns the manifest. ``log`` gets
-    one line per image ("[3/12] name.png  rendered in 0.41 s") and warnings."""
-    start = time.perf_counter()
-    say = log or (lambda line: None)
-    items = collect(chart_dir)                      # every entry validated before any output
-    out = Path(out_dir)
+def check_shard(shard) -> tuple[int, int] | None:
+    """(i, n) with 1 <= i <= n, or None."""
+    if shard is None:
+        return None
+    ok = isinstance(shard, tuple) and len(shard) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                                              for v in shard)
+    if not ok or not 1 <= shard[0] <= shard[1]:
+        raise SpecError(f"shard must be I/N with 1 <= I <= N, got {shard!r}")
+    return shard
+
+
+def shard_items(items: list[Item], shard: tuple[int, int] | None) -> list[Item]:
+    """The items shard (i, n) renders: every n-th in entry order, from the i-th."""
+    if shard is None:
+        return items
+    i, n = shard
+    return items[i - 1::n]
+
+
+def _check_out(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise OutputError(f"output {out} exists and is not a directory")
     if not out.exists() and not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise OutputError(f"cannot create output directory {out}: {out.parent} does not exist")
+
+
+def _make_out(out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create output directory {out}: {exc.strerror or exc}") from None
+    remove_stale_temps(out)
+
+
+def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool = False,
+          log: Callable[[str], None] | None = None, verbose: bool = False,
+          shard: tuple[int, int] | None = None) -> dict:
+    """Build the gallery of ``chart_dir`` into ``out_dir``; returns the manifest. ``log`` gets
+    one line per image ("[3/12] name.png  rendered in 0.41 s") and warnings. With ``shard``
+    (i, n): only that shard's images and a partial manifest (no index.html); see merge."""
+    start = time.perf_counter()
+    say = log or (lambda line: None)
+    shard = check_shard(shard)
+    items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
+    out = Path(out_dir)
+    _check_out(out)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 0:
         raise SpecError(f"-j must be a whole number >= 0 (0: one per CPU), got {jobs!r}")
     jobs = jobs or os.cpu_count() or 1
@@ -68,11 +107,7 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     cache = ImageCache()
     keys = item_keys(items, renderers, cache.dir / "keys.json")
     cache.remove_stale_temps()
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create output directory {out}: {exc.strerror or exc}") from None
-    remove_stale_temps(out)
+    _make_out(out)
     previous = _previous_images(out)
 
     results: dict[str, Result] = {}
@@ -109,13 +144,81 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
         _render_parallel(todo, keys, workers, done)
 
     manifest = _manifest(items, results, renderers, chart_dir, time.perf_counter() - start)
+    if shard is not None:
+        manifest["shard"] = list(shard)
+    _finish(out, manifest, previous, page=shard is None)
+    return manifest
+
+
+def _finish(out: Path, manifest: dict, previous: set[str], page: bool) -> None:
+    """The manifest (and the page) last, then the images of entries that no longer exist go."""
     write_file(out / "manifest.json", (json.dumps(manifest, indent=2, ensure_ascii=False) + "\n").encode(), "manifest")
-    write_file(out / "index.html", gallery_html(manifest).encode(), "index")
-    for name in previous - {f"{item.name}.png" for item in items}:
+    if page:
+        write_file(out / "index.html", gallery_html(manifest).encode(), "index")
+    for name in previous - {entry["image"] for entry in manifest["images"]}:
         try:
             (out / name).unlink()     # an image of an entry that no longer exists
         except OSError:
             pass
+
+
+def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
+          log: Callable[[str], None] | None = None) -> dict:
+    """Join shard directories (each written by build(..., shard=...)) into the gallery of
+    ``chart_dir`` in ``out_dir``: every entry's image must be in exactly one part, with the
+    bytes its manifest's sha256 names; the merged manifest and index.html list them in entry
+    order. Nothing renders and no GL is needed."""
+    start = time.perf_counter()
+    say = log or (lambda line: None)
+    items = collect(chart_dir)
+    out = Path(out_dir)
+    _check_out(out)
+    found: dict[str, tuple[dict, bytes, Path]] = {}
+    renderers: set[str] = set()
+    for part in map(Path, parts):
+        try:
+            manifest = json.loads((part / "manifest.json").read_text())
+            entries = manifest["images"]
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise SpecError(f"{part} holds no readable manifest.json of a build shard ({exc.__class__.__name__})") from None
+        renderers.update(manifest.get("gl_renderers", []))
+        for entry in entries:
+            name = entry.get("name")
+            if name in found:
+                raise SpecError(f"{entry.get('image')} is in both {found[name][2]} and {part}")
+            try:
+                data = (part / f"{name}.png").read_bytes()
+            except (OSError, TypeError):
+                raise SpecError(f"{part}: {name}.png, listed in its manifest, is missing") from None
+            if hashlib.sha256(data).hexdigest() != entry.get("sha256"):
+                raise SpecError(f"{part}: {name}.png is not the image its manifest names (sha256 differs)")
+            found[name] = (entry, data, part)
+    names = [item.name for item in items]
+    missing = [n for n in names if n not in found]
+    if missing:
+        raise SpecError(f"no shard holds {len(missing)} of the gallery's images: {', '.join(missing[:5])}"
+                        f"{' ...' if len(missing) > 5 else ''}; merge every shard's directory")
+    extra = sorted(set(found) - set(names))
+    if extra:
+        raise SpecError(f"the shards hold images of no entry in {chart_dir}: {', '.join(extra[:5])}; "
+                        f"build the shards from the same chart directory")
+    _make_out(out)
+    previous = _previous_images(out)
+    for i, item in enumerate(items, start=1):
+        _write_output(out, item, found[item.name][1])
+        say(f"[{i:{len(str(len(items)))}d}/{len(items)}] {item.name}.png  from {found[item.name][2]}")
+    images = [found[n][0] for n in names]
+    manifest = {
+        "sdfpbr": __version__,
+        "charts": str(chart_dir),
+        "gl_renderers": sorted(renderers),
+        "images": images,
+        "rendered": sum(1 for e in images if not e.get("cached")),
+        "cached": sum(1 for e in images if e.get("cached")),
+        "shards": len(parts),
+        "elapsed_s": round(time.perf_counter() - start, 3),
+    }
+    _finish(out, manifest, previous, page=True)
     return manifest
 
 
