@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.image import chart_labels
-from sdfpbr.image.layout import Cell, compose_chart, label_text, render_area_offset
+from sdfpbr.image.layout import Cell, compose_chart, forget_layouts, label_text, render_area_offset
 from sdfpbr.spec.chart_spec import make_spec
 
 TITLE = "Material chart"
@@ -199,3 +199,23 @@ def test_default_title_says_what_the_chart_shows():
     assert chart_labels.default_title(make_spec(materials=["gold", "copper"])) == "Roughness × measured metals — 2×5"
     assert chart_labels.default_title(make_spec(metallic=(1, 1), rows=1)) == "Roughness, metallic 1 — 1×5"
     assert chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0))) == "Roughness 0.3, metallic 0 — 5×5"
+
+
+def test_a_kept_layout_labels_every_render_alike_and_is_not_changed_by_its_charts():
+    """The text canvas is drawn once per layout: a second render with the same layout gets the
+    same margins, its own pixels inside, and writing into a returned chart changes no later one."""
+    cells = [Cell(r, c, 20.0 + 40 * c, 20.0 + 40 * r, 15.0) for r in range(2) for c in range(3)]
+    a = np.zeros((80, 120, 4), np.uint8) + np.array([200, 0, 0, 255], np.uint8)
+    b = np.zeros((80, 120, 4), np.uint8) + np.array([0, 0, 200, 255], np.uint8)
+    first = compose_chart(a, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)
+    first[:] = 7                                                    # scribble on a returned chart
+    second = compose_chart(b, cells, [0, 0.5, 1], [0, 1], TITLE + " ", FOOTER)   # another layout: drawn anew
+    third = compose_chart(b, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)          # the first layout, kept
+    x0, y0 = render_area_offset(b.shape, 2, 3, TITLE, FOOTER)
+    inside = np.zeros(third.shape[:2], bool)
+    inside[y0:y0 + 80, x0:x0 + 120] = True
+    np.testing.assert_array_equal(third[inside].reshape(80, 120, 4), b)
+    assert (third[~inside] != 7).any() and second.shape == third.shape
+    forget_layouts()
+    fresh = compose_chart(a, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)     # drawn anew
+    np.testing.assert_array_equal(fresh[~inside], third[~inside])  # the same margins, text and all
