@@ -178,3 +178,20 @@ def test_two_builds_sharing_a_cache_at_once(gallery, tmp_path, force):
     keys = [{e["key"] for e in json.loads((tmp_path / f"out{i}" / "manifest.json").read_text())["images"]}
             for i in range(2)]
     assert keys[0] == keys[1] and keys[0] <= {p.stem for p in (cache / "build").glob("*.png")}
+
+
+def test_ctrl_c_to_a_parallel_build_is_one_line(gallery, tmp_path):
+    """Ctrl-C reaches the whole process group (workers too): the build says it was interrupted,
+    exits 130, and no worker prints a traceback."""
+    charts, _ = gallery
+    env = {**os.environ, "SDFPBR_CACHE_DIR": str(tmp_path / "cache")}
+    p = subprocess.Popen([sys.executable, "-m", "sdfpbr", "build", str(charts), "-o", str(tmp_path / "out"),
+                          "-j", "2", "--force"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, start_new_session=True)
+    for _ in range(4):   # "[4/5] x.png  rendered ...": one worker renders the last entry, one waits
+        line = p.stderr.readline()
+    assert line.startswith("[4/"), line
+    os.killpg(p.pid, signal.SIGINT)
+    _, rest = p.communicate(timeout=120)
+    assert p.returncode == 130, rest
+    assert "Traceback" not in rest and rest.strip().endswith("sdfpbr: interrupted")

@@ -18,7 +18,7 @@ from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, number, number_text, parse_color, parse_names, parse_range, parse_size,
                      quote, sequence, text, vec3)
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
-                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
+                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
                       light_from_mapping)
 from .toml_file import read_toml
 
@@ -117,10 +117,10 @@ def _lights(v) -> tuple:
             raise SpecError(f"lights {quote(v)} is not allowed{did_you_mean(v, LIGHT_WORDS)}; "
                             f"allowed: default, none, or a list of lights")
         return LIGHT_WORDS[v]
-    lights = tuple(light_from_mapping(m) for m in sequence(v, "lights", form="default, none or a list of lights"))
-    if len(lights) > 16:
-        raise SpecError(f"at most 16 lights, got {len(lights)}")
-    return lights
+    given = sequence(v, "lights", form="default, none or a list of lights")
+    if len(given) > MAX_LIGHTS:   # counted before any is read: a million lights are refused at once
+        raise SpecError(f"at most {MAX_LIGHTS} lights, got {len(given)}")
+    return tuple(light_from_mapping(m) for m in given)
 
 
 def _env(v) -> str:

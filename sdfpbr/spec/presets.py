@@ -32,6 +32,7 @@ LIGHT_KINDS = ("directional", "point")
 NORMAL_METHODS = ("tetrahedron", "central")
 HDR_PRECISIONS = ("float32", "float16")   # the float format of the radiance target
 MAX_GRID = 64
+MAX_LIGHTS = 16
 ORBITS = ("light", "camera")                    # what turns in an animation
 DEFAULT_FPS = 15.0
 MAX_SIZE = 16384 * 4

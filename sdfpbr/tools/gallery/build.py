@@ -27,7 +27,11 @@ from .page import gallery_html
 
 
 def _worker_init(parent: int) -> None:
-    """Workers of a killed build exit on their own instead of rendering for nobody."""
+    """Workers of a killed build exit on their own instead of rendering for nobody. Ctrl-C
+    reaches the whole process group; the build (the parent) alone answers it, so no worker
+    prints a KeyboardInterrupt traceback."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     def watch():
         while True:
             time.sleep(0.5)
