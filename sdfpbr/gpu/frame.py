@@ -203,7 +203,10 @@ def display_pass(ctx: moderngl.Context, program, radiance, spec: ChartSpec, widt
     finally:
         vao.release()
         fbo.release()
-        pool.give(ldr) if pool else ldr.release()
+        if pool:
+            pool.give(ldr)
+        else:
+            ldr.release()
 
 
 class AOVBuffers:
