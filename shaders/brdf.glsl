@@ -1,18 +1,91 @@
-// The glTF 2.0 Appendix-B metallic-roughness material (REFERENCE.md §1).
+// The glTF 2.0 Appendix-B metallic-roughness material (REFERENCE.md §1) and, composed in only
+// where a chart uses them, the KHR lobes of lobes.glsl (docs/lobes.md): KHR_SPECULAR
+// (KHR_materials_specular and _ior), CLEARCOAT, SHEEN, EMISSION.
 
 struct Material {
     vec3 base_color_linear;
     float metallic;
     float perceptual_roughness;   // clamped to MIN_PERCEPTUAL_ROUGHNESS
     float alpha;                  // perceptual_roughness^2
+#if KHR_SPECULAR
+    vec3 specular_f0;             // min(((ior - 1) / (ior + 1))^2 specular_color, 1)
+    float specular_weight;        // KHR_materials_specular's specular factor
+#endif
+#if CLEARCOAT
+    float clearcoat;
+    float clearcoat_perceptual_roughness;   // clamped as perceptual_roughness
+    float clearcoat_alpha;
+    vec3 clearcoat_normal;        // the geometric normal (no clearcoat normal map)
+#endif
+#if SHEEN
+    vec3 sheen_color_linear;
+    float sheen_perceptual_roughness;       // clamped as perceptual_roughness
+#endif
+#if EMISSION
+    vec3 emission_linear;         // emissive colour times emissive strength
+#endif
 };
 
-Material make_material(vec3 base_color_linear, float metallic, float perceptual_roughness) {
-    float r = max(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS);
+float alpha_from_perceptual(float r) {
 #if BUG_UNSQUARED_ROUGHNESS
-    return Material(base_color_linear, metallic, r, r);
+    return r;
 #else
-    return Material(base_color_linear, metallic, r, r * r);
+    return r * r;
+#endif
+}
+
+void set_roughness(inout Material m, float perceptual_roughness) {
+    m.perceptual_roughness = max(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS);
+    m.alpha = alpha_from_perceptual(m.perceptual_roughness);
+}
+
+// A core material; every composed lobe starts switched off (ior 1.5, specular 1).
+Material make_material(vec3 base_color_linear, float metallic, float perceptual_roughness) {
+    Material m;
+    m.base_color_linear = base_color_linear;
+    m.metallic = metallic;
+    set_roughness(m, perceptual_roughness);
+#if KHR_SPECULAR
+    m.specular_f0 = vec3(DIELECTRIC_F0);
+    m.specular_weight = 1.0;
+#endif
+#if CLEARCOAT
+    m.clearcoat = 0.0;
+    m.clearcoat_perceptual_roughness = MIN_PERCEPTUAL_ROUGHNESS;
+    m.clearcoat_alpha = sq(MIN_PERCEPTUAL_ROUGHNESS);
+    m.clearcoat_normal = vec3(0.0, 1.0, 0.0);
+#endif
+#if SHEEN
+    m.sheen_color_linear = vec3(0.0);
+    m.sheen_perceptual_roughness = MIN_PERCEPTUAL_ROUGHNESS;
+#endif
+#if EMISSION
+    m.emission_linear = vec3(0.0);
+#endif
+    return m;
+}
+
+// Roughness widening for a light of angular radius theta (Karis 2013): the disc spreads the
+// half vectors, which a wider GGX lobe approximates while keeping its energy.
+float alpha_for_disc(float alpha, float angular_radius) {
+    return min(1.0, alpha + 0.5 * sin(angular_radius));
+}
+
+// The dielectric Fresnel at cos x: Schlick with f0 = 0.04, or KHR_materials_specular's
+// weight (f0 + (1 - f0) (1 - x)^5) with the material's f0 (fresnel_mix of the extension).
+vec3 dielectric_fresnel(Material m, float x) {
+#if KHR_SPECULAR
+    return m.specular_weight * (m.specular_f0 + (1.0 - m.specular_f0) * pow5_one_minus(x));
+#else
+    return vec3(DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * pow5_one_minus(x));
+#endif
+}
+
+vec3 dielectric_f0(Material m) {
+#if KHR_SPECULAR
+    return m.specular_f0;
+#else
+    return vec3(DIELECTRIC_F0);
 #endif
 }
 
@@ -27,11 +100,26 @@ vec3 energy_compensation(vec3 f0, float e_single) {
 #endif
 }
 
-// f(v, l) * NdotL for one light direction; e_single from the DFG LUT at (NdotV, r).
-// alpha_light is the material alpha widened for the light's angular size.
-vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float alpha_light, float e_single) {
+#if SHEEN || CLEARCOAT
+#include "lobes.glsl"
+#endif
+
+#if EMISSION
+// Emission seen from v: under a clearcoat, less the share the coat reflects (the spec's
+// coated_emission).
+vec3 surface_emission(Material m, vec3 v) {
+#if CLEARCOAT
+    return m.emission_linear * (1.0 - clearcoat_weight(m, v));
+#else
+    return m.emission_linear;
+#endif
+}
+#endif
+
+// The base under the clearcoat: the core material, under SHEEN with the sheen layer over it.
+vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single) {
     float n_dot_l = dot(n, l);
-    if (n_dot_l <= 0.0) return vec3(0.0);
+    float alpha_light = alpha_for_disc(m.alpha, light_angle);
     vec3 h = normalize(v + l);
     float n_dot_h = saturate(dot(n, h));
     float v_dot_h = abs(dot(v, h));
@@ -50,13 +138,13 @@ vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float alpha_lig
 #else
     float f_cos = v_dot_h;
 #endif
-    float f_dielectric = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * pow5_one_minus(f_cos);
+    vec3 f_dielectric = dielectric_fresnel(m, f_cos);
 #if BUG_DIFFUSE_NO_FRESNEL
     vec3 diffuse = m.base_color_linear * INV_PI;
 #else
-    vec3 diffuse = m.base_color_linear * INV_PI * (1.0 - f_dielectric);
+    vec3 diffuse = m.base_color_linear * INV_PI * (1.0 - max3(f_dielectric));
 #endif
-    vec3 spec_dielectric = f_spec * f_dielectric * energy_compensation(vec3(DIELECTRIC_F0), e_single);
+    vec3 spec_dielectric = f_spec * f_dielectric * energy_compensation(dielectric_f0(m), e_single);
     vec3 metal = f_spec * fresnel_schlick(m.base_color_linear, f_cos)
                * energy_compensation(m.base_color_linear, e_single);
 #if BUG_METAL_DIFFUSE
@@ -64,11 +152,28 @@ vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float alpha_lig
 #else
     vec3 f = mix(diffuse + spec_dielectric, metal, m.metallic);
 #endif
+#if SHEEN
+    f = sheen_layer(m, f, n, v, l, n_dot_v, n_dot_l);
+#endif
 #if BUG_NO_COSINE
     return f;
 #elif BUG_COSINE_TWICE
     return f * n_dot_l * n_dot_l;
 #else
     return f * n_dot_l;
+#endif
+}
+
+// f(v, l) * NdotL for one light direction; e_single from the DFG LUT at (NdotV, r).
+// light_angle: the light's angular radius, which widens the lobes (alpha_for_disc).
+vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single) {
+    float n_dot_l = dot(n, l);
+#if CLEARCOAT
+    if (n_dot_l <= 0.0 && dot(m.clearcoat_normal, l) <= 0.0) return vec3(0.0);
+    vec3 base = n_dot_l <= 0.0 ? vec3(0.0) : base_brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
+    return clearcoat_layer(m, base, v, l, light_angle);
+#else
+    if (n_dot_l <= 0.0) return vec3(0.0);
+    return base_brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
 #endif
 }

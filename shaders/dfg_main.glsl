@@ -2,9 +2,12 @@
 #include "ggx.glsl"
 #include "visibility.glsl"
 #include "hammersley.glsl"
+#if SHEEN
+#include "sheen.glsl"
+#endif
 
 // The DFG LUT (REFERENCE.md §2) by GGX importance sampling with the shading's visibility:
-// texel (i, j) holds (A, B, C) at NdotV = i/(size-1), perceptual roughness = j/(size-1): the
+// texel (i, j) holds (A, B, C, E_s or 1) at NdotV = i/(size-1), perceptual roughness = j/(size-1): the
 // inverse of dfg_lookup, which puts 0 and 1 on the first and last texel centres.
 //
 // The specular estimator is a quadrature, not a random walk, so its error is its bias, and it
@@ -30,7 +33,7 @@ void main() {
     float r = float(id.y) / float(u_size - 1);
     float alpha = r * r;
     vec3 v = vec3(sqrt(1.0 - n_dot_v * n_dot_v), 0.0, n_dot_v);
-    float a = 0.0, b = 0.0, c = 0.0;
+    float a = 0.0, b = 0.0, c = 0.0, e_sheen = 0.0;
     uint count = uint(u_samples);
     float inv_count = 1.0 / float(count);
     for (uint i = 0u; i < count; ++i) {
@@ -54,6 +57,22 @@ void main() {
         vec3 ld = vec3(sin_t * cos(phi_d), sin_t * sin(phi_d), cos_t);
         float vh = abs(dot(v, normalize(v + ld)));
         c += 1.0 - (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * pow5_one_minus(vh));
+#if SHEEN
+        // The sheen's albedo E_s = int D_charlie V_sheen cos dl, r clamped as the shading clamps
+        // it: h drawn from D_charlie cos(theta_h) (sin theta_h = u^(alpha / (2 alpha + 1))),
+        // l = reflect(-v, h), weight f cos / pdf = V_sheen NdotL 4 VdotH / NdotH.
+        float alpha_s = sq(max(r, MIN_PERCEPTUAL_ROUGHNESS));
+        float sin_h = pow(u.x, alpha_s / (2.0 * alpha_s + 1.0));
+        vec3 hs = vec3(sin_h * cos(phi_d), sin_h * sin(phi_d), sqrt(max(1.0 - sin_h * sin_h, 0.0)));
+        vec3 ls = reflect(-v, hs);
+        float vh_s = dot(v, hs);
+        if (ls.z > 0.0 && vh_s > 0.0 && hs.z > 0.0)
+            e_sheen += v_sheen(ls.z, n_dot_v, alpha_s) * ls.z * 4.0 * vh_s / hs.z;
+#endif
     }
+#if SHEEN
+    imageStore(u_target, id, vec4(a, b, c, e_sheen) / float(count));
+#else
     imageStore(u_target, id, vec4(vec3(a, b, c) / float(count), 1.0));
+#endif
 }

@@ -3,8 +3,8 @@
 #include "scene.glsl"
 #include "ggx.glsl"
 #include "visibility.glsl"
-#include "brdf.glsl"
 #include "dfg.glsl"
+#include "brdf.glsl"
 #include "material.glsl"
 #include "ibl.glsl"
 #include "ground_ibl.glsl"
@@ -36,7 +36,7 @@ void main() {
     if (id.x >= u_size || id.y >= u_size) return;
     vec3 v = ground_view_direction((vec2(id) + 0.5) / float(u_size));
     vec3 n = vec3(0.0, 1.0, 0.0);
-    Material m = cell_material(ivec2(-1));
+    Material m = ground_material();
     float n_dot_v = max(v.y, MIN_N_DOT_V);
     vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
     SampledSpecular s = sampled_specular(n, v, n_dot_v, m.alpha);

@@ -75,8 +75,16 @@ SpecularLookup specular_lookup(vec3 n, vec3 v, float n_dot_v, float perceptual_r
 // (both the prefiltered radiance in the split sum); irradiance_over_pi: E(n) / pi.
 vec3 ibl_mix(Material m, vec3 dfg, vec3 mean_a, vec3 mean_b, vec3 irradiance_over_pi) {
     float e_single = dfg.x + dfg.y;
-    vec3 spec_dielectric = (DIELECTRIC_F0 * dfg.x * mean_a + dfg.y * mean_b)
-                         * energy_compensation(vec3(DIELECTRIC_F0), e_single);
+    vec3 f0 = dielectric_f0(m);
+#if KHR_SPECULAR
+    // The LUT's C is 1 - (0.04 + 0.96 <Fc>) for f0 = 0.04; the extension's weight is
+    // 1 - w (max3(f0) + (1 - max3(f0)) <Fc>), <Fc> the cosine-weighted mean of (1 - V.H)^5.
+    float mean_fc = (1.0 - DIELECTRIC_F0 - dfg.z) / (1.0 - DIELECTRIC_F0);
+    dfg.z = 1.0 - m.specular_weight * (max3(f0) + (1.0 - max3(f0)) * mean_fc);
+    vec3 spec_dielectric = m.specular_weight * (f0 * dfg.x * mean_a + dfg.y * mean_b) * energy_compensation(f0, e_single);
+#else
+    vec3 spec_dielectric = (f0 * dfg.x * mean_a + dfg.y * mean_b) * energy_compensation(f0, e_single);
+#endif
     vec3 metal = (m.base_color_linear * dfg.x * mean_a + dfg.y * mean_b)
                * energy_compensation(m.base_color_linear, e_single);
 #if BUG_DIFFUSE_NO_FRESNEL

@@ -2,12 +2,6 @@
 // and angular radius; point: position, intensity, range of the inverse-square window.
 // The composer emits the loops only for the light kinds the scene has.
 
-// Roughness widening for a light of angular radius theta (Karis 2013): the disc spreads the
-// half vectors, which a wider GGX lobe approximates while keeping its energy.
-float alpha_for_disc(float alpha, float angular_radius) {
-    return min(1.0, alpha + 0.5 * sin(angular_radius));
-}
-
 #if NUM_DIR_LIGHTS > 0
 uniform vec3 u_dir_light_direction[NUM_DIR_LIGHTS];
 uniform vec3 u_dir_light_illuminance[NUM_DIR_LIGHTS];

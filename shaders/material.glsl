@@ -1,22 +1,51 @@
-// The chart's materials: roughness across the columns, metallic down the rows, both ranges
-// inclusive of their ends; base colour per row (a neutral grey or a measured metal preset).
-uniform vec2 u_roughness_range;
-uniform vec2 u_metallic_range;
-uniform vec3 u_row_base_color[GRID_ROWS];
+// The chart's materials: one row of texels per cell in u_cell_materials (cell index
+// row * cols + col), written by sdfpbr/shading/material_table.py from each cell's Material:
+//   0: base colour (linear), metallic      1: roughness, clearcoat, clearcoat roughness, sheen roughness
+//   2: sheen colour, -                      3: specular f0 (from ior and specular colour), specular
+//   4: emission (emissive colour x strength), -
+// A program reads only the texels of the lobes it composes in. The ground is uniforms.
+uniform sampler2D u_cell_materials;
 uniform vec3 u_ground_color;
 uniform float u_ground_roughness;
 
-float grid_fraction(int i, int n) { return n > 1 ? float(i) / float(n - 1) : 0.0; }
-
-float cell_perceptual_roughness(ivec2 cell) {
-    return mix(u_roughness_range.x, u_roughness_range.y, grid_fraction(cell.x, u_grid.x));
+vec4 cell_texel(ivec2 cell, int k) {
+    return texelFetch(u_cell_materials, ivec2(k, cell.y * u_grid.x + cell.x), 0);
 }
 
-float cell_metallic(ivec2 cell) {
-    return mix(u_metallic_range.x, u_metallic_range.y, grid_fraction(cell.y, u_grid.y));
+Material ground_material() {
+    return make_material(u_ground_color, 0.0, u_ground_roughness);
 }
 
-Material cell_material(ivec2 cell) {
-    if (cell.x < 0) return make_material(u_ground_color, 0.0, u_ground_roughness);
-    return make_material(u_row_base_color[cell.y], cell_metallic(cell), cell_perceptual_roughness(cell));
+// A sphere's material; n_geo: its geometric normal (the clearcoat's).
+Material cell_material(ivec2 cell, vec3 n_geo) {
+    vec4 t0 = cell_texel(cell, 0), t1 = cell_texel(cell, 1);
+    Material m = make_material(t0.rgb, t0.a, t1.x);
+#if CLEARCOAT
+    m.clearcoat = t1.y;
+    set_clearcoat_roughness(m, t1.z);
+    m.clearcoat_normal = n_geo;
+#endif
+#if SHEEN
+    m.sheen_color_linear = cell_texel(cell, 2).rgb;
+    m.sheen_perceptual_roughness = max(t1.w, MIN_PERCEPTUAL_ROUGHNESS);
+#endif
+#if KHR_SPECULAR
+    vec4 t3 = cell_texel(cell, 3);
+    m.specular_f0 = t3.rgb;
+    m.specular_weight = t3.a;
+#endif
+#if EMISSION
+    m.emission_linear = cell_texel(cell, 4).rgb;
+#endif
+    return m;
 }
+
+#if USE_TEXTURES
+// glTF: texture values scale the cell's factors (roughness before its clamp).
+void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
+    vec4 t0 = cell_texel(cell, 0);
+    m.base_color_linear *= tx.base_color_linear;
+    m.metallic = t0.a * tx.orm.b;
+    set_roughness(m, cell_texel(cell, 1).x * tx.orm.g);
+}
+#endif

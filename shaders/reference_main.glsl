@@ -4,12 +4,12 @@
 #include "camera.glsl"
 #include "ggx.glsl"
 #include "visibility.glsl"
-#include "brdf.glsl"
 #include "dfg.glsl"
-#include "material.glsl"
+#include "brdf.glsl"
 #if USE_TEXTURES
 #include "textures.glsl"
 #endif
+#include "material.glsl"
 #include "env.glsl"
 #include "lights.glsl"
 #include "intersect.glsl"

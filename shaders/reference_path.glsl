@@ -19,17 +19,17 @@ struct Surface {
     float n_dot_v;      // clamped as the chart clamps it
     float e_single;     // single-scatter specular albedo for the energy compensation
     float p_specular;   // probability of sampling the GGX lobe instead of the cosine lobe
+    float p_coat;       // CLEARCOAT: probability of sampling the coat's GGX lobe
 };
 
 Surface make_surface(ivec2 cell, vec3 n_geometric, vec3 v) {
-    Material m = cell_material(cell);
+    Material m = cell.x < 0 ? ground_material() : cell_material(cell, n_geometric);
     vec3 n = n_geometric;
     float occlusion = 1.0;
 #if USE_TEXTURES
     if (cell.x >= 0) {
         SurfaceTexels tx = sample_surface(n_geometric, 1e-20 * u_radius);   // level 0
-        m = make_material(m.base_color_linear * tx.base_color_linear, cell_metallic(cell) * tx.orm.b,
-                          cell_perceptual_roughness(cell) * tx.orm.g);
+        apply_texels(m, cell, tx);
         occlusion = tx.orm.r;
         n = tx.normal;
     }
@@ -38,13 +38,21 @@ Surface make_surface(ivec2 cell, vec3 n_geometric, vec3 v) {
     vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
     // Lobe selection by the lobes' reflectance at this view angle; the mixture pdf below is
     // exact whatever the split, so this only steers variance.
-    float fc = pow5_one_minus(n_dot_v);
-    float f_dielectric = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc;
+    float f_dielectric = max3(dielectric_fresnel(m, n_dot_v));
     float specular = mix(f_dielectric, luminance(fresnel_schlick(m.base_color_linear, n_dot_v)), m.metallic);
     float diffuse = (1.0 - m.metallic) * luminance(m.base_color_linear) * (1.0 - f_dielectric);
+#if SHEEN
+    diffuse += max3(m.sheen_color_linear);   // the wide sheen lobe is sampled by the cosine lobe
+#endif
     float p_specular = diffuse > 0.0 ? clamp(specular / (specular + diffuse), 0.1, 0.9) : 1.0;
-    if (u_lambert_only != 0) p_specular = 0.0;
-    return Surface(m, n, n_geometric, occlusion, n_dot_v, dfg.x + dfg.y, p_specular);
+    float p_coat = 0.0;
+#if CLEARCOAT
+    // The coat by its weight towards the viewer, never below 0.1 where it is on.
+    p_coat = m.clearcoat > 0.0 ? clamp(clearcoat_weight(m, v) * 4.0, 0.1, 0.5) : 0.0;
+    p_specular *= 1.0 - p_coat;
+#endif
+    if (u_lambert_only != 0) p_specular = p_coat = 0.0;
+    return Surface(m, n, n_geometric, occlusion, n_dot_v, dfg.x + dfg.y, p_specular, p_coat);
 }
 
 // f(v, l) cos(theta_l): the chart's brdf_cos, with the material's own alpha (no widening).
@@ -53,13 +61,20 @@ vec3 surface_f_cos(Surface s, vec3 v, vec3 l) {
     if (dot(s.n_geometric, l) <= 0.0) return vec3(0.0);   // below the true surface
 #endif
     if (u_lambert_only != 0) return s.m.base_color_linear * INV_PI * max(dot(s.n, l), 0.0);
-    return brdf_cos(s.m, s.n, v, l, s.n_dot_v, s.m.alpha, s.e_single);
+    return brdf_cos(s.m, s.n, v, l, s.n_dot_v, 0.0, s.e_single);
 }
 
+// The mixture of the coat's GGX lobe (p_coat), the base's (p_specular) and the cosine lobe.
 float surface_pdf(Surface s, vec3 v, vec3 l) {
+    float pdf = 0.0;
+#if CLEARCOAT
+    if (s.p_coat > 0.0 && dot(s.m.clearcoat_normal, l) > 0.0)
+        pdf += s.p_coat * pdf_ggx_vndf_reflection(max(dot(s.m.clearcoat_normal, v), 0.0), s.m.clearcoat_normal,
+                                                  normalize(v + l), s.m.clearcoat_alpha);
+#endif
     float n_dot_l = dot(s.n, l);
-    if (n_dot_l <= 0.0) return 0.0;
-    float pdf = (1.0 - s.p_specular) * n_dot_l * INV_PI;
+    if (n_dot_l <= 0.0) return pdf;
+    pdf += (1.0 - s.p_specular - s.p_coat) * n_dot_l * INV_PI;
     if (s.p_specular > 0.0) {
         vec3 h = normalize(v + l);
         pdf += s.p_specular * pdf_ggx_vndf_reflection(max(dot(s.n, v), 0.0), s.n, h, s.m.alpha);
@@ -68,7 +83,13 @@ float surface_pdf(Surface s, vec3 v, vec3 l) {
 }
 
 vec3 surface_sample(Surface s, vec3 v, vec3 u) {
-    if (u.x < s.p_specular) {
+#if CLEARCOAT
+    if (u.x < s.p_coat) {
+        vec3 n_c = s.m.clearcoat_normal;
+        return reflect(-v, to_world(sample_ggx_vndf(to_local(v, n_c), s.m.clearcoat_alpha, u.yz), n_c));
+    }
+#endif
+    if (u.x < s.p_coat + s.p_specular) {
         vec3 h = to_world(sample_ggx_vndf(to_local(v, s.n), s.m.alpha, u.yz), s.n);
         return reflect(-v, h);
     }
@@ -163,6 +184,9 @@ vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
         vec3 p = ro + rd * hit.t;
         vec3 v = -rd;
         Surface s = make_surface(hit.cell, hit.normal, v);
+#if EMISSION
+        if (hit.cell.x >= 0) radiance += throughput * surface_emission(s.m, v);
+#endif
         radiance += throughput * direct_light(s, p, v, hit.cell, rng);
 
         vec3 l = surface_sample(s, v, rng_next4(rng).xyz);

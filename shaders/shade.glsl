@@ -20,14 +20,13 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #if STAGE == cells
     g_shading_point = p;   // for the probe's parallax correction
 #endif
-    Material m = cell_material(cell);
+    Material m = ground ? ground_material() : cell_material(cell, n_geo);
     vec3 n = n_geo;
 #if USE_TEXTURES
     float occlusion = 1.0;
     if (!ground) {   // glTF: texture values scale the cell's factors
         SurfaceTexels tx = sample_surface(n_geo, pixel_size);
-        m = make_material(m.base_color_linear * tx.base_color_linear, cell_metallic(cell) * tx.orm.b,
-                          cell_perceptual_roughness(cell) * tx.orm.g);
+        apply_texels(m, cell, tx);
         occlusion = tx.orm.r;
         n = tx.normal;
     }
@@ -50,6 +49,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #else
     vec3 ibl = !ground ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #endif
+#if LAYERED_IBL
+    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl);
+#endif
 #if USE_AO
 #if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL
     if (ground) {
@@ -70,8 +72,8 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
         vec3 l = u_dir_light_direction[i];
-        float alpha_light = alpha_for_disc(m.alpha, max(u_dir_light_angular_radius[i], light_spread));
-        vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_light, e_single) * u_dir_light_illuminance[i];
+        vec3 c = brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single)
+               * u_dir_light_illuminance[i];
 #if USE_SHADOWS && STAGE == cells
         // The ground receives every light's shadow (exact on this stage, shadow.glsl).
         if (ground && dot(n, l) > 0.0)
@@ -89,7 +91,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         vec3 to_light = u_point_light_position[i] - p;
         float dist = length(to_light);
         vec3 l = to_light / dist;
-        vec3 c = brdf_cos(m, n, v, l, n_dot_v, alpha_for_disc(m.alpha, light_spread), e_single)
+        vec3 c = brdf_cos(m, n, v, l, n_dot_v, light_spread, e_single)
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
@@ -99,10 +101,12 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     }
 #endif
 #if BUG_AO_ON_DIRECT && USE_AO
-    return (color - ibl) * ao + ibl;   // occlusion now also darkens the lights
-#else
-    return color;
+    color = (color - ibl) * ao + ibl;   // occlusion now also darkens the lights
 #endif
+#if EMISSION
+    if (!ground) color += surface_emission(m, v);
+#endif
+    return color;
 }
 
 vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {

@@ -33,7 +33,7 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
         weight += cos_q;
     }
     if (weight <= 0.0) return vec3(0.0);
-    Material floor_material = cell_material(ivec2(-1));
+    Material floor_material = ground_material();
     vec3 dfg = dfg_lookup(max(v.y, MIN_N_DOT_V), floor_material.perceptual_roughness);
     vec3 albedo = floor_material.base_color_linear * dfg.z * ff;
 #if AO_METHOD == analytic && !BUG_FEWTAP_IBL

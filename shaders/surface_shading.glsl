@@ -3,12 +3,12 @@
 // includes common, hit and scene first.
 #include "ggx.glsl"
 #include "visibility.glsl"
-#include "brdf.glsl"
 #include "dfg.glsl"
-#include "material.glsl"
+#include "brdf.glsl"
 #if USE_TEXTURES
 #include "textures.glsl"
 #endif
+#include "material.glsl"
 #include "env.glsl"
 #include "lights.glsl"
 #if USE_IBL && BUG_FEWTAP_IBL
@@ -18,6 +18,9 @@
 #endif
 #if GROUND_IBL
 #include "ground_ibl.glsl"
+#endif
+#if LAYERED_IBL
+#include "lobes_ibl.glsl"
 #endif
 #if USE_AO
 #include "ao.glsl"

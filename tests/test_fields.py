@@ -19,6 +19,7 @@ from sdfpbr.spec import (BUGS, ENTRY_KEYS, FIELD_NAMES, FIELDS, ChartSpec, Light
                          load_spec, make_spec, read_entry_document, resolve_field, spec_to_flags, spec_to_toml,
                          spec_from_mapping, split_entry, sweep_defaults, sweep_values_from_text)
 from sdfpbr.spec.fields import toml_value
+from sdfpbr.spec.material import AXIS_PARAMS
 from sdfpbr.spec.presets import DEFAULT_LIGHTS
 
 CHARTS = sorted((Path(__file__).parent.parent / "charts").glob("*.toml"))
@@ -38,6 +39,13 @@ SAMPLES = {
     "ground_color": ((0.5, 0.5, 0.5), "0.5,0.5,0.5"), "ground_roughness": (0.3, "0.3"), "labels": (False, None),
     "bugs": (("clamp-tonemap",), "clamp-tonemap"), "textures": ("procedural", "procedural"),
     "base_color_texture": ("", ""), "orm_texture": ("", ""), "normal_texture": ("", ""),
+    "x_axis": ("clearcoat", "clearcoat"), "y_axis": ("ior", "ior"), "x_values": ((0.0, 0.5, 1.0, 0.5, 0.0), "0,0.5,1,0.5,0"),
+    "y_values": ((0.0, 0.1, 0.2, 0.3, 0.4), "0,0.1,0.2,0.3,0.4"),
+    "base_colors": (((1.0, 0.0, 0.0),) * 5, ";".join(["1,0,0"] * 5)), "clearcoat": ((0.5, 0.5), "0.5"),
+    "clearcoat_roughness": ((0.2, 0.2), "0.2"), "sheen_roughness": ((0.3, 0.3), "0.3"), "ior": ((1.3, 1.3), "1.3"),
+    "specular": ((0.5, 0.5), "0.5"), "emissive_strength": ((2.0, 2.0), "2"), "base_color_hue": ((10.0, 200.0), "10:200"),
+    "sheen_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"), "specular_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
+    "emissive": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
 }
 
 
@@ -256,8 +264,9 @@ def _value(field, rows):
         return st.booleans()
     if field.kind == "choice":
         return st.sampled_from(field.choices)
-    if field.kind == "range":
-        return st.tuples(st.floats(0, 1), st.floats(0, 1))
+    if field.kind == "range":   # off an axis a range holds one value (specs() below)
+        lo, hi = field.bounds
+        return st.tuples(st.floats(lo, hi), st.floats(lo, hi))
     if field.kind == "color":
         return st.tuples(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1))
     if field.kind == "names":
@@ -279,10 +288,13 @@ def _value(field, rows):
 @st.composite
 def specs(draw):
     rows = draw(st.integers(1, 6))
-    values = {"rows": rows}
+    axes = draw(st.lists(st.sampled_from(AXIS_PARAMS), min_size=2, max_size=2, unique=True))
+    values = {"rows": rows, "x_axis": axes[0], "y_axis": axes[1]}
     for field in FIELDS:
-        if field.name not in ("rows", "size") and draw(st.booleans()):
+        if field.name not in ("rows", "size", "x_axis", "y_axis") and draw(st.booleans()):
             values[field.name] = draw(_value(field, rows))
+            if field.kind == "range" and field.name not in axes:
+                values[field.name] = values[field.name][0]   # one value off an axis
     return make_spec(**values)
 
 

@@ -56,7 +56,7 @@ def pick_pixels(spec, aov, per_band=PER_BAND, seed=0):
     v = frame_grid(spec).position - p
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     return {"i": i, "j": j, "b": b, "y": y, "x": x, "n": n, "v": v,
-            "r": np.asarray(spec.column_roughness())[j], "m": np.asarray(spec.row_metallic())[i]}
+            "r": spec.material_array("roughness")[i, j], "m": spec.material_array("metallic")[i, j]}
 
 
 def cell_errors(spec, px, hdr, want):
@@ -245,7 +245,7 @@ if __name__ == "__main__":   # the table behind the targets: python tests/test_i
     for q in ("draft", "default", "high"):
         err = errors_for(session, path, (px, want), q)
         print(f"{q}: mean {100 * err.mean():.2f} %, worst cell {100 * err.max():.2f} % "
-              f"(rows metallic {spec.row_metallic()}, columns r {spec.column_roughness()})")
+              f"(rows metallic {spec.axis_values('y')}, columns r {spec.axis_values('x')})")
         print(np.array2string(100 * err, precision=2))
 
 

@@ -209,8 +209,8 @@ def test_small_sun_converges_to_closed_form(session):
             other = (row != j) | (col != i)
             m &= ~((other & (along > 0) & (miss < 1.05 * spec.sphere_radius)).any(-1))
     assert m.sum() > 300
-    metallic = np.array(spec.row_metallic())[np.maximum(row, 0)]
-    roughness = np.array(spec.column_roughness())[np.maximum(col, 0)]
+    metallic = spec.material_array("metallic")[np.maximum(row, 0), np.maximum(col, 0)]
+    roughness = spec.material_array("roughness")[np.maximum(row, 0), np.maximum(col, 0)]
     theta = np.radians(theta_deg)
 
     def f_cos(l):

@@ -26,7 +26,7 @@ void main() {
     Case c = cases[i];
     Material m = make_material(c.base_metal.rgb, c.base_metal.a, c.rough_e.x);
     float n_dot_v = max(dot(c.n.xyz, c.v.xyz), MIN_N_DOT_V);
-    results[i] = vec4(brdf_cos(m, c.n.xyz, c.v.xyz, c.l.xyz, n_dot_v, m.alpha, c.rough_e.y), 0.0);
+    results[i] = vec4(brdf_cos(m, c.n.xyz, c.v.xyz, c.l.xyz, n_dot_v, 0.0, c.rough_e.y), 0.0);
 }
 """
 

@@ -107,7 +107,7 @@ def test_monotonic_cases_pass_and_a_swapped_column_fails(session):
     case = cases[0]
     res = session.render(case.spec)
     row, x0, step, _ = case.probe
-    rough = np.asarray(case.spec.column_roughness())
+    rough = case.spec.material_array("roughness")[0]
     a, b = int(np.argmin(rough)), int(np.argmax(rough))
     hdr = res.hdr.copy()
     hdr[row, x0 + a * step], hdr[row, x0 + b * step] = res.hdr[row, x0 + b * step], res.hdr[row, x0 + a * step]

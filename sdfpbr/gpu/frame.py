@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
-from ..shading import plan
+from ..shading import material_table, plan
 from ..spec.chart_spec import ChartSpec, Quality
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
@@ -97,9 +97,6 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_radius": spec.sphere_radius,
         "u_spacing": spec.spacing,
         "u_ground_y": camera_mod.ground_height(spec),
-        "u_roughness_range": spec.roughness,
-        "u_metallic_range": spec.metallic,
-        "u_row_base_color": spec.row_base_colors(),
         "u_ground_color": spec.ground_color,
         "u_ground_roughness": spec.ground_roughness,
         "u_spp": spec.spp,
@@ -175,6 +172,7 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     bindings = SceneBindings(cam, env, {**uniforms, **env.uniforms})
     if env.texture is not None:
         bindings.add_texture("u_env_map", env.texture, owned=True)
+    bindings.add_texture("u_cell_materials", material_table.upload(ctx, spec.cell_materials()), owned=True)
     if uses_textures:
         from .textures import texture_set, upload
         for name, tex in upload(ctx, texture_set(spec)).items():
@@ -241,7 +239,7 @@ class AOVBuffers:
         # Filled through the mask, so no full-size temporaries beyond the outputs.
         roughness = np.full(row.shape, np.nan, np.float32)
         metallic = np.full(row.shape, np.nan, np.float32)
-        roughness[sphere] = np.asarray(self.spec.column_roughness(), np.float32)[col[sphere]]
-        metallic[sphere] = np.asarray(self.spec.row_metallic(), np.float32)[row[sphere]]
+        roughness[sphere] = self.spec.material_array("roughness").astype(np.float32)[row[sphere], col[sphere]]
+        metallic[sphere] = self.spec.material_array("metallic").astype(np.float32)[row[sphere], col[sphere]]
         return {"normal": self.normal, "depth": self.depth, "row": row, "col": col,
                 "roughness": roughness, "metallic": metallic, "ndotv": self.ndotv, "coverage": self.coverage}

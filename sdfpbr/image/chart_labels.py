@@ -8,6 +8,7 @@ import numpy as np
 from ..shading.camera import cell_grid, sphere_centers
 from ..shading.plan import brdf_model, stage
 from ..spec.chart_spec import ChartSpec
+from ..spec.material import axis_param
 from .layout import Cell, compose_chart
 
 
@@ -46,15 +47,16 @@ def _number(x: float) -> str:
 def default_title(spec: ChartSpec) -> str:
     """What the chart shows: the axes that vary, then those held at one value, and the grid
     (measured-metal rows are named as such)."""
-    def axis(name, lo, hi):
-        return (name, True) if lo != hi else (f"{name} {_number(lo)}", False)
-    axes = [axis("roughness", *spec.roughness)]
+    def axis(name, values):
+        name = name.replace("_", " ")
+        return (name, True) if len(set(values)) > 1 else (f"{name} {_number(values[0])}", False)
+    axes = [axis(spec.x_axis, spec.axis_values("x"))]
     if spec.row_materials:
         axes.append(("measured metals", True))
-        if spec.metallic != (1.0, 1.0):
-            axes.append(axis("metallic", *spec.metallic))
+        if spec.metallic != (1.0, 1.0) or spec.y_axis != "metallic":
+            axes.append(axis(spec.y_axis, spec.axis_values("y")))
     else:
-        axes.append(axis("metallic", *spec.metallic))
+        axes.append(axis(spec.y_axis, spec.axis_values("y")))
     varying = " × ".join(a for a, v in axes if v)
     text = ", ".join([varying] * bool(varying) + [a for a, v in axes if not v])
     return f"{text[0].upper()}{text[1:]} — {spec.rows}×{spec.cols}"
@@ -65,6 +67,12 @@ def label(spec: ChartSpec, result, title: str | None = None, footer: str | None 
     if not spec.labels:
         return result.image
     title = spec.title or title or default_title(spec)
-    return compose_chart(result.image, chart_cells(spec, result.camera), spec.column_roughness(),
-                         spec.row_metallic(), title, footer if footer is not None else footer_text(spec),
-                         row_names=list(spec.row_materials) or None, transparent=spec.transparent)
+    return compose_chart(result.image, chart_cells(spec, result.camera), spec.axis_values("x"),
+                         spec.axis_values("y"), title, footer if footer is not None else footer_text(spec),
+                         row_names=row_names(spec), transparent=spec.transparent,
+                         column_axis_title=axis_param(spec, "x").title, row_axis_title=axis_param(spec, "y").title)
+
+
+def row_names(spec: ChartSpec) -> list[str] | None:
+    """Measured-metal rows are named (one material per row)."""
+    return list(spec.row_materials) if spec.row_materials and len(spec.row_materials) == spec.rows else None

@@ -209,8 +209,9 @@ def half_vector_nodes(lo3, hi3, a23, xt, wt, use_u):
     return np.where(use_u, c_u, c_t), np.where(use_u, s_u, s_t), np.where(use_u, w_u, w_t)
 
 
-def _dfg_spec_flat(mu, r, model, n):
-    """A, B for 1-D arrays mu, r (alpha >= _ALPHA_DELTA).
+def _dfg_spec_flat(mu, r, model, n, weight=None):
+    """A, B for 1-D arrays mu, r (alpha >= _ALPHA_DELTA); weight(n_dot_l, mu): an optional smooth
+    factor on the integrand (the layers' scaling of the lobe, sdfpbr.oracle.lobes).
 
     Integrates over the half vector h with the measure D cos(theta_h) dw_h = du dphi / (2 pi),
     so E = int Vis NdotL 4 VdotH / NdotH du dphi / (2 pi). theta_h is split where the
@@ -250,9 +251,25 @@ def _dfg_spec_flat(mu, r, model, n):
         g = vis * n_dot_l * 4.0 * v_dot_h / np.maximum(c, _TINY)
         # Weight: w_theta * phi_max w_phi * 2 (symmetry) / (2 pi).
         wgt = w_th * phi_max * wp / np.pi
+        if weight is not None:
+            wgt = wgt * weight(n_dot_l, mu3)
         fc = fresnel_weight(v_dot_h)
         B += np.sum(g * fc * wgt, axis=(1, 2))
         A += np.sum(g * (1.0 - fc) * wgt, axis=(1, 2))
+    return A, B
+
+
+def ggx_lobe_integrals(mu, r, model="gltf", n=64, weight=None):
+    """(A, B) of the GGX lobe at 1-D arrays mu, r (alpha >= 1e-4) with the integrand times
+    weight(n_dot_l, mu) (arrays broadcast over the quadrature), chunked as dfg_integrate."""
+    _check_model(model)
+    mu = np.clip(np.asarray(mu, np.float64), MIN_N_DOT_V, 1.0)
+    r = np.asarray(r, np.float64)
+    A, B = np.empty_like(mu), np.empty_like(mu)
+    chunk = max(1, 2_000_000 // (n * n))
+    for s in range(0, mu.size, chunk):
+        sl = slice(s, s + chunk)
+        A[sl], B[sl] = _dfg_spec_flat(mu[sl], r[sl], model, n, weight)
     return A, B
 
 

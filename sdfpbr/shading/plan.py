@@ -15,6 +15,7 @@ from typing import Mapping
 
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
+from ..spec.material import spec_lobes
 from .compose import ComposedSource, OptionSchema, Value, compose
 
 # Every shader option, the values it may take, and the switches the bug catalog adds (off
@@ -39,9 +40,14 @@ SCHEMA = OptionSchema(
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "HAS_BASE_COLOR_MAP", "HAS_ORM_MAP", "HAS_NORMAL_MAP"),
-    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "GRID_ROWS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
-    switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")})),
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
+    # The KHR lobes (material.py LOBES; off unless a plan sets them) and the catalog's bugs.
+    switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
+    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL"),
 )
+
+# Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
+LOBE_OPTIONS = {"clearcoat": "CLEARCOAT", "sheen": "SHEEN", "specular": "KHR_SPECULAR", "emission": "EMISSION"}
 
 
 def glsl_word(name: str) -> str:
@@ -124,12 +130,13 @@ def chart_options(spec: ChartSpec) -> dict:
         "TRANSPARENT": spec.transparent,
         "NUM_DIR_LIGHTS": directional,
         "NUM_POINT_LIGHTS": point,
-        "GRID_ROWS": spec.rows,
         "HALF_RADIANCE": spec.hdr_precision == "float16",
         "USE_TEXTURES": spec.uses_textures(),
         "SCENE_SDF": q.scene_sdf,
         "STAGE": stage(spec),
     }
+    for lobe in sorted(spec_lobes(spec)):   # only the lobes some cell uses
+        opts[LOBE_OPTIONS[lobe]] = True
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
     if opts["USE_TEXTURES"]:   # read by textures.glsl
@@ -155,6 +162,9 @@ def chart_options(spec: ChartSpec) -> dict:
     # prefiltered environment, which the few-tap bug does without.
     opts["GROUND_IBL"] = (opts["USE_IBL"] and spec.ground and q.ground_ibl_samples > 0
                           and not opts.get("BUG_FEWTAP_IBL", False))
+    # The sheen and clearcoat layers over the spheres' environment light (lobes_ibl.glsl).
+    if opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False) and (opts.get("SHEEN") or opts.get("CLEARCOAT")):
+        opts["LAYERED_IBL"] = True
     return opts
 
 
@@ -265,17 +275,20 @@ def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
     if not chart.get("GROUND_IBL"):
         return None
     return compose_program("ground_ibl_main.glsl", {
-        "STAGE": "shared", "SCENE_SDF": "nearest_cell", "HAS_GROUND": True, "GRID_ROWS": 1,
+        "STAGE": "shared", "SCENE_SDF": "nearest_cell", "HAS_GROUND": True, "USE_TEXTURES": False,
         "BRDF_MODEL": chart["BRDF_MODEL"], "MULTISCATTER": chart["MULTISCATTER"],
         "IBL_METHOD": "sampled", "IBL_PIXEL_SAMPLES": q.ground_ibl_samples,
         "IBL_DOMINANT_DIR": "none", "IBL_TWO_LOBE": False})
 
 
-def dfg_source(brdf: str, direct_k_bug: bool = False) -> ComposedSource:
-    """The DFG LUT bake; ``direct_k_bug`` builds it with the direct-light Schlick k."""
+def dfg_source(brdf: str, direct_k_bug: bool = False, sheen: bool = False) -> ComposedSource:
+    """The DFG LUT bake; ``direct_k_bug`` builds it with the direct-light Schlick k, ``sheen``
+    with the sheen's albedo in its alpha channel."""
     opts = {"BRDF_MODEL": glsl_word(brdf)}
     if direct_k_bug:
         opts["BUG_IBL_DIRECT_K"] = True
+    if sheen:
+        opts["SHEEN"] = True
     return compose_program("dfg_main.glsl", opts)
 
 
@@ -289,7 +302,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         vertex=compose_program("fullscreen_vert.glsl"),
         chart=chart_source,
         display=compose_program("display_main.glsl", display_options(spec)),
-        dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False))),
+        dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
         floor_plate=_floor_plate(chart))

@@ -16,6 +16,7 @@ from ..errors import SpecError
 from .bugs import get_bug
 from .checks import parse_color, parse_range, parse_size  # noqa: F401  (re-exported)
 from .fields import FIELDS, STORED_FIELDS, attr_values, read_entry_document
+from .material import axis_values, cell_materials, check_axes, displaced_defaults, material_array
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, FILL_LIGHT,  # noqa: F401
                       HDR_PRECISIONS, INTERSECT_METHODS, KEY_LIGHT, LIGHT_KINDS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE,
                       NORMAL_METHODS, QUALITY_PRESETS, TEXTURE_MODES, TONEMAPPERS, Light, Quality)
@@ -27,26 +28,25 @@ class _ChartSpecMethods:
     def __post_init__(self):
         for f in STORED_FIELDS:   # each field's check, from the table; stored normalised
             object.__setattr__(self, f.attr, f.check(getattr(self, f.attr)))
-        if self.row_materials and len(self.row_materials) != self.rows:
-            raise SpecError(f"materials names {len(self.row_materials)} materials for {self.rows} rows; "
-                            f"give one per row")
+        check_axes(self)
 
     @property
     def materials(self) -> tuple[str, ...]:
         """The public name of ``row_materials`` (the attribute keeps its name: cache keys)."""
         return self.row_materials
 
-    # Derived values, one definition each.
-    def row_base_colors(self) -> list[tuple[float, float, float]]:
-        if self.row_materials:
-            return [MATERIAL_PRESETS[m] for m in self.row_materials]
-        return [self.base_color] * self.rows
+    # Derived values, one definition each (sdfpbr.spec.material).
+    def cell_materials(self):
+        """Every cell's Material, row by row."""
+        return cell_materials(self)
 
-    def column_roughness(self) -> list[float]:
-        return _inclusive(self.roughness, self.cols)
+    def material_array(self, name: str):
+        """One material parameter of every cell: (rows, cols[, 3]) float64."""
+        return material_array(self, name)
 
-    def row_metallic(self) -> list[float]:
-        return _inclusive(self.metallic, self.rows)
+    def axis_values(self, axis: str) -> list[float]:
+        """The values across the columns ('x') or down the rows ('y')."""
+        return axis_values(self, axis)
 
     def quality_settings(self) -> Quality:
         return QUALITY_PRESETS[self.quality]
@@ -87,11 +87,6 @@ ChartSpec.__doc__ = ("A chart specification; fields, defaults and checks are sdf
                      "Build one with make_spec (names, aliases, size) or load_spec (TOML).")
 
 
-def _inclusive(rng: tuple[float, float], n: int) -> list[float]:
-    lo, hi = rng
-    return [lo] if n == 1 else [lo + (hi - lo) * i / (n - 1) for i in range(n)]
-
-
 SPEC_KEYS = tuple(f.name for f in fields(ChartSpec))   # attribute names, as to_dict() writes them
 
 
@@ -99,8 +94,9 @@ def make_spec(base: ChartSpec | None = None, **overrides) -> ChartSpec:
     """A validated spec: ``base`` (or the defaults) with ``overrides`` given by field name or alias
     (``size="256x256"``, ``materials=[...]``, ``row_materials=[...]``); unknown names are errors."""
     values = attr_values(overrides, "option")
+    base = base or ChartSpec()
     try:
-        return replace(base or ChartSpec(), **values)
+        return replace(base, **values, **displaced_defaults(base, values, ChartSpec()))
     except TypeError as exc:   # a wrongly typed value that the checks did not name
         raise SpecError(str(exc)) from None
 
@@ -110,7 +106,9 @@ def spec_from_mapping(data: Mapping[str, Any], base: ChartSpec | None = None, wh
     try:
         if not isinstance(data, Mapping):
             raise SpecError(f"a spec must be a table of settings, got {type(data).__name__}")
-        return replace(base or ChartSpec(), **attr_values(data, "key"))
+        base = base or ChartSpec()
+        values = attr_values(data, "key")
+        return replace(base, **values, **displaced_defaults(base, values, ChartSpec()))
     except SpecError as exc:
         raise SpecError(f"{where}: {exc}") from None
 

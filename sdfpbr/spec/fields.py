@@ -15,8 +15,9 @@ from typing import Any, Callable, Mapping
 
 from ..errors import SpecError, did_you_mean
 from .bugs import BUGS, get_bug
-from .checks import (bool_text, boolean, choice, number, number_text, parse_color, parse_names, parse_range, parse_size,
-                     quote, sequence, text, vec3)
+from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
+                     parse_size, quote, sequence, text, vec3)
+from .material import AXIS_PARAMS, COLOR_PARAMS, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
                       LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
                       light_from_mapping)
@@ -27,6 +28,7 @@ from .toml_file import read_toml
 class Field:
     name: str                        # TOML key = Python keyword = flag without dashes
     kind: str                        # int float bool choice text path env range color names bugs lights size
+                                     # numbers colors
     default: Any
     check: Callable[[Any], Any]      # any accepted value -> the stored value; SpecError otherwise
     parse: Callable[[str], Any]      # command-line text -> a value for check
@@ -66,8 +68,10 @@ class Field:
             return repr(float(value))
         if self.kind == "range":
             return ":".join(repr(float(v)) for v in value)
-        if self.kind == "color":
+        if self.kind in ("color", "numbers"):
             return ",".join(repr(float(v)) for v in value)
+        if self.kind == "colors":
+            return ";".join(",".join(repr(float(v)) for v in c) for c in value)
         if self.kind in ("names", "bugs"):
             return ",".join(value)
         if self.kind == "size":
@@ -87,12 +91,40 @@ LIGHT_WORDS = {"default": DEFAULT_LIGHTS, "none": ()}
 
 # ---- checks the simple constructors do not cover -----------------------------------------------
 
-def _range(name: str):
+def _range(name: str, lo: float = 0.0, hi: float = 1.0):
+    """LO:HI, a [lo, hi] pair, or one number (a range of one value)."""
     def check(v):
         if isinstance(v, str):
-            v = parse_range(v, name)
-        return tuple(number(x, name, 0.0, 1.0) for x in sequence(v, name, 2, "LO:HI or a [lo, hi] pair"))
+            try:
+                v = parse_range(v, name) if ":" in v else number_text(v, name)
+            except SpecError:
+                raise SpecError(f"{name} must be LO:HI (e.g. 0:1) or one number, got {quote(v)}") from None
+        if is_number(v):
+            v = (v, v)
+        return tuple(number(x, name, lo, hi) for x in sequence(v, name, 2, "LO:HI, one number or a [lo, hi] pair"))
     return check
+
+
+def _numbers(name: str):
+    """An axis' explicit values: '0,0.5,1' or a list of numbers (checked against the axis'
+    parameter by the spec)."""
+    def check(v):
+        if isinstance(v, str):
+            v = tuple(number_text(t, name) for t in parse_names(v, ",+"))
+        values = sequence(v, name, form="a list of numbers")
+        if len(values) > MAX_GRID:
+            raise SpecError(f"{name} lists {len(values)} values; at most {MAX_GRID}")
+        return tuple(number(x, name) for x in values)
+    return check
+
+
+def _colors(v) -> tuple:
+    if isinstance(v, str):
+        v = [parse_color(t, "base_colors") for t in v.split(";")] if v.strip() else []
+    values = sequence(v, "base_colors", form="a list of R,G,B colours")
+    if len(values) > MAX_GRID * MAX_GRID:
+        raise SpecError(f"base_colors lists {len(values)} colours; at most one per cell ({MAX_GRID * MAX_GRID})")
+    return tuple(vec3(c, "base_colors", 0.0, 1.0) for c in values)
 
 
 def _color(name: str):
@@ -191,9 +223,9 @@ FIELDS: tuple[Field, ...] = (
     _other("size", "size", None, _size, "render area in pixels: sets width and height (default 1024x1024)",
            "WxH", attrs=("width", "height"), many="WxH sizes", bounds=(1, MAX_SIZE)),
     _other("range", "roughness", (0.0, 1.0), _range("roughness"),
-           "perceptual roughness across the columns, inclusive", "LO:HI", many="LO:HI pairs", bounds=(0.0, 1.0),
+           "perceptual roughness across the columns, inclusive (one value off an axis)", "LO:HI", many="LO:HI pairs", bounds=(0.0, 1.0),
            annotation=tuple[float, float]),
-    _other("range", "metallic", (0.0, 1.0), _range("metallic"), "metallic down the rows, inclusive", "LO:HI",
+    _other("range", "metallic", (0.0, 1.0), _range("metallic"), "metallic down the rows, inclusive (one value off an axis)", "LO:HI",
            many="LO:HI pairs", bounds=(0.0, 1.0), annotation=tuple[float, float]),
     _other("color", "base_color", (0.75, 0.75, 0.75), _color("base_color"), "linear base colour", "R,G,B",
            many="R,G,B colours (separated by ';')", bounds=(0.0, 1.0), annotation=tuple[float, float, float]),
@@ -251,6 +283,24 @@ FIELDS: tuple[Field, ...] = (
            annotation=str),
     _other("path", "normal_texture", "", _png("normal_texture"), "linear tangent-space normal map, OpenGL +Y (PNG)",
            "PNG", annotation=str),
+    _choice("x_axis", "roughness", AXIS_PARAMS, "the material parameter across the columns"),
+    _choice("y_axis", "metallic", AXIS_PARAMS, "the material parameter down the rows"),
+    _other("numbers", "x_values", (), _numbers("x_values"),
+           "explicit values across the columns, instead of the x parameter's range (sets cols unless given)",
+           "X,...", many="number lists (joined by '+')", annotation=tuple[float, ...]),
+    _other("numbers", "y_values", (), _numbers("y_values"),
+           "explicit values down the rows, instead of the y parameter's range (sets rows unless given)",
+           "Y,...", many="number lists (joined by '+')", annotation=tuple[float, ...]),
+    _other("colors", "base_colors", (), _colors, "linear base colours, one per row or one per cell "
+           "(overriding base_color; sets rows unless given)", "R,G,B;...", many="colour lists",
+           annotation=tuple),
+    *(_other("range", p.name, (p.value, p.value) if not p.axis_only else p.sweep,
+             _range(p.name, p.lo, p.hi), f"{p.help}: one value, or LO:HI on an axis", "X|LO:HI",
+             many="numbers or LO:HI pairs", bounds=(p.lo, p.hi), annotation=tuple[float, float])
+      for p in PARAMS if p.name not in ("roughness", "metallic")),
+    *(_other("color", name, default, _color(name), help, "R,G,B", many="R,G,B colours (separated by ';')",
+             bounds=(0.0, 1.0), annotation=tuple[float, float, float])
+      for name, (default, _lobe, help) in COLOR_PARAMS.items()),
 )
 
 FIELD_NAMES = tuple(f.name for f in FIELDS)
@@ -290,6 +340,12 @@ def attr_values(mapping: Mapping[str, Any], what: str = "option") -> dict[str, A
             out["width"], out["height"] = field.check(value)
         else:
             out[field.attr] = value
+    if out.get("x_values") and "cols" not in out:
+        out["cols"] = len(_numbers("x_values")(out["x_values"]))
+    if out.get("y_values") and "rows" not in out:
+        out["rows"] = len(_numbers("y_values")(out["y_values"]))
+    if out.get("base_colors") and "rows" not in out:
+        out["rows"] = len(_colors(out["base_colors"]))
     if out.get("row_materials") and "rows" not in out:
         out["row_materials"] = _materials(out["row_materials"])
         out["rows"] = len(out["row_materials"])
@@ -312,7 +368,7 @@ def field_value_from_text(name: str, value_text: str):
     field = resolve_field(name)
     if field.kind in ("names", "bugs"):
         return field.check(parse_names(value_text, ",+"))
-    return field.from_text(value_text)
+    return field.from_text(value_text)   # numbers: ',' or '+' between them
 
 
 def sweep_values_from_text(name: str, values_text: str) -> list:
@@ -326,7 +382,7 @@ def sweep_values_from_text(name: str, values_text: str) -> list:
     out = []
     for item in items:
         try:
-            value = parse_names(item, "+") if field.kind in ("names", "bugs") else field.parse(item)
+            value = parse_names(item, "+") if field.kind in ("names", "bugs", "numbers") else field.parse(item)
         except SpecError:
             raise SpecError(f"{field.name} values must be {field.many}, got {quote(item)}") from None
         # lights stay a word: a sweep labels each panel with its value

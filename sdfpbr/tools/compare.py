@@ -22,7 +22,7 @@ from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import Cell
 from ..image.sheet import (Axes, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
                            sheet_text_size)
-from ..image.chart_labels import chart_cells, footer_text
+from ..image.chart_labels import chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.fields import resolve_field, sweep_defaults
 
@@ -131,8 +131,7 @@ def _digests(spec: ChartSpec, result) -> tuple[str, str]:
 
 def chart_axes(spec: ChartSpec, camera) -> Axes:
     """The roughness / metallic labels of a chart of ``spec``, for a sheet panel."""
-    return Axes(chart_cells(spec, camera), spec.column_roughness(), spec.row_metallic(),
-                spec.row_materials or None)
+    return Axes(chart_cells(spec, camera), spec.axis_values("x"), spec.axis_values("y"), row_names(spec))
 
 
 def chart_panel(label: str, rendered: RenderedChart, axes: bool, text_size: int,

@@ -55,7 +55,7 @@ def cell_energy(result, spec: ChartSpec, table=None) -> list[CellEnergy]:
     table = table or FurnaceTable()
     aov = result.aov
     cells = []
-    bases = np.asarray(spec.row_base_colors(), np.float64)
+    bases = spec.material_array("base_color")
     for row in range(spec.rows):
         for col in range(spec.cols):
             m = (aov["row"] == row) & (aov["col"] == col)
@@ -64,7 +64,7 @@ def cell_energy(result, spec: ChartSpec, table=None) -> list[CellEnergy]:
             n_dot_v = aov["ndotv"][m].astype(np.float64)
             rough = aov["roughness"][m].astype(np.float64)
             metal = aov["metallic"][m].astype(np.float64)
-            want = spec.env_intensity * table.expected(n_dot_v, rough, bases[row], metal, spec.brdf, spec.multiscatter)
+            want = spec.env_intensity * table.expected(n_dot_v, rough, bases[row, col], metal, spec.brdf, spec.multiscatter)
             got = result.hdr[m].astype(np.float64)
             g, w = got.mean(-1), want.mean(-1)
             graze = n_dot_v < GRAZING_N_DOT_V

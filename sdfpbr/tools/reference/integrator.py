@@ -179,7 +179,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
     try:
         scene.uniforms.update({"u_cell_reach": cell_reach(spec), "u_max_bounces": max_bounces,
                                "u_lambert_only": int(lambert), "u_seed": seed})
-        scene.add_texture("u_dfg", compensation_texture(session, spec.brdf))
+        scene.add_texture("u_dfg", compensation_texture(session, spec.brdf, bool(plan.options.get("SHEEN"))))
         env_tables = environment_sampling(session, plan.env_table, scene.environment)
         scene.uniforms["u_env_sampling"] = int(env_tables is not None)
         scene.uniforms["u_env_map_size"] = env_tables["size"] if env_tables is not None else (1, 1)

@@ -11,7 +11,7 @@ import numpy as np
 
 from ...cache import content_key
 from ...gpu.programs import set_uniforms
-from ...oracle import mirror
+from ...oracle import lobes, mirror
 
 COMPENSATION_TABLE_SIZE = 128  # E(NdotV, r) grid, float64 quadrature (bilinear error < 4e-4)
 COMPENSATION_QUADRATURE = 16   # Gauss-Legendre order: within 7e-7 of order 32 on this grid
@@ -20,26 +20,29 @@ ENV_SUPERSAMPLE = 2            # env evaluations per texel edge
 LOCAL = 8                      # compute work-group edge
 
 
-def compensation_table(model: str, cache=None) -> np.ndarray:
-    """(size, size, 4) float32: [j, i] = (A, B, C, 1) at NdotV = i/(size-1), r = j/(size-1),
-    the layout dfg.glsl reads, by float64 quadrature (sdfpbr.oracle.mirror), disk-cached."""
+def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarray:
+    """(size, size, 4) float32: [j, i] = (A, B, C, E_s or 1) at NdotV = i/(size-1), r = j/(size-1),
+    the layout dfg.glsl reads, by float64 quadrature (sdfpbr.oracle.mirror, .lobes for the
+    sheen's albedo E_s when ``sheen``), disk-cached."""
     size, order = COMPENSATION_TABLE_SIZE, COMPENSATION_QUADRATURE
-    key = content_key("reference-dfg", model, size, order, Path(mirror.__file__).read_bytes())
+    key = content_key("reference-dfg", model, size, order, sheen, Path(mirror.__file__).read_bytes(),
+                      Path(lobes.__file__).read_bytes() if sheen else b"")
     cached = cache.get("reference_dfg", key) if cache is not None else None
     if cached is not None:
         return cached["table"]
     grid = np.arange(size, dtype=np.float64) / (size - 1)
     a, b, c = mirror.dfg_integrate(np.maximum(grid[None, :], mirror.MIN_N_DOT_V), grid[:, None], model=model, n=order)
-    table = np.stack([a, b, c, np.ones_like(a)], axis=-1).astype(np.float32)
+    e_sheen = lobes.sheen_albedo(np.maximum(grid[None, :], mirror.MIN_N_DOT_V), grid[:, None]) if sheen else np.ones_like(a)
+    table = np.stack([a, b, c, e_sheen], axis=-1).astype(np.float32)
     if cache is not None:
         cache.put("reference_dfg", key, {"table": table})
     return table
 
 
-def compensation_texture(session, model: str):
-    name = "reference-dfg:" + model
+def compensation_texture(session, model: str, sheen: bool = False):
+    name = f"reference-dfg:{model}:{sheen}"
     if name not in session.tables:
-        table = compensation_table(model, session.cache)
+        table = compensation_table(model, session.cache, sheen)
         size = table.shape[0]
         tex = session.ctx.texture((size, size), 4, np.ascontiguousarray(table).tobytes(), dtype="f4")
         tex.repeat_x = tex.repeat_y = False

@@ -186,8 +186,8 @@ def _sweep_case(d: _Draw, index: int, kind: str, fam: dict, size=None) -> Case:
         "exposure EV": _bucket_ev(exposure), "camera distance": _bucket_decade(distance),
         "geometry": geometry, "grid": _bucket_grid(rows, cols), "size (long side)": _bucket_size(width, height),
         "light intensity": [_bucket_decade(i) for i in intensities] or ["no lights"],
-        "roughness": _edge_hits(spec.column_roughness(), EDGE_ROUGHNESS),
-        "metallic": _edge_hits(spec.row_metallic(), EDGE_METALLIC),
+        "roughness": _edge_hits(spec.axis_values("x"), EDGE_ROUGHNESS),
+        "metallic": _edge_hits(spec.axis_values("y"), EDGE_METALLIC),
         "base colour": "presets" if materials else ("grey " + f"{base[0]:g}" if len(set(base)) == 1 else "mixed"),
         "tone map": spec.tonemap, "env": f"{spec.env} x{_bucket_decade(spec.env_intensity)}",
         "brdf": spec.brdf + ("" if spec.multiscatter else " single"), "camera": spec.camera,
@@ -232,7 +232,7 @@ def _monotonic_case(d: _Draw, index: int, fam: dict) -> Case:
         hdr_precision=fam["hdr_precision"], backend=fam["backend"].split("-")[0],
         exposure=float(d.rng.uniform(-20, 20)), tonemap=d.pick(TONEMAPS), labels=False)
     labels = {"kind": "monotonic", "backend": fam["backend"], "precision": fam["hdr_precision"],
-              "roughness": _edge_hits(spec.column_roughness(), EDGE_ROUGHNESS),
+              "roughness": _edge_hits(spec.axis_values("x"), EDGE_ROUGHNESS),
               "metallic": _edge_hits([metallic], EDGE_METALLIC), "base colour": f"grey {base:g}",
               "light intensity": [_bucket_decade(light.intensity)], "brdf": spec.brdf + ("" if spec.multiscatter else " single"),
               "quality": spec.quality}

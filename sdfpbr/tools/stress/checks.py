@@ -267,9 +267,9 @@ def furnace_error(hdr, aov, spec: ChartSpec, table: FurnaceTable) -> tuple[float
     # The expectation at every surface pixel (spheres: their row and column; ground: its own).
     lit = (ids != -1) & (aov["ndotv"] >= 0)
     sphere = lit & (ids >= 0)
-    rows = np.clip(aov["row"], 0, None)
+    rows, cols = np.clip(aov["row"], 0, None), np.clip(aov["col"], 0, None)
     rough = np.where(sphere, np.nan_to_num(aov["roughness"]), spec.ground_roughness)[lit]
-    base = np.where(sphere[..., None], np.asarray(spec.row_base_colors(), np.float64)[rows],
+    base = np.where(sphere[..., None], spec.material_array("base_color")[rows, cols],
                     np.asarray(spec.ground_color, np.float64))[lit]
     metal = np.where(sphere, np.nan_to_num(aov["metallic"]), 0.0)[lit]
     want = np.full(hdr.shape, np.nan)
@@ -302,7 +302,7 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
         normals.append(aov["normal"][row, x].astype(np.float64))
     if max(np.abs(np.asarray(normals) - np.asarray(normal)).max(-1)) > 1e-4:
         failures.append("columns are not pixel-aligned: probe normals differ")
-    rough = np.maximum(np.asarray(spec.column_roughness()), mirror.MIN_PERCEPTUAL_ROUGHNESS)
+    rough = np.maximum(spec.material_array("roughness")[0], mirror.MIN_PERCEPTUAL_ROUGHNESS)
     half = spec.hdr_precision == "float16"
     atol = HALF_SUBNORMAL if half else 0.0
     clamped = half and max(values) >= mirror.HALF_MAX * (1 - HALF_EPS)
@@ -340,7 +340,7 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
         scale = np.clip(n @ l, 0, None) * light.intensity
         lobes = [mirror.brdf(n, v, l, np.asarray(spec.base_color), metal, np.sqrt(alpha_light), model=spec.brdf,
                              multiscatter=spec.multiscatter, e_spec=e).mean(-1) * scale
-                 for metal in (spec.row_metallic()[0], 0.0, 1.0)]
+                 for metal in (spec.material_array("metallic")[0, 0], 0.0, 1.0)]
         want, got = lobes[0], np.asarray(values)
         if spec.hdr_precision == "float16":
             want = np.minimum(want, mirror.HALF_MAX)

@@ -1,0 +1,45 @@
+"""Every cell's material as the chart's programs read it (material.glsl): one row of
+TEXELS_PER_CELL RGBA float texels per cell, row index = grid row * cols + column.
+
+Texel layout (material.glsl reads it; change both together):
+  0: base colour (linear), metallic
+  1: perceptual roughness, clearcoat, clearcoat roughness, sheen roughness
+  2: sheen colour (linear), 0
+  3: specular f0 = min(f0(ior) x specular colour, 1), specular weight
+  4: emission = emissive colour x emissive strength, 0
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..oracle.lobes import dielectric_f0
+from ..spec.material import Material
+
+TEXELS_PER_CELL = 5
+
+
+def cell_texels(material: Material) -> np.ndarray:
+    """(TEXELS_PER_CELL, 4) float64 for one material."""
+    m = material
+    return np.array([
+        [*m.base_color, m.metallic],
+        [m.roughness, m.clearcoat, m.clearcoat_roughness, m.sheen_roughness],
+        [*m.sheen_color, 0.0],
+        [*dielectric_f0(m.ior, m.specular_color), m.specular],
+        [*(np.asarray(m.emissive) * m.emissive_strength), 0.0],
+    ], np.float64)
+
+
+def material_table(cells: list[list[Material]]) -> np.ndarray:
+    """(rows * cols, TEXELS_PER_CELL, 4) float32: the texture's rows, cell by cell."""
+    return np.stack([cell_texels(m) for row in cells for m in row]).astype(np.float32)
+
+
+def upload(ctx, cells: list[list[Material]]):
+    """The table as a texture (nearest, clamped: read with texelFetch)."""
+    import moderngl
+    table = np.ascontiguousarray(material_table(cells))
+    tex = ctx.texture((TEXELS_PER_CELL, table.shape[0]), 4, table.tobytes(), dtype="f4")
+    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    tex.repeat_x = tex.repeat_y = False
+    return tex

@@ -1,0 +1,218 @@
+"""What a chart's spheres are made of: the material parameters (each written down once: name,
+bounds, the value it takes off an axis, the lobe it belongs to, its axis title), the Material of
+one cell, and every cell's Material from a spec.
+
+A parameter is a range on the spec (``clearcoat = 0:1`` or one number, ``clearcoat = 0.5``);
+the chart's x and y axes each name one parameter, whose values run across the columns (down
+the rows): its range, inclusive, or an explicit list (``x_values``). Every other parameter
+holds one value. The float64 mirror (sdfpbr.oracle.lobes), the chart's material table
+(sdfpbr.shading.material_table) and the labels all read a cell's Material from here.
+"""
+from __future__ import annotations
+
+import colorsys
+from dataclasses import dataclass, fields
+
+from ..errors import SpecError
+from .presets import MATERIAL_PRESETS
+
+# The lobes a material can switch on beyond the glTF 2.0 core, each a compile option of the
+# chart and the reference (composed in only when some cell uses it).
+LOBES = ("clearcoat", "sheen", "specular", "emission")
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    lo: float
+    hi: float
+    value: float        # what the chart uses when no axis shows the parameter (its default)
+    title: str          # axis title
+    help: str
+    lobe: str = ""      # the lobe it belongs to ('' = the core metallic-roughness material)
+    axis_only: bool = False   # read only on an axis (base_color_hue)
+    axis_range: tuple[float, float] | None = None   # its range when put on an axis unset; None: (lo, hi)
+
+    @property
+    def sweep(self) -> tuple[float, float]:
+        return self.axis_range or (self.lo, self.hi)
+
+
+PARAMS: tuple[Param, ...] = (
+    Param("roughness", 0.0, 1.0, 0.5, "roughness r (α = r²)", "perceptual roughness"),
+    Param("metallic", 0.0, 1.0, 0.0, "metallic", "metallic"),
+    Param("clearcoat", 0.0, 1.0, 0.0, "clearcoat", "KHR_materials_clearcoat layer weight", "clearcoat"),
+    Param("clearcoat_roughness", 0.0, 1.0, 0.0, "clearcoat roughness", "the clearcoat's perceptual roughness",
+          "clearcoat"),
+    Param("sheen_roughness", 0.0, 1.0, 0.5, "sheen roughness", "KHR_materials_sheen perceptual roughness", "sheen"),
+    Param("ior", 1.0, 5.0, 1.5, "ior", "KHR_materials_ior index of refraction (f0 = ((ior-1)/(ior+1))²)",
+          "specular", axis_range=(1.0, 2.5)),
+    Param("specular", 0.0, 1.0, 1.0, "specular", "KHR_materials_specular weight of the dielectric specular",
+          "specular"),
+    Param("emissive_strength", 0.0, 1e4, 1.0, "emissive strength", "KHR_materials_emissive_strength",
+          "emission", axis_range=(0.0, 4.0)),
+    Param("base_color_hue", 0.0, 360.0, 0.0, "base colour hue (°)",
+          "hue of the base colour in degrees, on an axis only (saturation and value kept; 0.8 for a grey)",
+          axis_only=True, axis_range=(0.0, 300.0)),
+)
+PARAM_NAMES = tuple(p.name for p in PARAMS)
+AXIS_PARAMS = PARAM_NAMES
+_BY_NAME = {p.name: p for p in PARAMS}
+
+# Colour parameters of the lobes: name -> (default, lobe, help).
+COLOR_PARAMS = {
+    "sheen_color": ((0.0, 0.0, 0.0), "sheen", "linear KHR_materials_sheen colour (black: no sheen)"),
+    "specular_color": ((1.0, 1.0, 1.0), "specular", "linear KHR_materials_specular colour (scales f0)"),
+    "emissive": ((0.0, 0.0, 0.0), "emission", "linear emissive colour"),
+}
+
+GREY_HUE_SATURATION = 0.8   # the saturation a hue axis gives a grey base colour
+
+
+def param(name: str) -> Param:
+    return _BY_NAME[name]
+
+
+@dataclass(frozen=True)
+class Material:
+    """One cell's material: glTF 2.0 metallic-roughness and the KHR lobes (linear colours)."""
+    base_color: tuple[float, float, float] = (0.75, 0.75, 0.75)
+    metallic: float = 0.0
+    roughness: float = 0.5
+    clearcoat: float = 0.0
+    clearcoat_roughness: float = 0.0
+    sheen_color: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    sheen_roughness: float = 0.5
+    ior: float = 1.5
+    specular: float = 1.0
+    specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    emissive_strength: float = 1.0
+    name: str = ""
+
+    def lobes(self) -> set[str]:
+        """The lobes this material needs beyond the core (values that change nothing need none)."""
+        out = set()
+        if self.clearcoat > 0.0:
+            out.add("clearcoat")
+        if max(self.sheen_color) > 0.0:
+            out.add("sheen")
+        if self.ior != 1.5 or self.specular != 1.0 or self.specular_color != (1.0, 1.0, 1.0):
+            out.add("specular")
+        if max(self.emissive) > 0.0 and self.emissive_strength > 0.0:
+            out.add("emission")
+        return out
+
+
+MATERIAL_FIELDS = tuple(f.name for f in fields(Material) if f.name != "name")
+
+
+def inclusive(rng: tuple[float, float], n: int) -> list[float]:
+    lo, hi = rng
+    return [lo] if n == 1 else [lo + (hi - lo) * i / (n - 1) for i in range(n)]
+
+
+def axis_param(spec, axis: str) -> Param:
+    return param(spec.x_axis if axis == "x" else spec.y_axis)
+
+
+def axis_values(spec, axis: str) -> list[float]:
+    """The values along an axis ('x': across the columns, 'y': down the rows)."""
+    given = spec.x_values if axis == "x" else spec.y_values
+    if given:
+        return list(given)
+    return inclusive(getattr(spec, axis_param(spec, axis).name), spec.cols if axis == "x" else spec.rows)
+
+
+def with_hue(color, hue_deg: float) -> tuple[float, float, float]:
+    h, s, v = colorsys.rgb_to_hsv(*color)
+    if s == 0.0:
+        s = GREY_HUE_SATURATION
+    return colorsys.hsv_to_rgb((hue_deg / 360.0) % 1.0, s, v)
+
+
+def _per_cell(values, rows: int, cols: int, what: str) -> list[list]:
+    """A list given per row (rows entries) or per cell (rows x cols, row by row)."""
+    if len(values) == rows:
+        return [[v] * cols for v in values]
+    if len(values) == rows * cols:
+        return [list(values[r * cols:(r + 1) * cols]) for r in range(rows)]
+    raise SpecError(f"{what} lists {len(values)} entries for {rows} rows x {cols} columns; "
+                    f"give one per row ({rows}) or one per cell ({rows * cols})")
+
+
+def check_axes(spec) -> None:
+    """The spec's axes are consistent: two different parameters, value lists as long as the
+    grid, and every other parameter at one value."""
+    if spec.x_axis == spec.y_axis:
+        raise SpecError(f"x_axis and y_axis are both {spec.x_axis}; give two different parameters")
+    for axis, values, n, count in (("x", spec.x_values, spec.cols, "cols"), ("y", spec.y_values, spec.rows, "rows")):
+        p = axis_param(spec, axis)
+        if values and len(values) != n:
+            raise SpecError(f"{axis}_values lists {len(values)} values for {n} {count}; give {n} or leave {count} out")
+        for v in values:
+            if not p.lo <= v <= p.hi:
+                raise SpecError(f"{axis}_values: {p.name} must be in [{p.lo:g}, {p.hi:g}], got {v:g}")
+    on_axis = (spec.x_axis, spec.y_axis)
+    for p in PARAMS:
+        lo, hi = getattr(spec, p.name)
+        if p.name not in on_axis and not p.axis_only and lo != hi:
+            raise SpecError(f"{p.name} {lo:g}:{hi:g} varies but neither axis shows it; give it one value "
+                            f"({p.name} = {lo:g}) or put it on an axis (x_axis = \"{p.name}\")")
+    for what, values in (("base_colors", spec.base_colors), ("materials", spec.row_materials)):
+        if values:
+            _per_cell(values, spec.rows, spec.cols, what)
+
+
+def cell_materials(spec) -> list[list[Material]]:
+    """Every cell's Material, row by row (row 0 at the top, column 0 at the left)."""
+    rows, cols = spec.rows, spec.cols
+    if spec.row_materials:
+        bases = _per_cell([MATERIAL_PRESETS[m] for m in spec.row_materials], rows, cols, "materials")
+    elif spec.base_colors:
+        bases = _per_cell(list(spec.base_colors), rows, cols, "base_colors")
+    else:
+        bases = [[spec.base_color] * cols for _ in range(rows)]
+    fixed = {p.name: getattr(spec, p.name)[0] for p in PARAMS if not p.axis_only}
+    fixed.update({name: getattr(spec, name) for name in COLOR_PARAMS})
+    xs, ys = axis_values(spec, "x"), axis_values(spec, "y")
+    out = []
+    for r in range(rows):
+        row = []
+        for c in range(cols):
+            values = {**fixed, spec.x_axis: xs[c], spec.y_axis: ys[r]}
+            base = tuple(bases[r][c])
+            hue = values.pop("base_color_hue", None)
+            if "base_color_hue" in (spec.x_axis, spec.y_axis):
+                base = with_hue(base, hue)
+            row.append(Material(base_color=tuple(float(x) for x in base), **values))
+        out.append(row)
+    return out
+
+
+def material_array(spec, name: str):
+    """One parameter of every cell, (rows, cols) or (rows, cols, 3) for a colour, float64."""
+    import numpy as np
+    return np.array([[getattr(m, name) for m in row] for row in cell_materials(spec)], np.float64)
+
+
+def spec_lobes(spec) -> set[str]:
+    """The lobes some cell of the spec uses."""
+    return set().union(*(m.lobes() for row in cell_materials(spec) for m in row))
+
+
+def displaced_defaults(base, values: dict, default_spec) -> dict:
+    """Parameters the user left at their defaults follow the axes: one no axis shows any more
+    takes its one value (roughness 0.5, metallic 0), one an axis now shows takes its sweep
+    (clearcoat 0:1, ior 1:2.5), so ``x_axis = "clearcoat"`` alone is a chart of clearcoat."""
+    axes = (values.get("x_axis", base.x_axis), values.get("y_axis", base.y_axis))
+    out = {}
+    for p in PARAMS:
+        current = getattr(base, p.name)
+        if p.name in values or p.axis_only or current != getattr(default_spec, p.name):
+            continue
+        if p.name not in axes and current[0] != current[1]:
+            out[p.name] = (p.value, p.value)
+        elif p.name in axes and current[0] == current[1]:
+            out[p.name] = p.sweep
+    return out
