@@ -18,6 +18,9 @@ vec3 sheen_layer(Material m, vec3 f_base, vec3 n, vec3 v, vec3 l, float n_dot_v,
     float alpha = sq(m.sheen_perceptual_roughness);
     float n_dot_h = saturate(dot(n, normalize(v + l)));
     vec3 f_sheen = m.sheen_color_linear * d_charlie(n_dot_h, alpha) * v_sheen(n_dot_l, n_dot_v, alpha);
+#if BUG_SHEEN_NO_SCALING
+    return f_sheen + f_base;
+#endif
     float strength = max3(m.sheen_color_linear);
     float scaling = min(1.0 - strength * sheen_albedo(n_dot_v, m.sheen_perceptual_roughness),
                         1.0 - strength * sheen_albedo(n_dot_l, m.sheen_perceptual_roughness));
@@ -48,6 +51,10 @@ vec3 clearcoat_layer(Material m, vec3 base_cos, vec3 v, vec3 l, float light_angl
         coat = d_ggx(n, normalize(v + l), alpha)
              * visibility_direct(n_dot_l, n_dot_v, m.clearcoat_perceptual_roughness, alpha) * n_dot_l;
     }
+#if BUG_CLEARCOAT_ADDS
+    return base_cos + coat * clearcoat_weight(m, v);
+#else
     return mix(base_cos, vec3(coat), clearcoat_weight(m, v));
+#endif
 }
 #endif

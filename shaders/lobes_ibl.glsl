@@ -8,15 +8,21 @@ vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base) {
     vec3 color = base;
 #if SHEEN
     float e_sheen = sheen_albedo(n_dot_v, m.sheen_perceptual_roughness);
-    color = color * (1.0 - max3(m.sheen_color_linear) * e_sheen)
-          + m.sheen_color_linear * e_sheen * sh_irradiance(n) * INV_PI;
+#if !BUG_SHEEN_NO_SCALING
+    color *= 1.0 - max3(m.sheen_color_linear) * e_sheen;
+#endif
+    color += m.sheen_color_linear * e_sheen * sh_irradiance(n) * INV_PI;
 #endif
 #if CLEARCOAT
     vec3 n_c = m.clearcoat_normal;
     float n_c_dot_v = max(dot(n_c, v), MIN_N_DOT_V);
     vec3 dfg_c = dfg_lookup(n_c_dot_v, m.clearcoat_perceptual_roughness);
     vec3 coat = prefiltered_radiance(reflect(-v, n_c), m.clearcoat_perceptual_roughness) * (dfg_c.x + dfg_c.y);
+#if BUG_CLEARCOAT_ADDS
+    color += coat * clearcoat_weight(m, v);
+#else
     color = mix(color, coat, clearcoat_weight(m, v));
+#endif
 #endif
     return color;
 }

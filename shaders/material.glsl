@@ -29,7 +29,7 @@ Material cell_material(ivec2 cell, vec3 n_geo) {
     m.sheen_color_linear = cell_texel(cell, 2).rgb;
     m.sheen_perceptual_roughness = max(t1.w, MIN_PERCEPTUAL_ROUGHNESS);
 #endif
-#if KHR_SPECULAR
+#if KHR_SPECULAR && !BUG_IOR_IGNORED
     vec4 t3 = cell_texel(cell, 3);
     m.specular_f0 = t3.rgb;
     m.specular_weight = t3.a;

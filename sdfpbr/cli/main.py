@@ -174,6 +174,11 @@ def cmd_chart(args) -> int:
     from ..image.io import check_outputs
     spec = spec_from_args(args)
     check_outputs(spec, args.output, args.hdr, args.aov)   # before spending time on the render
+    if spec.gltf:   # say what of the asset the chart leaves out, so no image is silently partial
+        from ..spec.gltf import gltf_materials
+        for what in gltf_materials(spec.gltf, spec.gltf_materials).ignored:
+            print(f"sdfpbr: note: {what} is not charted (factors only: textures and alpha modes are not read)",
+                  file=sys.stderr)
     start = time.perf_counter()
     result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov))
     result.save(args.output, hdr=args.hdr, aov=args.aov)

@@ -3,6 +3,8 @@ grid), the title, the axis values and the footer of scene settings. The chart, t
 sheets and animations all label through here."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..shading.camera import cell_grid, sphere_centers
@@ -46,7 +48,10 @@ def _number(x: float) -> str:
 
 def default_title(spec: ChartSpec) -> str:
     """What the chart shows: the axes that vary, then those held at one value, and the grid
-    (measured-metal rows are named as such)."""
+    (measured-metal rows are named as such); a glTF chart: its file and material count."""
+    if spec.gltf:
+        count = spec.rows * spec.cols
+        return f"{Path(spec.gltf).name} — {count} material{'s' * (count != 1)}"
     def axis(name, values):
         name = name.replace("_", " ")
         return (name, True) if len(set(values)) > 1 else (f"{name} {_number(values[0])}", False)
@@ -67,10 +72,21 @@ def label(spec: ChartSpec, result, title: str | None = None, footer: str | None 
     if not spec.labels:
         return result.image
     title = spec.title or title or default_title(spec)
-    return compose_chart(result.image, chart_cells(spec, result.camera), spec.axis_values("x"),
-                         spec.axis_values("y"), title, footer if footer is not None else footer_text(spec),
+    footer = footer if footer is not None else footer_text(spec)
+    cells = chart_cells(spec, result.camera)
+    if spec.gltf:   # named cells, no axes
+        return compose_chart(result.image, cells, [], [], title, footer, transparent=spec.transparent,
+                             column_axis_title="", row_axis_title="", cell_names=cell_names(spec))
+    return compose_chart(result.image, cells, spec.axis_values("x"), spec.axis_values("y"), title, footer,
                          row_names=row_names(spec), transparent=spec.transparent,
                          column_axis_title=axis_param(spec, "x").title, row_axis_title=axis_param(spec, "y").title)
+
+
+def cell_names(spec: ChartSpec) -> list[str] | None:
+    """A glTF chart names its cells by material (its axes do not apply)."""
+    if not spec.gltf:
+        return None
+    return [m.name for row in spec.cell_materials() for m in row]
 
 
 def row_names(spec: ChartSpec) -> list[str] | None:

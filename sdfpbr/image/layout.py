@@ -200,8 +200,11 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
                   row_values: Sequence[float], title: str, footer: str,
                   row_names: Sequence[str] | None = None, transparent: bool = False,
                   column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
-                  row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> np.ndarray:
-    """Return a new RGBA uint8 chart: the render pasted pixel-exactly, with all text in margins."""
+                  row_axis_title: str = DEFAULT_ROW_AXIS_TITLE,
+                  cell_names: Sequence[str] | None = None) -> np.ndarray:
+    """Return a new RGBA uint8 chart: the render pasted pixel-exactly, with all text in margins;
+    ``cell_names`` (one per cell, row by row): a name under each sphere, over the render, for
+    charts whose cells are named materials rather than axis values."""
     render = np.asarray(render_rgba)
     if render.dtype != np.uint8 or render.ndim != 3 or render.shape[2] != 4:
         raise ValueError(f"expected an RGBA uint8 image, got {render.dtype} {render.shape}")
@@ -216,7 +219,25 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
             _canvases.pop(next(iter(_canvases)))
     chart = canvas.copy()
     chart[y0:y0 + render.shape[0], x0:x0 + render.shape[1]] = render
+    if cell_names:
+        chart = _name_cells(chart, cells, cell_names, x0, y0, render.shape[0])
     return chart
+
+
+def _name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], x0: int, y0: int,
+                render_height: int) -> np.ndarray:
+    """Each cell's name centred under its sphere, outlined so it reads over any floor."""
+    style = _styles(render_height)["label"]
+    layer = Image.new("RGBA", (chart.shape[1], chart.shape[0]), _TRANSPARENT)
+    draw = ImageDraw.Draw(layer)
+    for cell in cells:
+        name = names[cell.row * (max(c.col for c in cells) + 1) + cell.col]
+        text = drawable_text(name, style.font)
+        left, top, right, bottom = _ink(style, text)
+        baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - top
+        draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=style.color,
+                  anchor="ls", stroke_width=max(1, style.size // 8), stroke_fill=_OUTLINE)
+    return np.array(Image.alpha_composite(Image.fromarray(chart), layer))
 
 
 # The text and background around a render depend on the layout alone, not on the pixels: an

@@ -41,6 +41,10 @@ def _bug(name, summary, caption, option, value=True, program="chart", **requires
 
 
 _TEXTURED = {"textures": "procedural"}
+# The lobe bugs show on a chart with the lobe on (one value each: they stay off the axes).
+_COATED = {"clearcoat": 1.0, "clearcoat_roughness": 0.1}
+_SHEENED = {"sheen_color": (1.0, 0.5, 0.7), "sheen_roughness": 0.5}
+_GEM = {"ior": 2.4}
 
 BUGS: dict[str, Bug] = {b.name: b for b in (
     _bug("unsquared-roughness", "perceptual roughness used as GGX alpha",
@@ -122,6 +126,21 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "Textured spheres turn glossier and less metallic than their factors: the ORM data "
          "was decoded as colour, darkening mid values (0.5 -> 0.21). Fix: sample ORM as linear.",
          "BUG_ORM_SRGB", **_TEXTURED),
+    _bug("clearcoat-adds", "clearcoat added on top of the base, not layered",
+         "Coated spheres glow at their rims and gain energy: light the coat reflects cannot also "
+         "reach the base, so the base must lose the coat's share, clearcoat * F(N.V). Fix: "
+         "mix(base, coat, clearcoat * F) (KHR_materials_clearcoat's fresnel_coat).",
+         "BUG_CLEARCOAT_ADDS", **_COATED),
+    _bug("sheen-no-scaling", "sheen added without the albedo scaling",
+         "Velvet looks washed out and gains energy: the sheen's reflection is added to the whole "
+         "base instead of taking its share, 1 - max(sheen colour) E_s, from it. Fix: scale the "
+         "base by the sheen's albedo scaling (KHR_materials_sheen).",
+         "BUG_SHEEN_NO_SCALING", **_SHEENED),
+    _bug("ior-ignored", "dielectric f0 fixed at 0.04 whatever the ior",
+         "Gems and glass look like plastic: KHR_materials_ior's f0 = ((ior - 1)/(ior + 1))^2 "
+         "(0.17 at ior 2.4) and KHR_materials_specular's colour and weight were dropped for the "
+         "core 0.04. Fix: read f0 from ior and the specular colour.",
+         "BUG_IOR_IGNORED", **_GEM),
 )}
 
 # Every define a bug can add, for the composer's option table.

@@ -17,6 +17,7 @@ from ..errors import SpecError, did_you_mean
 from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
+from .gltf import GLTF_SUFFIXES, gltf_materials, grid_for
 from .material import AXIS_PARAMS, COLOR_PARAMS, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
                       LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
@@ -177,6 +178,21 @@ def _png(name: str):
     return check
 
 
+def _gltf(v) -> str:
+    text(v, "gltf (a .gltf or .glb path)")
+    if v and (Path(v).suffix.lower() not in GLTF_SUFFIXES or not Path(v).is_file()):
+        raise SpecError(f"gltf {quote(v)} is not an existing .gltf or .glb file")
+    return v
+
+
+def _gltf_names(v) -> tuple[str, ...]:
+    names = parse_names(v) if isinstance(v, str) else sequence(v, "gltf_materials", form="a list of material names")
+    for n in names:
+        if not isinstance(n, str) or not n:
+            raise SpecError(f"gltf_materials must be material names, got {quote(n)}")
+    return tuple(names)
+
+
 def _size(v) -> tuple[int, int]:
     w, h = parse_size(v)   # each side named as the user wrote it: "size width", "size height"
     return (number(w, "size width", 1, MAX_SIZE, integer=True),
@@ -301,6 +317,11 @@ FIELDS: tuple[Field, ...] = (
     *(_other("color", name, default, _color(name), help, "R,G,B", many="R,G,B colours (separated by ';')",
              bounds=(0.0, 1.0), annotation=tuple[float, float, float])
       for name, (default, _lobe, help) in COLOR_PARAMS.items()),
+    _other("path", "gltf", "", _gltf, "chart a glTF 2.0 asset's materials, one labelled cell each (needs the gltf "
+           "extra); sets rows and cols unless given", "FILE", annotation=str),
+    _other("names", "gltf_materials", (), _gltf_names, "the glTF materials to chart, in this order (default: all)",
+           "NAME,...", aliases=("material",), many="material lists (names joined by '+')",
+           annotation=tuple[str, ...]),
 )
 
 FIELD_NAMES = tuple(f.name for f in FIELDS)
@@ -346,6 +367,9 @@ def attr_values(mapping: Mapping[str, Any], what: str = "option") -> dict[str, A
         out["rows"] = len(_numbers("y_values")(out["y_values"]))
     if out.get("base_colors") and "rows" not in out:
         out["rows"] = len(_colors(out["base_colors"]))
+    if out.get("gltf") and "rows" not in out and "cols" not in out:
+        names = _gltf_names(out.get("gltf_materials", ()))
+        out["rows"], out["cols"] = grid_for(len(gltf_materials(_gltf(out["gltf"]), names).materials))
     if out.get("row_materials") and "rows" not in out:
         out["row_materials"] = _materials(out["row_materials"])
         out["rows"] = len(out["row_materials"])

@@ -14,6 +14,7 @@ import colorsys
 from dataclasses import dataclass, fields
 
 from ..errors import SpecError
+from .gltf import gltf_materials
 from .presets import MATERIAL_PRESETS
 
 # The lobes a material can switch on beyond the glTF 2.0 core, each a compile option of the
@@ -162,11 +163,21 @@ def check_axes(spec) -> None:
     for what, values in (("base_colors", spec.base_colors), ("materials", spec.row_materials)):
         if values:
             _per_cell(values, spec.rows, spec.cols, what)
+    if spec.gltf:
+        count = len(gltf_materials(spec.gltf, spec.gltf_materials).materials)
+        if count != spec.rows * spec.cols:
+            raise SpecError(f"gltf charts {count} materials, one per cell: rows x cols must be {count}, "
+                            f"got {spec.rows} x {spec.cols}")
+    elif spec.gltf_materials:
+        raise SpecError("gltf_materials names materials of a glTF asset; give gltf too")
 
 
 def cell_materials(spec) -> list[list[Material]]:
     """Every cell's Material, row by row (row 0 at the top, column 0 at the left)."""
     rows, cols = spec.rows, spec.cols
+    if spec.gltf:   # one material per cell, row by row; the axes do not apply
+        found = [Material(**m) for m in gltf_materials(spec.gltf, spec.gltf_materials).materials]
+        return [found[r * cols:(r + 1) * cols] for r in range(rows)]
     if spec.row_materials:
         bases = _per_cell([MATERIAL_PRESETS[m] for m in spec.row_materials], rows, cols, "materials")
     elif spec.base_colors:
