@@ -477,6 +477,14 @@ def spec_to_flags(spec, base=None) -> list[str]:
             flags.append(f"{flag}={field.to_text(added)}")
         else:
             flags.append(f"{flag}={field.to_text(value)}")
+    if any(f.startswith(("--x-axis=", "--y-axis=")) for f in flags):
+        # Parameters left at their defaults follow new axes (material.displaced_defaults):
+        # write them all, so the flags read back to this spec whatever they were.
+        written = {f.split("=", 1)[0] for f in flags}
+        for p in PARAMS:
+            field = resolve_field(p.name)
+            if field.option_strings[0] not in written:
+                flags.append(f"{field.option_strings[0]}={field.to_text(getattr(spec, field.attr))}")
     return flags
 
 
