@@ -22,6 +22,10 @@ SCENES: dict[str, dict] = {
     # IBL/BRDF integration (split sum, DFG LUT, multiple-scattering compensation).
     "furnace": {"env": "uniform", "lights": "none", "ground": False, "shadows": False, "ao": False,
                 "base_color": (1.0, 1.0, 1.0)},
+    # Every KHR lobe at once on the cells stage: clearcoat down the rows over a sheened,
+    # ior-2 dielectric (roughness across), so the chart composes clearcoat, sheen and specular.
+    "lobes": {"stage": "cells", "y_axis": "clearcoat", "metallic": 0.0, "base_color": (0.2, 0.3, 0.7),
+              "sheen_color": (0.6, 0.3, 0.4), "sheen_roughness": 0.5, "ior": 2.0, "clearcoat_roughness": 0.1},
 }
 SCENE_NOTES = {
     "default": "the default 5x5 chart",
@@ -31,6 +35,7 @@ SCENE_NOTES = {
     "grid10x10": "10x10 spheres",
     "bare": "no ground, shadows or AO",
     "furnace": "white spheres, uniform env, no lights/ground (white furnace)",
+    "lobes": "5x5 cells stage, roughness x clearcoat over sheen and ior 2 (the KHR lobes)",
 }
 BASE_PRESETS = ("draft", "default", "high")
 
