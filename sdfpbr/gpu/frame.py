@@ -10,7 +10,8 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
-from ..shading import material_table, plan
+from ..shading import plan
+from ..shading.material_table import upload as upload_materials
 from ..spec.chart_spec import ChartSpec, Quality
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
@@ -172,7 +173,7 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     bindings = SceneBindings(cam, env, {**uniforms, **env.uniforms})
     if env.texture is not None:
         bindings.add_texture("u_env_map", env.texture, owned=True)
-    bindings.add_texture("u_cell_materials", material_table.upload(ctx, spec.cell_materials()), owned=True)
+    bindings.add_texture("u_cell_materials", upload_materials(ctx, spec.cell_materials()), owned=True)
     if uses_textures:
         from .textures import texture_set, upload
         for name, tex in upload(ctx, texture_set(spec)).items():

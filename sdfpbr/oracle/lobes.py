@@ -12,16 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import mirror
+from ..spec.material import dielectric_f0
 from .mirror import DIELECTRIC_F0, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, fresnel_weight
 
 __all__ = ["dielectric_f0", "d_charlie", "v_sheen", "sheen_albedo", "layered_brdf", "layered_albedo"]
-
-
-def dielectric_f0(ior, specular_color=(1.0, 1.0, 1.0)):
-    """KHR_materials_ior and _specular: min(((ior - 1) / (ior + 1))^2 specular_color, 1), (..., 3)."""
-    ior = np.asarray(ior, np.float64)
-    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
-    return np.minimum(f0[..., None] * np.asarray(specular_color, np.float64), 1.0)
 
 
 def d_charlie(n_dot_h, alpha):

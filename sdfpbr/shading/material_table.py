@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..oracle.lobes import dielectric_f0
-from ..spec.material import Material
+from ..spec.material import Material, dielectric_f0
 
 TEXELS_PER_CELL = 5
 

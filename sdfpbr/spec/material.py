@@ -13,6 +13,8 @@ from __future__ import annotations
 import colorsys
 from dataclasses import dataclass, fields
 
+import numpy as np
+
 from ..errors import SpecError
 from .gltf import gltf_materials
 from .presets import MATERIAL_PRESETS
@@ -103,6 +105,14 @@ class Material:
         if max(self.emissive) > 0.0 and self.emissive_strength > 0.0:
             out.add("emission")
         return out
+
+
+def dielectric_f0(ior, specular_color=(1.0, 1.0, 1.0)):
+    """KHR_materials_ior and _specular: min(((ior - 1) / (ior + 1))^2 specular_color, 1), (..., 3)."""
+    ior = np.asarray(ior, np.float64)
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
+    return np.minimum(f0[..., None] * np.asarray(specular_color, np.float64), 1.0)
+
 
 
 MATERIAL_FIELDS = tuple(f.name for f in fields(Material) if f.name != "name")
@@ -203,7 +213,6 @@ def cell_materials(spec) -> list[list[Material]]:
 
 def material_array(spec, name: str):
     """One parameter of every cell, (rows, cols) or (rows, cols, 3) for a colour, float64."""
-    import numpy as np
     return np.array([[getattr(m, name) for m in row] for row in cell_materials(spec)], np.float64)
 
 

@@ -38,11 +38,11 @@ def _file_digest(path: str) -> str:
 
 
 def _spec_for_key(spec: ChartSpec) -> dict:
-    """to_dict, with each named file (env, textures) replaced by its content hash, so the key
-    follows what a file holds, not where the checkout lives."""
+    """to_dict, with each named file (env, textures, glTF asset) replaced by its content hash, so
+    the key follows what a file holds, not where the checkout lives."""
     out = {}
     for k, v in spec.to_dict().items():
-        names_file = k == "env" and v not in ENV_PRESETS or k.endswith("_texture")
+        names_file = k == "env" and v not in ENV_PRESETS or k.endswith("_texture") or k == "gltf"
         if names_file and isinstance(v, str) and v and Path(v).is_file():
             v = "sha256:" + _file_digest(v)
         out[k] = v
