@@ -13,7 +13,8 @@ from typing import Sequence
 import numpy as np
 from PIL import Image, ImageDraw
 
-from .layout import BACKGROUND, Cell, compose_chart, render_area_offset
+from .layout import (BACKGROUND, DEFAULT_COLUMN_AXIS_TITLE, DEFAULT_ROW_AXIS_TITLE, Cell, compose_chart,
+                     render_area_offset)
 from .text import drawable_text, load_font, wrap_text
 
 TITLE_COLOR = (240, 240, 240, 255)
@@ -62,6 +63,8 @@ class Axes:
     column_values: Sequence[float]
     row_values: Sequence[float]
     row_names: Sequence[str] | None = None
+    column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE
+    row_axis_title: str = DEFAULT_ROW_AXIS_TITLE
 
 
 def flatten(rgba: np.ndarray, background=BACKGROUND) -> np.ndarray:
@@ -101,9 +104,10 @@ def panel(label: str, image: np.ndarray, text_size: int, *, axes: Axes | None = 
         cells = [Cell(c.row, c.col, c.cx + ox, c.cy + oy, c.radius_px) for c in axes.cells]
         names = list(axes.row_names) if axes.row_names else None
         rows = axes.row_values
-        out = compose_chart(image, cells, axes.column_values, rows, label, "", row_names=names)
+        titles = dict(column_axis_title=axes.column_axis_title, row_axis_title=axes.row_axis_title)
+        out = compose_chart(image, cells, axes.column_values, rows, label, "", row_names=names, **titles)
         x0, y0 = render_area_offset(image.shape, len(rows), len(axes.column_values), label, "",
-                                    row_values=rows, row_names=names)
+                                    row_values=rows, row_names=names, **titles)
         return Panel(label, out, Box(x0 + ox, y0 + oy, aw, ah), spec_index)
     font = load_font(text_size)
     pad = max(4, text_size // 3)

@@ -41,10 +41,12 @@ def _bug(name, summary, caption, option, value=True, program="chart", **requires
 
 
 _TEXTURED = {"textures": "procedural"}
-# The lobe bugs show on a chart with the lobe on (one value each: they stay off the axes).
-_COATED = {"clearcoat": 1.0, "clearcoat_roughness": 0.1}
-_SHEENED = {"sheen_color": (1.0, 0.5, 0.7), "sheen_roughness": 0.5}
-_GEM = {"ior": 2.4}
+# The lobe bugs show on a dielectric chart with their lobe down the rows (roughness across).
+_COATED = {"y_axis": "clearcoat", "clearcoat": (0.0, 1.0), "clearcoat_roughness": 0.1, "metallic": (0.0, 0.0),
+           "base_color": (0.6, 0.05, 0.05)}
+_SHEENED = {"y_axis": "sheen_roughness", "sheen_roughness": (0.2, 1.0), "sheen_color": (1.0, 0.5, 0.7),
+            "metallic": (0.0, 0.0), "base_color": (0.1, 0.1, 0.3)}
+_GEM = {"y_axis": "ior", "ior": (1.5, 2.5), "metallic": (0.0, 0.0), "base_color": (0.05, 0.05, 0.05)}
 
 BUGS: dict[str, Bug] = {b.name: b for b in (
     _bug("unsquared-roughness", "perceptual roughness used as GGX alpha",

@@ -25,6 +25,7 @@ from ..image.sheet import (Axes, CellValue, Panel, assemble, flatten, number_sty
 from ..image.chart_labels import chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.fields import resolve_field, sweep_defaults
+from ..spec.material import axis_param
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
            "bug_pair", "spec_differences", "at_panel_size",
@@ -131,7 +132,8 @@ def _digests(spec: ChartSpec, result) -> tuple[str, str]:
 
 def chart_axes(spec: ChartSpec, camera) -> Axes:
     """The roughness / metallic labels of a chart of ``spec``, for a sheet panel."""
-    return Axes(chart_cells(spec, camera), spec.axis_values("x"), spec.axis_values("y"), row_names(spec))
+    return Axes(chart_cells(spec, camera), spec.axis_values("x"), spec.axis_values("y"), row_names(spec),
+                axis_param(spec, "x").title, axis_param(spec, "y").title)
 
 
 def chart_panel(label: str, rendered: RenderedChart, axes: bool, text_size: int,
