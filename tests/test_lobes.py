@@ -88,7 +88,7 @@ def test_glsl_layers_match_the_float64_mirror(ctx, session, tmp_path, lobe):
     v = np.where((v * n).sum(1, keepdims=True) < 0, -v, v)
     l = _units(rng, count)
     n_dot_v = np.clip((n * v).sum(1), mirror.MIN_N_DOT_V, 1)
-    e = mirror._e_for(n_dot_v, np.full(count, max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)), "gltf")
+    e = mirror.single_scatter_albedo(n_dot_v, np.full(count, max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)), "gltf")
     cases = np.zeros((count, 4, 4), np.float32)
     cases[:, 0, :3], cases[:, 1, :3], cases[:, 2, :3], cases[:, 3, 0] = n, v, l, e
     root = tmp_path / "shaders"

@@ -108,16 +108,16 @@ def layered_brdf(n, v, l, m, model="gltf", multiscatter=True, e_spec=None):
     h = mirror.normalize(v + l)
     n_dot_h = np.clip(np.sum(n * h, -1), 0.0, 1.0)
     v_dot_h = np.abs(np.sum(v * h, -1))
-    f_spec = (mirror.d_ggx(n_dot_h, alpha) * mirror._vis(model, nl, n_dot_v, r, alpha, False))[..., None]
+    f_spec = (mirror.d_ggx(n_dot_h, alpha) * mirror.visibility(model, nl, n_dot_v, r, alpha, False))[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     f0 = dielectric_f0(m.ior, m.specular_color)
     fd = m.specular * (f0 + (1.0 - f0) * fc)
     spec_d = f_spec * fd
     spec_m = f_spec * (base + (1.0 - base) * fc)
     if multiscatter:
-        e = mirror._e_for(n_dot_v, np.full(n_dot_v.shape, r), model) if e_spec is None else np.asarray(e_spec)
-        spec_d = spec_d * mirror._compensation(f0, e)
-        spec_m = spec_m * mirror._compensation(base, e)
+        e = mirror.single_scatter_albedo(n_dot_v, np.full(n_dot_v.shape, r), model) if e_spec is None else np.asarray(e_spec)
+        spec_d = spec_d * mirror.energy_compensation(f0, e)
+        spec_m = spec_m * mirror.energy_compensation(base, e)
     diffuse = base / np.pi * (1.0 - np.max(fd, axis=-1, keepdims=True))
     f = (1.0 - m.metallic) * (diffuse + spec_d) + m.metallic * spec_m
     sheen = max(m.sheen_color)
@@ -128,7 +128,7 @@ def layered_brdf(n, v, l, m, model="gltf", multiscatter=True, e_spec=None):
         f = f_sheen + f * scaling[..., None]
     if m.clearcoat > 0.0:
         rc = max(m.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)
-        coat = mirror.d_ggx(n_dot_h, rc * rc) * mirror._vis(model, nl, n_dot_v, rc, rc * rc, False)
+        coat = mirror.d_ggx(n_dot_h, rc * rc) * mirror.visibility(model, nl, n_dot_v, rc, rc * rc, False)
         w = m.clearcoat * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fresnel_weight(n_dot_v))
         f = f * (1.0 - w[..., None]) + (coat * w)[..., None]
     return np.where(lit[..., None], f, 0.0)
@@ -160,14 +160,15 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
                           1.0 - sheen * _sheen_albedo_interp(np.maximum(n_dot_l, MIN_N_DOT_V), rs))
 
     # The base's GGX lobe: F weights (1 - Fc) and Fc for f0 and the rest, times the sheen scaling.
-    A, B = _ggx_integrals(mu, r, model, n, sheen_scale)
-    e = _ggx_integrals(mu, r, model, n, None)
-    e = e[0] + e[1]
+    A, B = _ggx_integrals(mu, r, model, n, sheen_scale if sheen > 0.0 else None)
+    e = A + B
+    if sheen > 0.0:   # the compensation's E is the lobe's own albedo, without the scaling
+        e = sum(_ggx_integrals(mu, r, model, n, None))
     spec_d = m.specular * (f0 * A[:, None] + B[:, None])
     spec_m = base * A[:, None] + B[:, None]
     if multiscatter:
-        spec_d = spec_d * mirror._compensation(f0, e)
-        spec_m = spec_m * mirror._compensation(base, e)
+        spec_d = spec_d * mirror.energy_compensation(f0, e)
+        spec_m = spec_m * mirror.energy_compensation(base, e)
     # Lambert and sheen over l.
     nl, vl, wgt = _hemisphere_grid(mu, n)
     nh, vh = _half(mu, nl, vl)

@@ -27,6 +27,10 @@ __all__ = [
     "k_direct",
     "k_ibl",
     "fresnel_schlick",
+    "visibility",
+    "energy_compensation",
+    "single_scatter_albedo",
+    "ggx_lobe_integrals",
     "dfg_integrate",
     "e_avg",
     "dfg_table",
@@ -147,7 +151,7 @@ def fresnel_schlick(f0, v_dot_h, dtype=np.float64):
     return f0 + (1.0 - f0) * fresnel_weight(x)
 
 
-def _vis(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl, dtype=np.float64):
+def visibility(model, n_dot_l, n_dot_v, perceptual_roughness, alpha, ibl, dtype=np.float64):
     if model == "gltf":
         return vis_smith_ggx_correlated(n_dot_l, n_dot_v, alpha, dtype)
     k = k_ibl(perceptual_roughness, dtype) if ibl else k_direct(perceptual_roughness, dtype)
@@ -247,7 +251,7 @@ def _dfg_spec_flat(mu, r, model, n, weight=None):
         phi = phi_max * xp
         v_dot_h = sv3 * s * np.cos(phi) + mu3 * c
         n_dot_l = np.maximum(2.0 * v_dot_h * c - mu3, 0.0)
-        vis = _vis(model, n_dot_l, mu3, r3, al3, ibl=True)
+        vis = visibility(model, n_dot_l, mu3, r3, al3, ibl=True)
         g = vis * n_dot_l * 4.0 * v_dot_h / np.maximum(c, _TINY)
         # Weight: w_theta * phi_max w_phi * 2 (symmetry) / (2 pi).
         wgt = w_th * phi_max * wp / np.pi
@@ -356,12 +360,12 @@ def _dot(a, b):
     return np.sum(a * b, axis=-1)
 
 
-def _compensation(f0, e):
+def energy_compensation(f0, e):
     # Filament's Kulla-Conty simplification; f0 (..., 3), e (...).
     return 1.0 + f0 * (1.0 / e[..., None] - 1.0)
 
 
-def _e_for(n_dot_v, r, model):
+def single_scatter_albedo(n_dot_v, r, model):
     """E = A + B at (n_dot_v, r), integrating each distinct pair once."""
     nv, rr = np.broadcast_arrays(n_dot_v, r)
     pairs = np.stack([nv.ravel(), rr.ravel()], axis=-1)
@@ -401,16 +405,16 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
     v_dot_h = np.abs(_dot(v, h))
 
-    f_spec = (d_ggx(n_dot_h, alpha, dtype) * _vis(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
+    f_spec = (d_ggx(n_dot_h, alpha, dtype) * visibility(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc
     spec_d = f_spec * fd
     spec_m = f_spec * (base + (1.0 - base) * fc)
     if multiscatter:
-        e = _e_for(n_dot_v.astype(np.float64), r.astype(np.float64), model) if e_spec is None else e_spec
+        e = single_scatter_albedo(n_dot_v.astype(np.float64), r.astype(np.float64), model) if e_spec is None else e_spec
         e = np.maximum(np.asarray(e, dtype=dtype), _tiny(dtype))
-        spec_d = spec_d * _compensation(np.asarray(DIELECTRIC_F0, dtype), e)
-        spec_m = spec_m * _compensation(base, e)
+        spec_d = spec_d * energy_compensation(np.asarray(DIELECTRIC_F0, dtype), e)
+        spec_m = spec_m * energy_compensation(base, e)
     dielectric = base / np.pi * (1.0 - fd) + spec_d
     f = (1.0 - metal) * dielectric + metal * spec_m
     f = np.where(lit[..., None], f, 0.0)
@@ -444,8 +448,8 @@ def furnace_from_dfg(A, B, C, base_color, metallic, multiscatter=True):
     spec_d = f0d * A + B
     spec_m = base * A + B
     if multiscatter:
-        spec_d = spec_d * _compensation(f0d, e)
-        spec_m = spec_m * _compensation(base, e)
+        spec_d = spec_d * energy_compensation(f0d, e)
+        spec_m = spec_m * energy_compensation(base, e)
     dielectric = base * C + spec_d
     out = (1.0 - metal) * dielectric + metal * spec_m
     return np.broadcast_to(out, np.broadcast_shapes(out.shape, (3,))).copy()
