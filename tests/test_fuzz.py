@@ -80,6 +80,13 @@ def _word_outside(allowed):
     return PRINTABLE.filter(lambda t: t not in allowed)
 
 
+def _unit_number(text):
+    try:
+        return 0 <= float(text) <= 1
+    except ValueError:
+        return False
+
+
 def _valid_unit_interval():
     return st.floats(0, 1).map(repr)
 
@@ -108,7 +115,8 @@ INVALID_FLAGS = st.one_of(
     st.tuples(st.sampled_from(["--roughness", "--metallic"]),
               st.one_of(st.tuples(_float_outside(0, 1), _valid_unit_interval()).map(":".join),
                         st.tuples(_valid_unit_interval(), _float_outside(0, 1)).map(":".join),
-                        PRINTABLE.filter(lambda t: t.count(":") != 1))),
+                        _float_outside(0, 1),  # one number is a range of one value: only out of bounds is wrong
+                        PRINTABLE.filter(lambda t: t.count(":") != 1 and not _unit_number(t)))),
     st.tuples(st.just("--base-color"),
               st.one_of(st.tuples(_float_outside(0, 1), _valid_unit_interval(), _valid_unit_interval()).map(",".join),
                         PRINTABLE.filter(lambda t: t.count(",") != 2))),
@@ -142,6 +150,7 @@ def _argv(valid, invalid):
 @example(valid=[], invalid=("--rows", "inf"))
 @example(valid=[], invalid=("--size", "0x8"))
 @example(valid=[], invalid=("--exposure", "nan"))
+@example(valid=[], invalid=("--roughness", "1.5"))
 def test_invalid_cli_arguments_are_one_line_exit_2(workdir, valid, invalid):
     assert_rejected(_argv(valid, invalid), workdir)
 
