@@ -219,3 +219,31 @@ def test_a_kept_layout_labels_every_render_alike_and_is_not_changed_by_its_chart
     forget_layouts()
     fresh = compose_chart(a, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)     # drawn anew
     np.testing.assert_array_equal(fresh[~inside], third[~inside])  # the same margins, text and all
+
+
+def _overlap(a, b):
+    return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
+
+
+@pytest.mark.parametrize("size", [(128, 128), (1024, 128), (128, 1024), (300, 200), (1024, 1024), (2048, 512)])
+def test_no_two_labels_collide_for_any_grid_up_to_64x64(size):
+    """Column and row labels thin out (every k-th, both ends kept) before they collide; the
+    titles, footer and rotated axis title keep their own lines. Cells come from the chart's
+    own camera, as on a render of that grid."""
+    from sdfpbr.image.chart_labels import chart_cells, footer_text, default_title
+    from sdfpbr.image.layout import label_boxes
+    from sdfpbr.shading.camera import frame
+    width, height = size
+    for rows in (1, 2, 5, 11, 20, 33, 64):
+        for cols in (1, 3, 7, 16, 24, 40, 64):
+            spec = make_spec(rows=rows, cols=cols, width=width, height=height)
+            cells = chart_cells(spec, frame(spec))
+            columns, row_values = spec.axis_values("x"), spec.axis_values("y")
+            boxes = label_boxes((height, width), cells, columns, row_values, default_title(spec), footer_text(spec))
+            for i, (ta, a) in enumerate(boxes):
+                for tb, b in boxes[i + 1:]:
+                    assert not _overlap(a, b), (rows, cols, size, ta, a, tb, b)
+            texts = [t for t, _ in boxes]
+            # Both ends of each axis stay labelled, and every drawn label is one of the axis's values.
+            for values in (columns, row_values):
+                assert label_text(values[0]) in texts and label_text(values[-1]) in texts, (rows, cols, size)

@@ -26,7 +26,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from .text import drawable_text, load_font
 
-__all__ = ["Cell", "compose_chart", "render_area_offset", "label_text"]
+__all__ = ["Cell", "compose_chart", "render_area_offset", "label_text", "label_boxes"]
 
 DEFAULT_COLUMN_AXIS_TITLE = "roughness r (α = r²)"
 DEFAULT_ROW_AXIS_TITLE = "metallic"
@@ -252,58 +252,116 @@ def forget_layouts() -> None:
     _canvases.clear()
 
 
-def _text_canvas(render_shape, cells, column_values, row_values, title, footer, row_names, transparent,
-                 column_axis_title, row_axis_title) -> tuple[np.ndarray, tuple[int, int]]:
-    """The chart without its render: background and every label, and where the render goes."""
+@dataclass(frozen=True)
+class _Text:
+    """One piece of text as placed on the chart: its style, where its baseline starts, and its
+    ink box (left, top, right, bottom) in chart pixels, outline included."""
+    style: str
+    text: str
+    x: float
+    baseline: float
+    box: tuple[float, float, float, float]
+    rotated: bool = False   # the row axis title, drawn turned 90° counter-clockwise
+
+
+def _thinned(boxes: Sequence[tuple[float, float]], gap: float) -> list[int]:
+    """Indices of the labels to draw along one axis, every k-th with the smallest k for which no
+    two drawn labels (their extents along the axis, ``gap`` apart) collide; the last label is
+    drawn too, in place of the one before it when the two would collide."""
+    n = len(boxes)
+
+    def clear(a, b):
+        return boxes[a][1] + gap <= boxes[b][0]
+
+    for k in range(1, n + 1):
+        shown = list(range(0, n, k))
+        if shown[-1] != n - 1:
+            shown = shown[:-1] + [n - 1] if not clear(shown[-1], n - 1) and len(shown) > 1 else shown + [n - 1]
+        if all(clear(a, b) for a, b in zip(shown, shown[1:])):
+            return shown
+    return [0]
+
+
+def _placements(lay: _Layout, render_shape, cells, column_values, row_labels) -> list[_Text]:
+    """Every piece of text of the chart, placed; column and row labels thinned so that none collide."""
     rh, rw = render_shape[:2]
-    row_labels = _row_labels(row_values, row_names)
-    lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
     x0, y0, width, height = lay.x0, lay.y0, lay.width, lay.height
-
-    layer = Image.new("RGBA", (width, height), _TRANSPARENT)
-    draw = ImageDraw.Draw(layer)
-
-    def put(style: _Style, text: str, x: float, baseline: float) -> None:
-        draw.text((x, baseline), text, font=style.font, fill=style.color, anchor="ls",
-                  stroke_width=style.stroke if transparent else 0, stroke_fill=_OUTLINE)
-
-    def put_centred(style: _Style, text: str, centre_x: float, baseline: float) -> None:
-        left, _, right, _ = _ink(style, text)
-        x = min(max(centre_x - (left + right) / 2, -left), width - right)  # keep inside canvas
-        put(style, text, x, baseline)
-
     styles = lay.styles
+    out: list[_Text] = []
+
+    def at(key: str, text: str, x: float, baseline: float) -> _Text:
+        left, top, right, bottom = _ink(styles[key], text)
+        return _Text(key, text, x, baseline, (x + left, baseline + top, x + right, baseline + bottom))
+
+    def centred(key: str, text: str, centre_x: float, baseline: float) -> _Text:
+        left, _, right, _ = _ink(styles[key], text)
+        return at(key, text, min(max(centre_x - (left + right) / 2, -left), width - right), baseline)  # inside
+
     centre_x = x0 + rw / 2
     if lay.title:
-        put_centred(styles["title"], lay.title, centre_x, _baseline(styles["title"], lay.title_top))
+        out.append(centred("title", lay.title, centre_x, _baseline(styles["title"], lay.title_top)))
     if lay.column_axis_title:
-        put_centred(styles["axis"], lay.column_axis_title, centre_x, _baseline(styles["axis"], lay.axis_top))
+        out.append(centred("axis", lay.column_axis_title, centre_x, _baseline(styles["axis"], lay.axis_top)))
     if lay.footer:
-        put_centred(styles["footer"], lay.footer, centre_x, _baseline(styles["footer"], lay.footer_top))
+        out.append(centred("footer", lay.footer, centre_x, _baseline(styles["footer"], lay.footer_top)))
 
     label = styles["label"]
+    spacing = max(2, label.size // 3)
     col_centres = _mean_centres(cells, len(column_values), "cx", "col", rw)
-    for value, cx in zip(column_values, col_centres):
-        put_centred(label, drawable_text(label_text(value), label.font), x0 + cx, _baseline(label, lay.labels_top))
+    columns = [centred("label", drawable_text(label_text(v), label.font), x0 + cx, _baseline(label, lay.labels_top))
+               for v, cx in zip(column_values, col_centres)]
+    out += [columns[i] for i in _thinned([(t.box[0], t.box[2]) for t in columns], spacing)] if columns else []
 
     # Row labels: right-aligned against the render area, digits centred on the row's cy.
     _, digit_top, _, digit_bottom = label.font.getbbox("0123456789", anchor="ls")
-    row_centres = _mean_centres(cells, len(row_values), "cy", "row", rh)
+    row_centres = _mean_centres(cells, len(row_labels), "cy", "row", rh)
+    rows = []
     for text, cy in zip(row_labels, row_centres):
         text = drawable_text(text, label.font)
         _, top, right, bottom = _ink(label, text)
-        baseline = min(max(y0 + cy - (digit_top + digit_bottom) / 2, -top), height - bottom)
-        put(label, text, x0 - lay.gap - right, baseline)
+        rows.append(at("label", text, x0 - lay.gap - right,
+                       min(max(y0 + cy - (digit_top + digit_bottom) / 2, -top), height - bottom)))
+    out += [rows[i] for i in _thinned([(t.box[1], t.box[3]) for t in rows], spacing)] if rows else []
 
     if lay.row_axis_title:  # rotated 90° counter-clockwise, centred on the render area
         axis = styles["axis"]
         left, _, right, _ = _ink(axis, lay.row_axis_title)
-        strip = Image.new("RGBA", (right - left, _line_height(axis)), _TRANSPARENT)
-        ImageDraw.Draw(strip).text((-left, _baseline(axis, 0)), lay.row_axis_title, font=axis.font,
-                                   fill=axis.color, anchor="ls", stroke_fill=_OUTLINE,
-                                   stroke_width=axis.stroke if transparent else 0)
-        strip = strip.transpose(Image.Transpose.ROTATE_90)
-        layer.alpha_composite(strip, (lay.pad, max(0, round(y0 + rh / 2 - strip.height / 2))))
+        w, h = right - left, _line_height(axis)
+        top = max(0, round(y0 + rh / 2 - w / 2))
+        out.append(_Text("axis", lay.row_axis_title, lay.pad, top, (lay.pad, top, lay.pad + h, top + w), rotated=True))
+    return out
+
+
+def label_boxes(render_shape: Sequence[int], cells: Sequence[Cell], column_values: Sequence[float],
+                row_values: Sequence[float], title: str, footer: str, row_names: Sequence[str] | None = None,
+                column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
+                row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> list[tuple[str, tuple[float, float, float, float]]]:
+    """(text, ink box in chart pixels) of every piece of text compose_chart draws for this layout."""
+    row_labels = _row_labels(row_values, row_names)
+    lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
+    return [(t.text, t.box) for t in _placements(lay, render_shape, cells, column_values, row_labels)]
+
+
+def _text_canvas(render_shape, cells, column_values, row_values, title, footer, row_names, transparent,
+                 column_axis_title, row_axis_title) -> tuple[np.ndarray, tuple[int, int]]:
+    """The chart without its render: background and every label, and where the render goes."""
+    row_labels = _row_labels(row_values, row_names)
+    lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
+    width, height = lay.width, lay.height
+    layer = Image.new("RGBA", (width, height), _TRANSPARENT)
+    draw = ImageDraw.Draw(layer)
+    for t in _placements(lay, render_shape, cells, column_values, row_labels):
+        style = lay.styles[t.style]
+        stroke = style.stroke if transparent else 0
+        if not t.rotated:
+            draw.text((t.x, t.baseline), t.text, font=style.font, fill=style.color, anchor="ls",
+                      stroke_width=stroke, stroke_fill=_OUTLINE)
+            continue
+        left, _, right, _ = _ink(style, t.text)
+        strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
+        ImageDraw.Draw(strip).text((-left, _baseline(style, 0)), t.text, font=style.font, fill=style.color,
+                                   anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
+        layer.alpha_composite(strip.transpose(Image.Transpose.ROTATE_90), (int(t.x), int(t.baseline)))
 
     background = Image.new("RGBA", (width, height), _TRANSPARENT if transparent else BACKGROUND)
-    return np.array(Image.alpha_composite(background, layer)), (x0, y0)
+    return np.array(Image.alpha_composite(background, layer)), (lay.x0, lay.y0)
