@@ -120,6 +120,11 @@ def test_bug_comparison_is_captioned_and_differs_where_alpha_changes():
     per_cell = sheet.differences[0].per_cell
     assert per_cell[:, -1].max() < 0.01                 # r = 1: alpha = r = r^2
     assert per_cell[1:, 1:-1].max() > 0.1               # mid roughness: alpha 0.25..0.75 vs 0.06..0.56
+    # r = 0 differs too (the clamp's 0.045 is taken as alpha), as the caption says, on the metal row
+    assert per_cell[-1, 0] > 3 * per_cell[-1, -1] and "Only r = 1 agrees" in bug.caption
+    # The buggy panel's axis says what the bug does with r; the correct one keeps alpha = r^2.
+    from sdfpbr.image.chart_labels import axis_title
+    assert "α = r," in axis_title(buggy, "x") and "α = r²" in axis_title(correct, "x")
     assert [p.label for p in sheet.panels][:2] == ["correct", "buggy: unsquared-roughness"]
     # The correct panel is the plain chart; the buggy one the chart with the bug on.
     np.testing.assert_array_equal(sheet.panels[0].box.crop(sheet.image)[..., :3], display(correct)[..., :3])

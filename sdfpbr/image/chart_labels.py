@@ -79,7 +79,16 @@ def label(spec: ChartSpec, result, title: str | None = None, footer: str | None 
                              column_axis_title="", row_axis_title="", cell_names=cell_names(spec))
     return compose_chart(result.image, cells, spec.axis_values("x"), spec.axis_values("y"), title, footer,
                          row_names=row_names(spec), transparent=spec.transparent,
-                         column_axis_title=axis_param(spec, "x").title, row_axis_title=axis_param(spec, "y").title)
+                         column_axis_title=axis_title(spec, "x"), row_axis_title=axis_title(spec, "y"))
+
+
+def axis_title(spec: ChartSpec, axis: str) -> str:
+    """The title of the "x" or "y" axis: its parameter's, or the one a bug in the spec gives it
+    (unsquared roughness is no longer α = r²)."""
+    from ..spec.bugs import get_bug
+    param = axis_param(spec, axis)
+    titles = [get_bug(b).axis_titles.get(param.name) for b in spec.bugs]
+    return next((t for t in titles if t), param.title)
 
 
 def cell_names(spec: ChartSpec) -> list[str] | None:

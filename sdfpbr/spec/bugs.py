@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..errors import SpecError, did_you_mean
+from ..oracle.mirror import MIN_PERCEPTUAL_ROUGHNESS
 from .checks import quote
 
 
@@ -23,6 +24,7 @@ class Bug:
     option: str                   # the compile option the bug sets ...
     value: Any = True             # ... and its buggy value
     requires: dict = field(default_factory=dict)   # spec overrides that make the bug visible
+    axis_titles: dict = field(default_factory=dict)  # parameter -> the axis title a chart with the bug gets
 
     # dataclasses.replace re-runs the spec's own validation, so the catalog needs no import of
     # the spec module (which imports this one for bug names).
@@ -36,10 +38,11 @@ class Bug:
         return base if self.name in base.bugs else replace(base, bugs=tuple(base.bugs) + (self.name,))
 
 
-def _bug(name, summary, caption, option, value=True, program="chart", **requires) -> Bug:
-    return Bug(name, summary, caption, program, option, value, requires)
+def _bug(name, summary, caption, option, value=True, program="chart", axis_titles=None, **requires) -> Bug:
+    return Bug(name, summary, caption, program, option, value, requires, axis_titles or {})
 
 
+_R_MIN = MIN_PERCEPTUAL_ROUGHNESS
 _TEXTURED = {"textures": "procedural"}
 # The lobe bugs show on a dielectric chart with their lobe down the rows (roughness across).
 _COATED = {"y_axis": "clearcoat", "clearcoat": (0.0, 1.0), "clearcoat_roughness": 0.1, "metallic": (0.0, 0.0),
@@ -51,9 +54,10 @@ _GEM = {"y_axis": "ior", "ior": (1.5, 2.5), "metallic": (0.0, 0.0), "base_color"
 BUGS: dict[str, Bug] = {b.name: b for b in (
     _bug("unsquared-roughness", "perceptual roughness used as GGX alpha",
          "Low and mid roughness already look rough: highlights spread and dim, because alpha = r "
-         "is larger than r * r below 1, so the chart no longer reads linearly (the ends agree). "
-         "Fix: alpha = r * r.",
-         "BUG_UNSQUARED_ROUGHNESS"),
+         "is larger than r * r below 1, so the chart no longer reads linearly. Only r = 1 agrees: "
+         f"at r = 0 both clamp r to {_R_MIN:g}, which the bug uses as alpha {_R_MIN:g} instead of "
+         f"{_R_MIN ** 2:.3f}. Fix: alpha = r * r.",
+         "BUG_UNSQUARED_ROUGHNESS", axis_titles={"roughness": "roughness r (α = r, the bug)"}),
     _bug("metal-diffuse", "metals keep a Lambert body (no 1 - metallic)",
          "Metals look milky and plastic-like: a conductor has no diffuse body, but the Lambert "
          "term was added outside the metallic mix. Fix: weight diffuse by (1 - metallic).",

@@ -22,10 +22,9 @@ from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import Cell
 from ..image.sheet import (Axes, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
                            sheet_text_size)
-from ..image.chart_labels import chart_cells, row_names, footer_text
+from ..image.chart_labels import axis_title, chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.fields import resolve_field, sweep_defaults
-from ..spec.material import axis_param
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
            "bug_pair", "spec_differences", "at_panel_size",
@@ -133,7 +132,7 @@ def _digests(spec: ChartSpec, result) -> tuple[str, str]:
 def chart_axes(spec: ChartSpec, camera) -> Axes:
     """The roughness / metallic labels of a chart of ``spec``, for a sheet panel."""
     return Axes(chart_cells(spec, camera), spec.axis_values("x"), spec.axis_values("y"), row_names(spec),
-                axis_param(spec, "x").title, axis_param(spec, "y").title)
+                axis_title(spec, "x"), axis_title(spec, "y"))
 
 
 def chart_panel(label: str, rendered: RenderedChart, axes: bool, text_size: int,
