@@ -55,13 +55,21 @@ vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
     vec3 p = ro + rd * hit.t;
     float pixel_size = footprint.x + footprint.y * hit.t;
 #if FLOOR_PLATE
-    vec3 radiance = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0))).rgb
-                                   : shade_sphere(p, hit.normal, -rd, hit.cell, pixel_size);
+    vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
+                                : vec4(0.0);
+    vec3 radiance = hit.cell.x < 0 ? plate.rgb : shade_sphere(p, hit.normal, -rd, hit.cell, pixel_size);
 #else
     vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
 #endif
 #if STAGE == cells && HAS_GROUND && USE_AO
     if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
+#endif
+#if SHADOW_CATCHER
+#if FLOOR_PLATE
+    if (hit.cell.x < 0) return shadow_catcher(radiance, plate.a);
+#else
+    if (hit.cell.x < 0) return shadow_catcher(radiance, luminance(shade_open_ground(p, -rd, pixel_size)));
+#endif
 #endif
     return vec4(radiance, 1.0);
 }

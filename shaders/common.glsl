@@ -10,6 +10,7 @@ float saturate(float x) { return clamp(x, 0.0, 1.0); }
 vec3 saturate(vec3 x) { return clamp(x, 0.0, 1.0); }
 float sq(float x) { return x * x; }
 float max3(vec3 v) { return max(v.x, max(v.y, v.z)); }
+float luminance(vec3 c_linear) { return dot(c_linear, vec3(0.2126, 0.7152, 0.0722)); }   // Rec. 709
 
 // (1 - x)^5 with x clamped first: pow() of a negative base is undefined in GLSL.
 float pow5_one_minus(float x) {

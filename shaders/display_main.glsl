@@ -5,6 +5,9 @@
 // Display program: linear HDR -> exposure -> tone map -> OETF, straight alpha out.
 uniform sampler2D u_radiance;
 uniform float u_exposure_scale;   // 2^EV
+#if BACKDROP
+uniform vec3 u_backdrop_srgb;     // the page colour under the render's alpha
+#endif
 layout(location = 0) out vec4 out_color;
 
 void main() {
@@ -30,5 +33,9 @@ void main() {
 #else
     display = srgb_oetf(display);
 #endif
+#if BACKDROP
+    out_color = vec4(mix(u_backdrop_srgb, display, alpha), 1.0);   // as a page composites straight alpha
+#else
     out_color = vec4(display, alpha);
+#endif
 }

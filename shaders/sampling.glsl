@@ -2,8 +2,6 @@
 // normals (Heitz 2018), uniform cone (a sun disc), and the power heuristic. Local frames have
 // the normal on +z; every pdf is per unit solid angle.
 
-float luminance(vec3 c_linear) { return dot(c_linear, vec3(0.2126, 0.7152, 0.0722)); }
-
 vec3 to_world(vec3 local, vec3 n) {
     vec3 t, b;
     basis(n, t, b);

@@ -16,7 +16,10 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 // pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
 // at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
-vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread) {
+// `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
+// false gives the open floor a shadow catcher divides by.
+vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
+                 bool blocked) {
 #if STAGE == cells
     g_shading_point = p;   // for the probe's parallax correction
 #endif
@@ -40,7 +43,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     float e_single = dfg.x + dfg.y;
     vec3 color = vec3(0.0);
 #if USE_AO
-    float ao = ambient_occlusion(p, n_geo, cell);
+    float ao = ground && !blocked ? 1.0 : ambient_occlusion(p, n_geo, cell);
 #endif
 #if USE_IBL
 #if IBL_METHOD == sampled && !BUG_FEWTAP_IBL
@@ -59,7 +62,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         // part of the specular lobe it covers (stage_bounce.glsl gives both back as the
         // sphere's own light). The diffuse share from the SH9 irradiance (within 2 %).
         vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
-        ibl = diffuse * ao + (ibl - diffuse) * (1.0 - ground_specular_occlusion(p, v, m.alpha));
+        ibl = diffuse * ao + (ibl - diffuse) * (blocked ? 1.0 - ground_specular_occlusion(p, v, m.alpha) : 1.0);
     } else
 #endif
     ibl *= ao;
@@ -76,11 +79,11 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
                * u_dir_light_illuminance[i];
 #if USE_SHADOWS && STAGE == cells
         // The ground receives every light's shadow (exact on this stage, shadow.glsl).
-        if (ground && dot(n, l) > 0.0)
+        if (ground && blocked && dot(n, l) > 0.0)
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
 #elif USE_SHADOWS
         // Light 0 is the key light; the ground receives its shadow.
-        if (i == 0 && ground && dot(n, l) > 0.0)
+        if (i == 0 && ground && blocked && dot(n, l) > 0.0)
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
 #endif
         color += c;
@@ -95,7 +98,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
-        if (ground) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
+        if (ground && blocked) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
 #endif
         color += c;
     }
@@ -110,19 +113,34 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 }
 
 vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0, true);
 }
 
 // The sphere's light as a few bounce rays sample it: each punctual light's highlight spread as
 // if the light were `spread` radians wide (the rays' spacing), energy kept, so a near-mirror's
 // pinpoint image is averaged over the cap instead of hit by one ray or missed.
 vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, spread);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, true);
 }
 
 vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {
-    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0);
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, true);
 }
+
+#if SHADOW_CATCHER
+// The ground as if no sphere stood on it: what a shadow catcher's transmittance is relative to.
+vec3 shade_open_ground(vec3 p, vec3 v, float pixel_size) {
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, false);
+}
+
+// A shadow catcher's pixel, premultiplied: no colour of its own, and the alpha of the light its
+// sphere takes from the floor (shadow, occlusion), 1 - L / L_open in luminance; light the
+// sphere adds (its bounce) cannot show on a black matte and is left out.
+vec4 shadow_catcher(vec3 radiance, float open_luminance) {
+    float kept = open_luminance > 0.0 ? luminance(radiance) / open_luminance : 1.0;
+    return vec4(0.0, 0.0, 0.0, 1.0 - clamp(kept, 0.0, 1.0));
+}
+#endif
 
 // A hit of either kind (cell.x < 0: the ground).
 vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {

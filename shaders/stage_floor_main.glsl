@@ -21,5 +21,12 @@ void main() {
     float t = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;
     if (t <= 0.0) { out_radiance = vec4(0.0); return; }   // the chart shades what is not floor
     vec2 footprint = pixel_footprint();
-    out_radiance = vec4(shade_ground(ro + rd * t, -rd, footprint.x + footprint.y * t), 1.0);
+    vec3 p = ro + rd * t;
+    float pixel_size = footprint.x + footprint.y * t;
+#if SHADOW_CATCHER
+    // a: the open floor's luminance, what the chart's shadow catcher divides by
+    out_radiance = vec4(shade_ground(p, -rd, pixel_size), luminance(shade_open_ground(p, -rd, pixel_size)));
+#else
+    out_radiance = vec4(shade_ground(p, -rd, pixel_size), 1.0);
+#endif
 }

@@ -36,7 +36,7 @@ SAMPLES = {
     "camera_azimuth": (30.0, "30"), "camera_elevation": (20.0, "20"), "camera_distance_scale": (1.5, "1.5"),
     "intersect": ("march", "march"), "sphere_radius": (0.5, "0.5"), "spacing": (3.0, "3"), "transparent": (True, None),
     "title": ("Hello", "Hello"), "quality": ("draft", "draft"), "backend": ("egl", "egl"), "device_index": (1, "1"),
-    "ground_color": ((0.5, 0.5, 0.5), "0.5,0.5,0.5"), "ground_roughness": (0.3, "0.3"), "labels": (False, None),
+    "ground_color": ((0.5, 0.5, 0.5), "0.5,0.5,0.5"), "backdrop": ((1.0, 1.0, 1.0), "1,1,1"), "ground_roughness": (0.3, "0.3"), "labels": (False, None),
     "bugs": (("clamp-tonemap",), "clamp-tonemap"), "textures": ("procedural", "procedural"),
     "base_color_texture": ("", ""), "orm_texture": ("", ""), "normal_texture": ("", ""),
     "x_axis": ("clearcoat", "clearcoat"), "y_axis": ("ior", "ior"), "x_values": ((0.0, 0.5, 1.0, 0.5, 0.0), "0,0.5,1,0.5,0"),

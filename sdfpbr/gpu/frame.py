@@ -183,7 +183,7 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
 
 def display_uniforms(spec: ChartSpec) -> dict:
     return {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white,
-            "u_radiance": RADIANCE_UNIT}
+            "u_radiance": RADIANCE_UNIT, **({"u_backdrop_srgb": tuple(spec.backdrop)} if spec.backdrop else {})}
 
 
 def display_pass(ctx: moderngl.Context, program, radiance, spec: ChartSpec, width: int, height: int,

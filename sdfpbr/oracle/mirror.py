@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..spec.material import MIN_PERCEPTUAL_ROUGHNESS
+
 __all__ = [
     "MIN_PERCEPTUAL_ROUGHNESS",
     "MIN_N_DOT_V",
@@ -41,8 +43,6 @@ __all__ = [
     "normalize",
 ]
 
-# Filament's fp32 guard: alpha^2 = 0.045^4 stays a normal, well-conditioned float.
-MIN_PERCEPTUAL_ROUGHNESS = 0.045
 # Filament clamps NdotV so the visibility term never divides by 0 at the silhouette.
 MIN_N_DOT_V = 1e-4
 # Below this alpha the lobe is a delta for any quadrature we can afford: use the limit.

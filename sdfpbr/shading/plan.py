@@ -41,9 +41,10 @@ SCHEMA = OptionSchema(
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "HAS_BASE_COLOR_MAP", "HAS_ORM_MAP", "HAS_NORMAL_MAP"),
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
-    # The KHR lobes (material.py LOBES; off unless a plan sets them) and the catalog's bugs.
+    # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
+    # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
-    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL"),
+    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -69,6 +70,12 @@ def quality(spec: ChartSpec) -> Quality:
 def brdf_model(spec: ChartSpec) -> str:
     """The BRDF the chart shades with: the spec's, unless its quality preset forces one."""
     return quality(spec).brdf or spec.brdf
+
+
+def has_alpha(spec: ChartSpec) -> bool:
+    """Whether the chart program renders coverage and a shadow catcher instead of a background
+    and a floor: for a transparent image, or one the display pass lays onto a backdrop colour."""
+    return spec.transparent or bool(spec.backdrop)
 
 
 def stage(spec: ChartSpec) -> str:
@@ -127,7 +134,9 @@ def chart_options(spec: ChartSpec) -> dict:
         # cells stage point lights do too.
         "USE_SHADOWS": spec.shadows and spec.ground and (directional > 0 or (point > 0 and stage(spec) == "cells")),
         "MULTISCATTER": spec.multiscatter,
-        "TRANSPARENT": spec.transparent,
+        "TRANSPARENT": has_alpha(spec),
+        # A render with alpha keeps of its floor only the light its spheres take away.
+        "SHADOW_CATCHER": has_alpha(spec) and spec.ground,
         "NUM_DIR_LIGHTS": directional,
         "NUM_POINT_LIGHTS": point,
         "HALF_RADIANCE": spec.hdr_precision == "float16",
@@ -169,7 +178,7 @@ def chart_options(spec: ChartSpec) -> dict:
 
 
 def display_options(spec: ChartSpec) -> dict:
-    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": spec.transparent}
+    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": has_alpha(spec), "BACKDROP": bool(spec.backdrop)}
     opts.update(bug_options(spec, "display"))
     return opts
 
@@ -258,7 +267,7 @@ def _stage_probe(chart: dict) -> ComposedSource | None:
     floor); the floor's shading is the chart's, without the spheres' textures."""
     if chart["STAGE"] != "cells" or not chart["HAS_GROUND"]:
         return None
-    return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False})
+    return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False, "SHADOW_CATCHER": False})
 
 
 def _floor_plate(chart: dict) -> ComposedSource | None:

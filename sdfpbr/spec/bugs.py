@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..errors import SpecError, did_you_mean
-from ..oracle.mirror import MIN_PERCEPTUAL_ROUGHNESS
+from .material import MIN_PERCEPTUAL_ROUGHNESS
 from .checks import quote
 
 

@@ -134,6 +134,13 @@ def _color(name: str):
     return check
 
 
+def _backdrop(v) -> tuple:
+    """'R,G,B' or [r, g, b] in sRGB; '', 'none' or [] for none."""
+    if v is None or (isinstance(v, str) and v.strip().lower() in ("", "none")) or (isinstance(v, (list, tuple)) and not v):
+        return ()
+    return vec3(parse_color(v, "backdrop") if isinstance(v, str) else v, "backdrop", 0.0, 1.0)
+
+
 def _materials(v) -> tuple[str, ...]:
     names = parse_names(v) if isinstance(v, str) else sequence(v, "materials", form="a list of material names")
     return tuple(choice(m, "material", tuple(MATERIAL_PRESETS)) for m in names)
@@ -278,7 +285,11 @@ FIELDS: tuple[Field, ...] = (
     _choice("intersect", "auto", INTERSECT_METHODS, "ray-sphere intersection"),
     _float("sphere_radius", 1.0, 1e-4, 1e4, "sphere radius, scene units"),
     _float("spacing", 2.5, 1e-4, 1e6, "distance between sphere centres, scene units"),
-    _bool("transparent", False, "transparent background"),
+    _bool("transparent", False, "transparent background; the floor becomes a shadow catcher (only its "
+          "shadows and contact occlusion stay, in alpha)"),
+    _other("color", "backdrop", (), _backdrop, "a page colour (sRGB, 0..1, as the page shows it) behind the "
+           "spheres and their caught shadows: the transparent render laid onto it (default: none)", "R,G,B",
+           annotation=tuple),
     _other("text", "title", "", lambda v: text(v, "title"), "chart title (default: rows x cols)", "TEXT",
            annotation=str),
     _choice("quality", "default", tuple(QUALITY_PRESETS), "quality preset (seed002: shared seed 002's approach)",

@@ -22,6 +22,9 @@ from .presets import MATERIAL_PRESETS
 # The lobes a material can switch on beyond the glTF 2.0 core, each a compile option of the
 # chart and the reference (composed in only when some cell uses it).
 LOBES = ("clearcoat", "sheen", "specular", "emission")
+# Every perceptual roughness is clamped to this before alpha = r^2 (Filament's fp32 guard: alpha^2 =
+# 0.045^4 stays a normal, well-conditioned float); common.glsl's define of the same name.
+MIN_PERCEPTUAL_ROUGHNESS = 0.045
 
 
 @dataclass(frozen=True)

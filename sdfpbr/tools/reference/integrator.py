@@ -15,7 +15,7 @@ from ...gpu.session import Session, default_session
 from ...progress import Progress
 from ...shading.camera import Camera
 from ...shading.compose import ComposedSource
-from ...shading.plan import ReferencePlan, quality, reference_plan, stage
+from ...shading.plan import ReferencePlan, has_alpha, quality, reference_plan, stage
 from ...spec.chart_spec import ChartSpec
 from .tables import compensation_texture, environment_sampling
 
@@ -81,6 +81,9 @@ def validate_arguments(spec: ChartSpec, samples=None, target_error=None, seed=0,
     max_bounces = _whole(max_bounces, "bounces", 1, MAX_BOUNCES)
     if spec.width > MAX_SIDE or spec.height > MAX_SIDE:
         raise SpecError(f"the reference renders at most {MAX_SIDE}x{MAX_SIDE} pixels, got {spec.width}x{spec.height}")
+    if has_alpha(spec) and spec.ground:
+        raise SpecError("the reference does not trace a shadow catcher (a transparent or backdrop chart's floor); "
+                        "render it without transparent/backdrop, or without the ground")
     if cell_reach(spec) > MAX_CELL_REACH:
         raise SpecError(f"the reference needs spacing >= {spec.sphere_radius / (MAX_CELL_REACH + 0.5):.4g} "
                         f"for sphere_radius {spec.sphere_radius:g} (spheres may overlap at most "
