@@ -354,3 +354,24 @@ def test_bugs_need_no_import_of_the_spec_module():
     spec = BUGS["orm-srgb"].apply(ChartSpec())
     assert spec.bugs == ("orm-srgb",) and spec.textures == "procedural"
     assert BUGS["orm-srgb"].correct(ChartSpec()).bugs == ()
+
+
+def test_a_size_nobody_chose_follows_the_grid_and_a_chosen_one_stays(tmp_path):
+    """Square cells with 1024 px on the grid's longer side, unless a size is given; the TOML and
+    flag forms read back to the same size either way."""
+    from sdfpbr.spec.chart_spec import grid_size
+    from sdfpbr.spec.fields import spec_to_flags
+    from sdfpbr.cli.main import build_parser, spec_from_args
+    assert (make_spec(rows=1).width, make_spec(rows=1).height) == (1024, 205)
+    assert (make_spec(rows=6, cols=3).width, make_spec(rows=6, cols=3).height) == (512, 1024)
+    assert grid_size(5, 5) == (1024, 1024) and (make_spec().width, make_spec().height) == (1024, 1024)
+    chosen = make_spec(rows=1, size="1024x1024")
+    assert (chosen.width, chosen.height) == (1024, 1024)
+    assert (make_spec(chosen, cols=3).width, make_spec(chosen, cols=3).height) == (1024, 1024)   # stays chosen
+    assert make_spec(make_spec(rows=1), cols=3).height == 341                                   # follows again
+    path = tmp_path / "strip.toml"
+    path.write_text("rows = 1\ncols = 4\n")
+    assert (load_spec(path).width, load_spec(path).height) == (1024, 256)
+    for spec in (chosen, make_spec(rows=1), make_spec(rows=2, cols=7, width=300)):
+        args = build_parser().parse_args(["chart", *spec_to_flags(spec)])
+        assert spec_from_args(args) == spec, spec_to_flags(spec)

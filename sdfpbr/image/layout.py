@@ -73,9 +73,10 @@ def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
     return _Style(size, color, load_font(size), max(1, round(size / 16)))
 
 
-def _styles(render_height: int) -> dict[str, _Style]:
-    """Font sizes scale with the render height: 1024 px -> 22 px labels, 30 px title."""
-    scale = render_height / 1024
+def _styles(render_side: int) -> dict[str, _Style]:
+    """Font sizes scale with the render's longer side (a figure is read at its width on a page,
+    however few rows it has): 1024 px -> 22 px labels, 30 px title."""
+    scale = render_side / 1024
     label = max(11, round(22 * scale))
     return {
         "title": _style(max(14, round(30 * scale)), _TITLE_COLOR),
@@ -126,7 +127,7 @@ class _Layout:
 def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Sequence[str],
             column_axis_title: str, row_axis_title: str) -> _Layout:
     rh, rw = int(render_shape[0]), int(render_shape[1])
-    styles = _styles(rh)
+    styles = _styles(max(rh, rw))
     text = {"title": title, "footer": footer, "col": column_axis_title, "row": row_axis_title}
     font_of = {"title": "title", "footer": "footer", "col": "axis", "row": "axis"}
     text = {k: drawable_text(v, styles[font_of[k]].font) for k, v in text.items()}
@@ -220,19 +221,29 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
     chart = canvas.copy()
     chart[y0:y0 + render.shape[0], x0:x0 + render.shape[1]] = render
     if cell_names:
-        chart = _name_cells(chart, cells, cell_names, x0, y0, render.shape[0])
+        chart = _name_cells(chart, cells, cell_names, x0, y0, render.shape[:2])
     return chart
 
 
+def _fitted(style: _Style, text: str, room: float) -> str:
+    """``text``, cut with an ellipsis until its ink is at most ``room`` px wide."""
+    while text and _width(style, text) > room:
+        text = text[:-2] + "…" if len(text) > 2 else ""
+    return text
+
+
 def _name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], x0: int, y0: int,
-                render_height: int) -> np.ndarray:
-    """Each cell's name centred under its sphere, outlined so it reads over any floor."""
-    style = _styles(render_height)["label"]
+                render_shape: Sequence[int]) -> np.ndarray:
+    """Each cell's name centred under its sphere, outlined so it reads over any floor, and cut
+    to its column's width so that neighbours' names never run into each other."""
+    style = _styles(max(render_shape[:2]))["label"]
     layer = Image.new("RGBA", (chart.shape[1], chart.shape[0]), _TRANSPARENT)
     draw = ImageDraw.Draw(layer)
+    xs = sorted({round(c.cx, 3) for c in cells})
+    room = min([b - a for a, b in zip(xs, xs[1:])] or [render_shape[1]]) - max(2, style.size // 3)
     for cell in cells:
         name = names[cell.row * (max(c.col for c in cells) + 1) + cell.col]
-        text = drawable_text(name, style.font)
+        text = _fitted(style, drawable_text(name, style.font), room)
         left, top, right, bottom = _ink(style, text)
         baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - top
         draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=style.color,

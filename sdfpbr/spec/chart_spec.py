@@ -90,13 +90,36 @@ ChartSpec.__doc__ = ("A chart specification; fields, defaults and checks are sdf
 SPEC_KEYS = tuple(f.name for f in fields(ChartSpec))   # attribute names, as to_dict() writes them
 
 
+def grid_size(rows: int, cols: int) -> tuple[int, int]:
+    """The render size a grid gets when none is given: the default side on the longer edge and
+    square cells, so a 1x5 strip is not a square of mostly empty floor."""
+    side = ChartSpec().width
+    if cols >= rows:
+        return side, max(1, round(side * rows / cols))
+    return max(1, round(side * cols / rows)), side
+
+
+def _size_follows_grid(base: ChartSpec, values: dict, spec: ChartSpec) -> ChartSpec:
+    """``spec`` (checked) with a size nobody chose following its grid: the base's size was its
+    grid's and no size was given. A chosen size stays."""
+    if {"width", "height"} & values.keys() or (base.width, base.height) != grid_size(base.rows, base.cols):
+        return spec
+    size = grid_size(spec.rows, spec.cols)
+    return spec if size == (spec.width, spec.height) else replace(spec, width=size[0], height=size[1])
+
+
+def _build(base: ChartSpec, values: dict) -> ChartSpec:
+    """``base`` with ``values`` and the defaults that follow them (axes' parameters, the size)."""
+    return _size_follows_grid(base, values, replace(base, **values, **displaced_defaults(base, values, ChartSpec())))
+
+
 def make_spec(base: ChartSpec | None = None, **overrides) -> ChartSpec:
     """A validated spec: ``base`` (or the defaults) with ``overrides`` given by field name or alias
     (``size="256x256"``, ``materials=[...]``, ``row_materials=[...]``); unknown names are errors."""
     values = attr_values(overrides, "option")
     base = base or ChartSpec()
     try:
-        return replace(base, **values, **displaced_defaults(base, values, ChartSpec()))
+        return _build(base, values)
     except TypeError as exc:   # a wrongly typed value that the checks did not name
         raise SpecError(str(exc)) from None
 
@@ -108,7 +131,7 @@ def spec_from_mapping(data: Mapping[str, Any], base: ChartSpec | None = None, wh
             raise SpecError(f"a spec must be a table of settings, got {type(data).__name__}")
         base = base or ChartSpec()
         values = attr_values(data, "key")
-        return replace(base, **values, **displaced_defaults(base, values, ChartSpec()))
+        return _build(base, values)
     except SpecError as exc:
         raise SpecError(f"{where}: {exc}") from None
 

@@ -243,7 +243,7 @@ FIELDS: tuple[Field, ...] = (
     _int("cols", 5, 1, MAX_GRID, "columns of spheres; roughness runs across them"),
     _int("width", 1024, 1, MAX_SIZE, "render width in pixels", metavar="PX"),
     _int("height", 1024, 1, MAX_SIZE, "render height in pixels", metavar="PX"),
-    _other("size", "size", None, _size, "render area in pixels: sets width and height (default 1024x1024)",
+    _other("size", "size", None, _size, "render area in pixels: sets width and height (default: 1024 on the grid's longer side, square cells)",
            "WxH", attrs=("width", "height"), many="WxH sizes", bounds=(1, MAX_SIZE)),
     _other("range", "roughness", (0.0, 1.0), _range("roughness"),
            "perceptual roughness across the columns, inclusive (one value off an axis)", "LO:HI", many="LO:HI pairs", bounds=(0.0, 1.0),
@@ -488,6 +488,11 @@ def spec_to_flags(spec, base=None) -> list[str]:
             flags.append(f"{flag}={field.to_text(added)}")
         else:
             flags.append(f"{flag}={field.to_text(value)}")
+    if any(f.startswith(("--rows=", "--cols=")) for f in flags) and \
+            not any(f.startswith(("--width=", "--height=")) for f in flags):
+        # A size nobody chose follows the grid (chart_spec.grid_size): write it, so the flags
+        # read back to this spec's size whatever it was.
+        flags.append(f"--size={spec.width}x{spec.height}")
     if any(f.startswith(("--x-axis=", "--y-axis=")) for f in flags):
         # Parameters left at their defaults follow new axes (material.displaced_defaults):
         # write them all, so the flags read back to this spec whatever they were.
