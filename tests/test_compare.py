@@ -160,23 +160,35 @@ def test_sheet_saves_png_with_specs_and_digests(tmp_path):
 
 
 @pytest.mark.requires_extra("flip_evaluator")
-def test_contact_sheet_has_one_row_per_bug():
+def test_contact_sheet_is_a_grid_of_cards_quoting_the_figures_compare_quotes():
     spec = make_spec(**SMALL)
-    names = ["clamp-tonemap", "double-gamma"]
-    sheet = bug_contact_sheet(spec, names, panel_size=64)
-    assert len(sheet.panels) == 6 and len(sheet.differences) == 2
-    assert len(sheet.specs) == 3                        # the correct chart is rendered once
-    rows = [sheet.panels[i:i + 3] for i in (0, 3)]
-    for row, name in zip(rows, names):
-        assert [p.box.w for p in row] == [64, 64, 64] and len({p.box.y for p in row}) == 1
-        assert row[1].label == f"buggy: {name}"
-    assert rows[1][0].box.y >= rows[0][0].box.y + 64
-    for d in sheet.differences:
+    names = ["clamp-tonemap", "double-gamma", "no-cosine"]
+    sheet = bug_contact_sheet(spec, names, panel_size=64, per_row=2, measure_size=None)
+    assert len(sheet.panels) == 9 and len(sheet.differences) == 3
+    assert len(sheet.specs) == 4                        # the correct chart is rendered once
+    cards = [sheet.panels[i:i + 3] for i in (0, 3, 6)]
+    for card, name in zip(cards, names):
+        assert [p.box.w for p in card] == [64, 64, 64] and len({p.box.y for p in card}) == 1
+        assert card[1].label == f"buggy: {name}"
+    assert cards[0][0].box.y == cards[1][0].box.y and cards[1][0].box.x > cards[0][2].box.x   # side by side
+    assert cards[2][0].box.y >= cards[0][0].box.y + 64                                          # next row
+    for d, name in zip(sheet.differences, names):
         assert d.mean > 0.1
-        assert d.number_style is None and not d.cells     # 6 px spheres: no room for numbers ...
-    assert "printed" not in sheet.caption                 # ... and the caption does not promise them
+        # One figure per bug: the sheet measures what `compare --bug` measures at the same size.
+        assert d.mean == compare_bug(spec, name).differences[0].mean
     with pytest.raises(SpecError, match="allowed: unsquared-roughness"):
         bug_contact_sheet(spec, ["clamp-tonemap", "no-such-bug"])
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_contact_sheet_shows_small_panels_of_bigger_measured_renders():
+    """Panels shown at 64 px, figures measured at 128 px: the numbers are the bigger render's."""
+    spec = make_spec(**{**SMALL, "width": 128, "height": 128})
+    sheet = bug_contact_sheet(spec, ["metal-diffuse"], panel_size=64, measure_size=128)
+    (d,) = sheet.differences
+    assert d.error_map.shape == (128, 128) and sheet.panels[0].box.w == 64
+    assert d.mean == compare_bug(spec, "metal-diffuse").differences[0].mean
+    assert "measured at 128x128" in sheet.caption
 
 
 def test_sweep_has_one_labeled_panel_per_value():

@@ -237,3 +237,42 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
         draw.text((pad, y + text_font.getmetrics()[0]), line, font=text_font, fill=TEXT_COLOR, anchor="ls")
         y += line_height(text_font)
     return sheet
+
+
+def tile(cards: Sequence[Image.Image], per_row: int, *, title: str, caption: str,
+         text_size: int) -> tuple[Image.Image, list[tuple[int, int]]]:
+    """Cards (each a small sheet of its own) in a grid of ``per_row`` columns, tops aligned in a
+    row and each centred in its column, with a title above and a wrapped caption below; returns
+    the sheet and each card's top-left corner in it."""
+    title_font, text_font = load_font(round(text_size * 1.3)), load_font(text_size)
+    pad, gap = text_size, 2 * text_size
+    rows = [cards[i:i + per_row] for i in range(0, len(cards), per_row)]
+    col_w = [max(r[j].width for r in rows if j < len(r)) for j in range(min(per_row, len(cards)))]
+    row_h = [max(c.height for c in r) for r in rows]
+    content_w = max(sum(col_w) + gap * (len(col_w) - 1), text_size * 32)
+    title_lines = wrap_text(title, title_font, content_w) if title else []
+    caption_lines = wrap_text(caption, text_font, content_w) if caption else []
+    title_h = len(title_lines) * line_height(title_font) + (gap if title_lines else 0)
+    caption_h = (gap + len(caption_lines) * line_height(text_font)) if caption_lines else 0
+    width = content_w + 2 * pad
+    height = pad + title_h + sum(row_h) + gap * (len(rows) - 1) + caption_h + pad
+    sheet = Image.new("RGBA", (width, height), BACKGROUND)
+    draw = ImageDraw.Draw(sheet)
+    y = pad
+    for line in title_lines:
+        draw.text((width / 2, y + title_font.getmetrics()[0]), line, font=title_font, fill=TITLE_COLOR, anchor="ms")
+        y += line_height(title_font)
+    y += gap if title_lines else 0
+    x_grid = pad + (content_w - sum(col_w) - gap * (len(col_w) - 1)) // 2
+    corners = []
+    for r, row in enumerate(rows):
+        for j, card in enumerate(row):
+            x = x_grid + sum(col_w[:j]) + gap * j + (col_w[j] - card.width) // 2
+            sheet.paste(card, (x, y))
+            corners.append((x, y))
+        y += row_h[r] + gap
+    y += -gap + (gap if caption_lines else 0)
+    for line in caption_lines:
+        draw.text((pad, y + text_font.getmetrics()[0]), line, font=text_font, fill=TEXT_COLOR, anchor="ls")
+        y += line_height(text_font)
+    return sheet, corners

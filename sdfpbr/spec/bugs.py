@@ -42,6 +42,11 @@ def _bug(name, summary, caption, option, value=True, program="chart", axis_title
     return Bug(name, summary, caption, program, option, value, requires, axis_titles or {})
 
 
+# A bug's figure (its mean FLIP) is measured at this size wherever it is quoted: `compare --bug`
+# renders its panels at it, the contact sheet measures there and shows smaller panels, and the
+# gallery's bug entries render at it.
+BUG_MEASURE_SIZE = 512
+
 _R_MIN = MIN_PERCEPTUAL_ROUGHNESS
 _TEXTURED = {"textures": "procedural"}
 # The lobe bugs show on a dielectric chart with their lobe down the rows (roughness across).

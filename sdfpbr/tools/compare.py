@@ -20,10 +20,11 @@ from .. import __version__
 from ..errors import SpecError
 from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import Cell
-from ..image.sheet import (Axes, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
-                           sheet_text_size)
+from ..image.sheet import (Axes, Box, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
+                           sheet_text_size, tile)
 from ..image.chart_labels import axis_title, chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
+from ..spec.bugs import BUG_MEASURE_SIZE
 from ..spec.fields import resolve_field, sweep_defaults
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
@@ -286,17 +287,56 @@ def compare_bug(spec: ChartSpec | str | Path | None, bug_name: str, *, axes: boo
                        caption=bug.caption, axes=axes, kind="bug")
 
 
+def _shrunk(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """An image (uint8 RGBA or a float map) box-filtered down to ``size`` = (width, height)."""
+    from PIL import Image
+    if image.dtype == np.uint8:
+        return np.array(Image.fromarray(image).resize(size, Image.Resampling.BOX))
+    return np.array(Image.fromarray(image.astype(np.float32), "F").resize(size, Image.Resampling.BOX))
+
+
+def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
+    """correct | buggy | FLIP map of one bug, measured on the renders and shown at
+    ``panel_size`` with each panel's axes, its name and summary above and the caption below."""
+    from ..image.metrics import flip_ldr, per_cell_mean
+    from ..shading.camera import frame
+    shown = [at_panel_size(r.spec, panel_size) for r in (rc, rb)]
+    size = (shown[0].width, shown[0].height)
+    axes = [chart_axes(s, frame(s)) for s in shown]
+    panels = [panel("correct", _shrunk(rc.display, size), text_size, axes=axes[0]),
+              panel(f"buggy: {bug.name}", _shrunk(rb.display, size), text_size, axes=axes[1])]
+    mean, error_map = flip_ldr(rb.display, rc.display)
+    aov = rc.result.aov
+    per_cell = per_cell_mean(error_map, aov["row"], aov["col"], rc.spec.rows, rc.spec.cols)
+    heat, offset = _heatmap(_shrunk(error_map, size))
+    heat_panel = panel(f"FLIP, mean {mean:.3f}", heat, text_size, axes=axes[0], offset=offset, area_size=size)
+    cells = _numbered_cells(per_cell, shown[0], frame(shown[0]))
+    style = number_style([float(per_cell[c.row, c.col]) for c in cells], min(c.radius_px for c in cells)) \
+        if cells else None
+    diff = Difference(f"buggy: {bug.name}", "correct", mean, error_map, per_cell, heat_panel, style)
+    card = assemble([panels + [heat_panel]], title=f"{bug.name}: {bug.summary}",
+                    caption=f"{bug.caption} Mean FLIP {mean:.3f}.", text_size=text_size)
+    _print_cells(card, diff, shown[0], frame(shown[0]))
+    return card, panels + [heat_panel], diff
+
+
 def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
-                      panel_size: int = 192) -> Sheet:
-    """The bug catalog (or ``names`` from it) as one sheet: a row per bug with correct | buggy |
-    FLIP difference at ``panel_size`` px and the bug's name, summary, caption and mean FLIP."""
+                      panel_size: int = 256, per_row: int = 2, measure_size: int | None = BUG_MEASURE_SIZE) -> Sheet:
+    """The bug catalog (or ``names`` from it) as one sheet: a grid of cards, ``per_row`` across,
+    each a bug's correct | buggy | FLIP difference with axes at ``panel_size`` px, its name,
+    summary and caption. The figures are measured on renders at ``measure_size`` (the size
+    ``compare --bug`` uses, so both quote the same figure; None: the spec's own size)."""
+    from dataclasses import replace as dc_replace
     from ..spec.bugs import BUGS, get_bug
-    spec = at_panel_size(as_spec(spec, "spec"), panel_size)
+    spec = at_panel_size(as_spec(spec, "spec"), measure_size)
+    at_panel_size(spec, panel_size)   # checks panel_size
+    if isinstance(per_row, bool) or not isinstance(per_row, int) or not 1 <= per_row <= 8:
+        raise SpecError(f"cards per row must be a whole number in [1, 8], got {per_row!r}")
     names = list(BUGS) if names is None else [get_bug(n).name for n in names]   # all checked first
     if not names:
         raise SpecError(f"no bugs named; allowed: {', '.join(BUGS)}")
     pairs = [bug_pair(spec, n) for n in names]
-    text_size = sheet_text_size(spec.height)
+    text_size = sheet_text_size(panel_size)
     rendered: dict[ChartSpec, RenderedChart] = {}     # the correct chart is shared by most bugs
     specs: list[ChartSpec] = []
 
@@ -306,24 +346,26 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
             specs.append(s)
         return rendered[s], specs.index(s)
 
-    grid, notes, diffs, panels = [], [], [], []
+    cards, card_panels, diffs = [], [], []
     for bug, correct, buggy in pairs:
         (rc, ic), (rb, ib) = render(correct, True), render(buggy, False)
-        d = _difference(rc, rb, "correct", f"buggy: {bug.name}", False, text_size)
-        row = [chart_panel("correct", rc, False, text_size, spec_index=ic),
-               chart_panel(f"buggy: {bug.name}", rb, False, text_size, spec_index=ib),
-               d.panel]
-        grid.append(row)
-        panels += row
-        diffs.append(d)
-        notes.append((bug.name, f"{bug.summary[:1].upper()}{bug.summary[1:]}. {bug.caption}\nMean FLIP {d.mean:.3f}"))
+        card, panels, diff = _bug_card(bug, rc, rb, panel_size, text_size)
+        panels[0].spec_index, panels[1].spec_index = ic, ib
+        cards.append(card)
+        card_panels.append(panels)
+        diffs.append(diff)
     title = f"PBR bug catalog: {len(names)} bugs"
-    caption = ("Each row: the correct chart, the same chart with one bug switched on, and the LDR-FLIP "
+    caption = ("Each card: the correct chart, the same chart with one bug switched on, and the LDR-FLIP "
                "difference (0 = identical, 1 = maximal)"
-               + (" with each sphere's mean printed on it." if any(d.number_style for d in diffs) else "."))
-    image = assemble(grid, title=title, caption=caption, text_size=text_size, notes=notes)
-    for d, (_, correct, _) in zip(diffs, pairs):
-        _print_cells(image, d, correct, rendered[correct].result.camera)
+               + (" with each sphere's mean printed on it" if any(d.number_style for d in diffs) else "")
+               + f"; figures measured at {spec.width}x{spec.height}.")
+    image, corners = tile(cards, per_row, title=title, caption=caption, text_size=text_size)
+    panels = []
+    for (x, y), row, diff in zip(corners, card_panels, diffs):
+        for p in row:
+            p.box = Box(p.box.x + x, p.box.y + y, p.box.w, p.box.h)
+        diff.cells = [dc_replace(c, x=c.x + x, y=c.y + y) for c in diff.cells]
+        panels += row
     ordered = [rendered[s] for s in specs]
     return Sheet(np.array(image), caption, specs, title, "bugs", panels, diffs,
                  [_digests(r.spec, r.result) for r in ordered], _sheet_renderer(ordered))

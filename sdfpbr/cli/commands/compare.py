@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import argparse
 
-DEFAULT_PANEL = 512          # --bug without --size/--spec: three 512 px panels, not 1024
-DEFAULT_CONTACT_PANEL = 192  # --bugs: one small row per bug
+from ...spec.bugs import BUG_MEASURE_SIZE as DEFAULT_PANEL   # --bug: three panels at the bug figures' size
+
+DEFAULT_CONTACT_PANEL = 256  # --bugs: the panels of each bug's card
 
 
 def register(subparsers) -> None:
@@ -133,7 +134,9 @@ def _contact_sheet(args):
     spec = spec_from_args(args)
     output = args.output or "bugs.png"
     check_writable(output, (".png",), "output")
-    return bug_contact_sheet(spec, names, panel_size=args.panel_size or DEFAULT_CONTACT_PANEL), output
+    # Measured where --bug measures: at the size --size/--spec chose, else at the bug figures' size.
+    return bug_contact_sheet(spec, names, panel_size=args.panel_size or DEFAULT_CONTACT_PANEL,
+                             measure_size=None if (args.size or args.spec) else DEFAULT_PANEL), output
 
 
 def _animate_bug(args, start: float) -> int:

@@ -136,9 +136,8 @@ def render_item(item: Item, key: str) -> Rendered:
         if item.kind == "compare":
             sheet = compare.compare_bug(item.base, item.bug)
         elif item.kind == "bug-sheet":
-            # panel_size = the base's own size: the entry's [spec] decides the panels.
-            sheet = compare.bug_contact_sheet(item.base, list(item.bug_names),
-                                              panel_size=max(item.base.width, item.base.height))
+            # Measured at the base's own size: the entry's [spec] decides the figures.
+            sheet = compare.bug_contact_sheet(item.base, list(item.bug_names), measure_size=None)
         elif item.kind == "compare-specs":
             sheet = compare.compare_specs(item.specs[0], item.specs[1], labels=item.labels, caption=item.caption)
         else:
