@@ -60,6 +60,39 @@ def test_bug_changes_the_image(session, name):
     assert np.nanmax(cells) > threshold, f"{name}: largest per-cell FLIP {np.nanmax(cells):.4f}"
 
 
+# Bugs whose own scene does not yet make them visible at chart size (their note says why).
+NOT_YET_VISIBLE = {"unclamped-ndotv"}
+
+
+@pytest.fixture(scope="module")
+def visible_flip(session):
+    """The FLIP of a change a person sees side by side: the default chart 5 % brighter (2.5x
+    Weber's 2 % just-noticeable luminance difference), as (image mean, largest sphere mean)."""
+    import math
+    spec = make_spec(width=256, height=256, labels=False)
+    return _flips(session, spec, make_spec(spec, exposure=math.log2(1.05)))
+
+
+def _flips(session, correct, buggy):
+    a, b = session.render(correct), session.render(buggy)
+    mean, error_map = metrics.flip_ldr(b.image, a.image)
+    cells = metrics.per_cell_mean(error_map, a.aov["row"], a.aov["col"], correct.rows, correct.cols)
+    return mean, float(np.nanmax(cells))
+
+
+@pytest.mark.parametrize("name", list(BUGS))
+@pytest.mark.requires_extra("flip_evaluator")
+def test_every_bug_is_visible_in_its_own_scene(session, visible_flip, name):
+    """On the default chart at 256 px plus what the bug requires (its scene), the bug differs
+    from the correct render at least as much as a just-visible brightness change, over the image
+    or on its most affected sphere."""
+    bug = BUGS[name]
+    spec = make_spec(width=256, height=256, labels=False)
+    mean, cell = _flips(session, bug.correct(spec), bug.apply(spec))
+    visible = mean >= visible_flip[0] or cell >= visible_flip[1]
+    assert visible != (name in NOT_YET_VISIBLE), (name, mean, cell, visible_flip)
+
+
 def _cell_hdr_change(session, correct, buggy, relative=False):
     a, b = session.render(correct), session.render(buggy)
     diff = np.abs(a.hdr - b.hdr).max(axis=-1)
@@ -94,7 +127,8 @@ def test_bugs_leave_unaffected_spheres_alone(session):
     assert rel[:, -1].max() <= PROGRAM_RTOL and change[:, :-1].min() > 0.01
     # AO on direct light: only where a neighbour occludes, never on an isolated sphere.
     lone = make_spec(BASE, rows=1, cols=1)
-    change = _cell_hdr_change(session, lone, BUGS["ao-on-direct"].apply(lone))
+    bug = BUGS["ao-on-direct"]
+    change = _cell_hdr_change(session, bug.correct(lone), bug.apply(lone))
     assert change.max() < 1e-5   # ao = 1: only float rounding of (c - ibl) * 1 + ibl
 
 

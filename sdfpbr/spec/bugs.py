@@ -69,8 +69,9 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "BUG_METAL_DIFFUSE"),
     _bug("diffuse-no-fresnel", "diffuse not weighted by 1 - F",
          "Dielectric rims glow too bright: light reflected by the coat cannot also enter the "
-         "body, so Lambert must be weighted by (1 - F). Fix: mix(diffuse, specular, F).",
-         "BUG_DIFFUSE_NO_FRESNEL"),
+         "body, so Lambert must be weighted by (1 - F); an orange body under the sky shows the rims "
+         "taking its colour. Fix: mix(diffuse, specular, F).",
+         "BUG_DIFFUSE_NO_FRESNEL", base_color=(0.9, 0.3, 0.05), env="sky"),
     _bug("clamp-tonemap", "clamp instead of a tone map",
          "Highlights and bright metals clip to flat white and shift hue: HDR radiance above 1 "
          "is cut off per channel. Fix: a tone mapper (ACES, Reinhard, Neutral) before encoding.",
@@ -84,9 +85,10 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "framebuffer plus a manual encode). Fix: encode exactly once.",
          "BUG_DOUBLE_GAMMA", program="display"),
     _bug("gamma-2.2", "pow(x, 1/2.2) instead of the sRGB curve",
-         "Shadows are slightly lifted and near-black banding differs: pow(1/2.2) is not the "
-         "piecewise sRGB OETF (linear toe below 0.0031308). Fix: the exact sRGB curve.",
-         "BUG_GAMMA_POW", program="display"),
+         "Shadows are lifted and near-black banding differs: pow(1/2.2) is not the piecewise "
+         "sRGB OETF (linear toe below 0.0031308), and the two curves differ most in the darks, so the "
+         "chart is shown at -3 EV. Fix: the exact sRGB curve.",
+         "BUG_GAMMA_POW", program="display", exposure=-3.0),
     _bug("double-tonemap", "Reinhard followed by ACES",
          "Flat, low-contrast image with dull highlights: the radiance was compressed by "
          "Reinhard and then again by ACES (as shared seed 002 does). Fix: one tone mapper.",
@@ -123,8 +125,9 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "BUG_FEWTAP_IBL"),
     _bug("ao-on-direct", "ambient occlusion applied to direct light",
          "Contact regions stay dark even where the sun hits them: AO approximates blocked "
-         "environment light, not a punctual light (that is what shadows do). Fix: AO on IBL only.",
-         "BUG_AO_ON_DIRECT"),
+         "environment light, not a punctual light (that is what shadows do); shown under a dim "
+         "uniform sky, so the sun carries most of the light. Fix: AO on IBL only.",
+         "BUG_AO_ON_DIRECT", env="uniform", env_intensity=0.3),
     _bug("normal-map-srgb", "normal map sampled as sRGB",
          "Bumps lean and flatten in one direction: the normal texture was decoded as colour, "
          "bending the vectors towards -1. Fix: sample normal maps as linear data.",
