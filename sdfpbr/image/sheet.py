@@ -208,9 +208,7 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
     draw = ImageDraw.Draw(sheet)
     x_panels = pad + (content_w - panels_w - (gap * 2 + notes_w if notes else 0)) // 2
     col_x = [x_panels + sum(col_w[:j]) + gap * j for j in range(n_cols)]
-    for line in title_lines:
-        draw.text((width / 2, y + title_font.getmetrics()[0]), line, font=title_font, fill=TITLE_COLOR, anchor="ms")
-        y += line_height(title_font)
+    y = _draw_lines(draw, title_lines, title_font, width / 2, y, TITLE_COLOR, "ms")
     y += gap if title_lines else 0
     canvas = np.array(sheet)
     for i, row in enumerate(grid):
@@ -232,11 +230,17 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
             draw.text((nx, ny + font.getmetrics()[0]), line, font=font, fill=color, anchor="ls")
             ny += line_height(font)
         y += row_h[i] + gap
-    y = pad + title_h + body_h + gap
-    for line in caption_lines:
-        draw.text((pad, y + text_font.getmetrics()[0]), line, font=text_font, fill=TEXT_COLOR, anchor="ls")
-        y += line_height(text_font)
+    _draw_lines(draw, caption_lines, text_font, pad, pad + title_h + body_h + gap, TEXT_COLOR, "ls")
     return sheet
+
+
+def _draw_lines(draw, lines: Sequence[str], font, x: float, y: float, color, anchor: str) -> float:
+    """Lines of text one under the other from ``y`` (their top), at ``x`` by ``anchor`` ("ms":
+    centred, "ls": left); returns the y below the last."""
+    for line in lines:
+        draw.text((x, y + font.getmetrics()[0]), line, font=font, fill=color, anchor=anchor)
+        y += line_height(font)
+    return y
 
 
 def tile(cards: Sequence[Image.Image], per_row: int, *, title: str, caption: str,
@@ -258,11 +262,7 @@ def tile(cards: Sequence[Image.Image], per_row: int, *, title: str, caption: str
     height = pad + title_h + sum(row_h) + gap * (len(rows) - 1) + caption_h + pad
     sheet = Image.new("RGBA", (width, height), BACKGROUND)
     draw = ImageDraw.Draw(sheet)
-    y = pad
-    for line in title_lines:
-        draw.text((width / 2, y + title_font.getmetrics()[0]), line, font=title_font, fill=TITLE_COLOR, anchor="ms")
-        y += line_height(title_font)
-    y += gap if title_lines else 0
+    y = _draw_lines(draw, title_lines, title_font, width / 2, pad, TITLE_COLOR, "ms") + (gap if title_lines else 0)
     x_grid = pad + (content_w - sum(col_w) - gap * (len(col_w) - 1)) // 2
     corners = []
     for r, row in enumerate(rows):
@@ -271,8 +271,5 @@ def tile(cards: Sequence[Image.Image], per_row: int, *, title: str, caption: str
             sheet.paste(card, (x, y))
             corners.append((x, y))
         y += row_h[r] + gap
-    y += -gap + (gap if caption_lines else 0)
-    for line in caption_lines:
-        draw.text((pad, y + text_font.getmetrics()[0]), line, font=text_font, fill=TEXT_COLOR, anchor="ls")
-        y += line_height(text_font)
+    _draw_lines(draw, caption_lines, text_font, pad, y, TEXT_COLOR, "ls")
     return sheet, corners

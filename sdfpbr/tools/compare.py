@@ -26,6 +26,7 @@ from ..image.chart_labels import axis_title, chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.bugs import BUG_MEASURE_SIZE
 from ..spec.fields import resolve_field, sweep_defaults
+from ..shading.camera import frame
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
            "bug_pair", "spec_differences", "at_panel_size",
@@ -158,18 +159,22 @@ def _heatmap(error_map: np.ndarray) -> tuple[np.ndarray, tuple[int, int]]:
 
 
 def _difference(reference: RenderedChart, test: RenderedChart, reference_label: str, test_label: str,
-                axes: bool, text_size: int) -> Difference:
+                axes: bool, text_size: int, shown: ChartSpec | None = None) -> Difference:
+    """FLIP of ``test`` against ``reference``, measured on the renders; its panel (map, axes and
+    the numbers' cells) at the renders' size, or shrunk to ``shown``'s size (same grid)."""
     from ..image.metrics import flip_ldr, per_cell_mean
     spec = reference.spec
     mean, error_map = flip_ldr(test.display, reference.display)
     aov = reference.result.aov
     per_cell = per_cell_mean(error_map, aov["row"], aov["col"], spec.rows, spec.cols)
-    heat, offset = _heatmap(error_map)
+    shown = shown or spec
+    size = (shown.width, shown.height)
+    heat, offset = _heatmap(error_map if shown is spec else _shrunk(error_map, size))
     label = f"FLIP difference, mean {mean:.3f}"
-    camera = reference.result.camera
-    heat_panel = panel(label, heat, text_size, axes=chart_axes(spec, camera) if axes else None,
-                       offset=offset, area_size=(spec.width, spec.height))
-    cells = _numbered_cells(per_cell, spec, camera)
+    camera = reference.result.camera if shown is spec else frame(shown)
+    heat_panel = panel(label, heat, text_size, axes=chart_axes(shown, camera) if axes else None,
+                       offset=offset, area_size=size)
+    cells = _numbered_cells(per_cell, shown, camera)
     style = number_style([float(per_cell[c.row, c.col]) for c in cells], min(c.radius_px for c in cells)) \
         if cells else None
     return Difference(test_label, reference_label, mean, error_map, per_cell, heat_panel, style)
@@ -298,26 +303,14 @@ def _shrunk(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
 def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
     """correct | buggy | FLIP map of one bug, measured on the renders and shown at
     ``panel_size`` with each panel's axes, its name and summary above and the caption below."""
-    from ..image.metrics import flip_ldr, per_cell_mean
-    from ..shading.camera import frame
     shown = [at_panel_size(r.spec, panel_size) for r in (rc, rb)]
-    size = (shown[0].width, shown[0].height)
-    axes = [chart_axes(s, frame(s)) for s in shown]
-    panels = [panel("correct", _shrunk(rc.display, size), text_size, axes=axes[0]),
-              panel(f"buggy: {bug.name}", _shrunk(rb.display, size), text_size, axes=axes[1])]
-    mean, error_map = flip_ldr(rb.display, rc.display)
-    aov = rc.result.aov
-    per_cell = per_cell_mean(error_map, aov["row"], aov["col"], rc.spec.rows, rc.spec.cols)
-    heat, offset = _heatmap(_shrunk(error_map, size))
-    heat_panel = panel(f"FLIP, mean {mean:.3f}", heat, text_size, axes=axes[0], offset=offset, area_size=size)
-    cells = _numbered_cells(per_cell, shown[0], frame(shown[0]))
-    style = number_style([float(per_cell[c.row, c.col]) for c in cells], min(c.radius_px for c in cells)) \
-        if cells else None
-    diff = Difference(f"buggy: {bug.name}", "correct", mean, error_map, per_cell, heat_panel, style)
-    card = assemble([panels + [heat_panel]], title=f"{bug.name}: {bug.summary}",
-                    caption=f"{bug.caption} Mean FLIP {mean:.3f}.", text_size=text_size)
+    panels = [panel(label, _shrunk(r.display, (s.width, s.height)), text_size, axes=chart_axes(s, frame(s)))
+              for label, r, s in (("correct", rc, shown[0]), (f"buggy: {bug.name}", rb, shown[1]))]
+    diff = _difference(rc, rb, "correct", f"buggy: {bug.name}", True, text_size, shown=shown[0])
+    card = assemble([panels + [diff.panel]], title=f"{bug.name}: {bug.summary}",
+                    caption=f"{bug.caption} Mean FLIP {diff.mean:.3f}.", text_size=text_size)
     _print_cells(card, diff, shown[0], frame(shown[0]))
-    return card, panels + [heat_panel], diff
+    return card, panels + [diff.panel], diff
 
 
 def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
