@@ -65,10 +65,26 @@ Material make_material(vec3 base_color_linear, float metallic, float perceptual_
     return m;
 }
 
-// Roughness widening for a light of angular radius theta (Karis 2013): the disc spreads the
-// half vectors, which a wider GGX lobe approximates while keeping its energy.
+// A disc light of angular radius theta around l, seen by a lobe of width alpha (Karis 2013's
+// representative point): the lobe is evaluated towards the point of the disc closest to the
+// mirror direction r, so a mirror shows the disc itself, and D is renormalised by
+// (alpha / alpha_for_disc)^2, the peak of the lobe widened by the disc. Widths add in
+// quadrature (as a convolution of two bell-shaped lobes does), so that a mirror's disc has the
+// disc's own radiance at normal view: D(h = n) / 4 = 1 / (pi sin^2 theta) for alpha -> 0.
 float alpha_for_disc(float alpha, float angular_radius) {
-    return min(1.0, alpha + 0.5 * sin(angular_radius));
+    return min(1.0, sqrt(sq(alpha) + sq(0.5 * sin(angular_radius))));
+}
+
+vec3 disc_representative(vec3 l, vec3 r, float angular_radius) {
+    float c = dot(l, r);
+    vec3 t = r - l * c;
+    float len = length(t);
+    if (c >= cos(angular_radius) || len < 1e-7) return c >= cos(angular_radius) ? r : l;
+    return l * cos(angular_radius) + t * (sin(angular_radius) / len);
+}
+
+float disc_normalization(float alpha, float angular_radius) {
+    return sq(alpha / alpha_for_disc(alpha, angular_radius));
 }
 
 // The dielectric Fresnel at cos x: Schlick with f0 = 0.04, or KHR_materials_specular's
@@ -119,30 +135,44 @@ vec3 surface_emission(Material m, vec3 v) {
 // The base under the clearcoat: the core material, under SHEEN with the sheen layer over it.
 vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single) {
     float n_dot_l = dot(n, l);
-    float alpha_light = alpha_for_disc(m.alpha, light_angle);
-    vec3 h = normalize(v + l);
+    // The specular lobe towards the disc's representative point (l itself for a point-like
+    // light), carrying its own cosine: spec_scale folds it and the renormalisation into f,
+    // which the common factor n_dot_l below multiplies back.
+    vec3 l_spec = l;
+    float spec_scale = 1.0;
+    if (light_angle > 0.0) {
+        l_spec = disc_representative(l, reflect(-v, n), light_angle);
+        spec_scale = disc_normalization(m.alpha, light_angle) * max(dot(n, l_spec), 0.0) / max(n_dot_l, 1e-6);
+    }
+    float alpha_light = m.alpha;
+    vec3 h = normalize(v + l_spec);
     float n_dot_h = saturate(dot(n, h));
     float v_dot_h = abs(dot(v, h));
+    float n_dot_ls = max(dot(n, l_spec), 1e-6);
 #if BUG_UNCLAMPED_NDOTV
     // The textbook D G F / (4 N.V N.L), separable Smith, N.V unclamped: at rims where the
     // shading normal faces away it divides by zero or goes negative.
     float a2 = alpha_light * alpha_light;
     float g_v = 2.0 * n_dot_v / (n_dot_v + sqrt(a2 + (1.0 - a2) * n_dot_v * n_dot_v));
-    float g_l = 2.0 * n_dot_l / (n_dot_l + sqrt(a2 + (1.0 - a2) * n_dot_l * n_dot_l));
-    float f_spec = d_ggx(n_dot_h, alpha_light) * g_v * g_l / (4.0 * n_dot_v * n_dot_l);
+    float g_l = 2.0 * n_dot_ls / (n_dot_ls + sqrt(a2 + (1.0 - a2) * n_dot_ls * n_dot_ls));
+    float f_spec = d_ggx(n_dot_h, alpha_light) * g_v * g_l / (4.0 * n_dot_v * n_dot_ls) * spec_scale;
 #else
-    float f_spec = d_ggx(n, h, alpha_light) * visibility_direct(n_dot_l, n_dot_v, m.perceptual_roughness, alpha_light);
+    float f_spec = d_ggx(n, h, alpha_light) * visibility_direct(n_dot_ls, n_dot_v, m.perceptual_roughness, alpha_light)
+                 * spec_scale;
 #endif
 #if BUG_FRESNEL_NDOTV
     float f_cos = n_dot_v;
+    float f_cos_diffuse = n_dot_v;
 #else
     float f_cos = v_dot_h;
+    // The light the coat lets into the body comes from the disc's centre.
+    float f_cos_diffuse = light_angle > 0.0 ? abs(dot(v, normalize(v + l))) : v_dot_h;
 #endif
     vec3 f_dielectric = dielectric_fresnel(m, f_cos);
 #if BUG_DIFFUSE_NO_FRESNEL
     vec3 diffuse = m.base_color_linear * INV_PI;
 #else
-    vec3 diffuse = m.base_color_linear * INV_PI * (1.0 - max3(f_dielectric));
+    vec3 diffuse = m.base_color_linear * INV_PI * (1.0 - max3(dielectric_fresnel(m, f_cos_diffuse)));
 #endif
     vec3 spec_dielectric = f_spec * f_dielectric * energy_compensation(dielectric_f0(m), e_single);
     vec3 metal = f_spec * fresnel_schlick(m.base_color_linear, f_cos)
@@ -165,7 +195,7 @@ vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float ligh
 }
 
 // f(v, l) * NdotL for one light direction; e_single from the DFG LUT at (NdotV, r).
-// light_angle: the light's angular radius, which widens the lobes (alpha_for_disc).
+// light_angle: the light's angular radius (a disc; disc_representative).
 vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single) {
     float n_dot_l = dot(n, l);
 #if CLEARCOAT

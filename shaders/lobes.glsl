@@ -47,9 +47,16 @@ vec3 clearcoat_layer(Material m, vec3 base_cos, vec3 v, vec3 l, float light_angl
     float n_dot_v = max(dot(n, v), MIN_N_DOT_V);
     float coat = 0.0;
     if (n_dot_l > 0.0) {
-        float alpha = alpha_for_disc(m.clearcoat_alpha, light_angle);
-        coat = d_ggx(n, normalize(v + l), alpha)
-             * visibility_direct(n_dot_l, n_dot_v, m.clearcoat_perceptual_roughness, alpha) * n_dot_l;
+        // A disc light as in base_brdf_cos: the lobe towards its representative point.
+        vec3 l_spec = l;
+        float scale = 1.0;
+        if (light_angle > 0.0) {
+            l_spec = disc_representative(l, reflect(-v, n), light_angle);
+            scale = disc_normalization(m.clearcoat_alpha, light_angle);
+        }
+        float n_dot_ls = max(dot(n, l_spec), 1e-6);
+        coat = d_ggx(n, normalize(v + l_spec), m.clearcoat_alpha)
+             * visibility_direct(n_dot_ls, n_dot_v, m.clearcoat_perceptual_roughness, m.clearcoat_alpha) * n_dot_ls * scale;
     }
 #if BUG_CLEARCOAT_ADDS
     return base_cos + coat * clearcoat_weight(m, v);

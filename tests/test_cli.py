@@ -7,7 +7,7 @@ import pytest
 
 from sdfpbr.shading.plan import compose_program as compose
 from sdfpbr.shading.plan import render_plan
-from sdfpbr.spec.chart_spec import make_spec
+from sdfpbr.spec.chart_spec import DEFAULT_LIGHTS, make_spec
 
 
 def run(*args, cwd=None):
@@ -68,7 +68,8 @@ def test_shader_command_from_another_directory(tmp_path):
 
 
 def test_features_left_out_are_absent_from_the_source():
-    full = render_plan(make_spec()).chart.text
+    point = {"kind": "point", "position": [3.0, 2.0, 3.0], "intensity": 10.0}
+    full = render_plan(make_spec(lights=[*DEFAULT_LIGHTS, point])).chart.text
     bare = render_plan(make_spec(ground=False, ao=False, lights="none")).chart.text
     for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light",
                    "brdf_cos(m, n, v, l, n_dot_v, light_spread"):

@@ -105,15 +105,21 @@ def cell_blocks(spec, image):
     return np.moveaxis(block, 2, 1)
 
 
+# A small sun and a point light: sharp shadow edges and highlights that a one-pixel shift shows.
+SUN_AND_POINT = [{"kind": "directional", "direction": [-0.55, 0.65, 0.52], "intensity": 3.0,
+                  "angular_radius_deg": 2.5},
+                 {"kind": "point", "position": [9.0, 1.5, 7.0], "intensity": 25.0, "range": 60.0}]
+
+
 def test_same_material_gives_statistically_identical_cells(session):
-    """The default scene (studio environment, sun, point light, floor) on the cells stage with
+    """The studio scene (studio environment, sun, point light, floor) on the cells stage with
     one material everywhere: each cell's path-traced mean equals every other's within their
     standard errors after shifting by the cell offset, and the pixel-centre AOVs are bit-equal
     (every cell traces the same rays). The random numbers are keyed by the image pixel, so the
     cells' noise is independent: compared per pixel, the differences are what their standard
     errors say (rms z about 1), while a one-pixel misalignment is many standard errors off."""
     spec = make_spec(stage="cells", rows=2, cols=3, width=102, height=66, roughness=(0.35, 0.35),
-                     metallic=(0.5, 0.5))
+                     metallic=(0.5, 0.5), base_color=(0.75, 0.75, 0.75), lights=SUN_AND_POINT)
     g = cell_grid(spec)
     assert (g.cell_width, g.cell_height) == (34, 33)
     res = render_reference(spec, samples=32, seed=12, session=session)

@@ -26,7 +26,7 @@ void main() {
     Case c = cases[i];
     Material m = make_material(c.base_metal.rgb, c.base_metal.a, c.rough_e.x);
     float n_dot_v = max(dot(c.n.xyz, c.v.xyz), MIN_N_DOT_V);
-    results[i] = vec4(brdf_cos(m, c.n.xyz, c.v.xyz, c.l.xyz, n_dot_v, 0.0, c.rough_e.y), 0.0);
+    results[i] = vec4(brdf_cos(m, c.n.xyz, c.v.xyz, c.l.xyz, n_dot_v, c.rough_e.z, c.rough_e.y), 0.0);
 }
 """
 
@@ -45,7 +45,9 @@ def _random_unit(rng, n):
 
 @pytest.mark.parametrize("model", ["gltf", "schlick-ggx"])
 @pytest.mark.parametrize("multiscatter", [False, True])
-def test_glsl_brdf_matches_float64_mirror(ctx, session, tmp_path, model, multiscatter):
+@pytest.mark.parametrize("disc_deg", [0.0, 6.0])
+def test_glsl_brdf_matches_float64_mirror(ctx, session, tmp_path, model, multiscatter, disc_deg):
+    """disc_deg > 0: l is the centre of a disc light, shaded at its representative point."""
     rng = np.random.default_rng(7)
     n_cases = 4096
     n = _random_unit(rng, n_cases)
@@ -59,7 +61,7 @@ def test_glsl_brdf_matches_float64_mirror(ctx, session, tmp_path, model, multisc
     cases = np.zeros((n_cases, 5, 4), np.float32)
     cases[:, 0, :3], cases[:, 1, :3], cases[:, 2, :3] = n, v, l
     cases[:, 3, :3], cases[:, 3, 3] = base, metal
-    cases[:, 4, 0], cases[:, 4, 1] = rough, e
+    cases[:, 4, 0], cases[:, 4, 1], cases[:, 4, 2] = rough, e, np.radians(disc_deg)
     source = compose("brdf_test_main.glsl", {"BRDF_MODEL": model.replace("-", "_"), "MULTISCATTER": multiscatter},
                      root=_kernel_root(tmp_path))
     program = session.programs.compute(source)
@@ -72,8 +74,8 @@ def test_glsl_brdf_matches_float64_mirror(ctx, session, tmp_path, model, multisc
     ctx.memory_barrier()
     got = np.frombuffer(outbuf.read(), np.float32).reshape(n_cases, 4)[:, :3]
     n_dot_l = np.clip((n * l).sum(1), 0, None)[:, None]
-    want = mirror.brdf(n, v, l, base, metal, rough, model=model,
-                       multiscatter=multiscatter, e_spec=e) * n_dot_l
+    want = mirror.brdf(n, v, l, base, metal, rough, model=model, multiscatter=multiscatter, e_spec=e,
+                       disc_angular_radius=np.radians(disc_deg)) * n_dot_l
     assert np.isfinite(got).all()
     np.testing.assert_allclose(got, want, rtol=2e-3, atol=1e-5)
     assert (want > 0.5).any() and (want == 0).any()   # the cases reach highlights and back faces

@@ -37,6 +37,8 @@ __all__ = [
     "e_avg",
     "dfg_table",
     "brdf",
+    "disc_representative",
+    "alpha_for_disc",
     "furnace_expected",
     "sample_sphere_cosine",
     "reflect",
@@ -374,8 +376,28 @@ def single_scatter_albedo(n_dot_v, r, model):
     return (A + B)[inv.ravel()].reshape(nv.shape)
 
 
+def disc_representative(l, r, angular_radius, dtype=np.float64):
+    """The direction within a disc of angular radius theta around l closest to r (Karis 2013's
+    representative point): r itself inside the disc, else l turned towards r by theta."""
+    l = np.asarray(l, dtype=dtype)
+    r = np.asarray(r, dtype=dtype)
+    c = _dot(l, r)
+    t = r - l * c[..., None]
+    length = np.linalg.norm(t, axis=-1)
+    inside = (c >= np.cos(angular_radius)) | (length < 1e-7)
+    edge = l * np.cos(angular_radius) + t * (np.sin(angular_radius) / np.maximum(length, 1e-300))[..., None]
+    return np.where(inside[..., None], np.where((c >= np.cos(angular_radius))[..., None], r, l), edge)
+
+
+def alpha_for_disc(alpha, angular_radius):
+    """The lobe width a disc light of angular radius theta spreads alpha to: alpha and
+    sin(theta)/2 added in quadrature (exact for a mirror seen head-on)."""
+    return np.minimum(1.0, np.sqrt(np.square(alpha) + np.square(0.5 * np.sin(angular_radius))))
+
+
 def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
-         multiscatter=False, e_spec=None, dtype=np.float64, min_perceptual_roughness=MIN_PERCEPTUAL_ROUGHNESS):
+         multiscatter=False, e_spec=None, dtype=np.float64, min_perceptual_roughness=MIN_PERCEPTUAL_ROUGHNESS,
+         disc_angular_radius=0.0):
     """glTF 2.0 metal-rough BRDF value f (..., 3), without the cosine.
 
     n, v, l unit vectors (..., 3) (v and l point away from the surface); base_color scalar,
@@ -385,6 +407,9 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     f0 (0.04 dielectric, base_color metal), E from dfg_integrate unless e_spec is given.
     dtype float16 evaluates every step in half precision (E still integrated in float64);
     min_perceptual_roughness is the clamp (MIN_PERCEPTUAL_ROUGHNESS_FP16 is Filament's fp16 one).
+    disc_angular_radius > 0 makes l the centre of a disc light as the chart shades one: the
+    specular lobe towards disc_representative with its own cosine (returned divided by N.L so
+    that f N.L stays the light's f cos) and D renormalised by (alpha / alpha_for_disc)^2.
     """
     _check_model(model)
     n = np.asarray(n, dtype=dtype)
@@ -401,11 +426,18 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     lit = n_dot_l_raw > 0.0
     n_dot_l = np.clip(n_dot_l_raw, 0.0, 1.0)
     n_dot_v = np.clip(_dot(n, v), MIN_N_DOT_V, 1.0)
-    h = normalize(v + l, dtype)
+    l_spec, spec_scale, n_dot_ls = l, 1.0, n_dot_l
+    if disc_angular_radius > 0:
+        l_spec = disc_representative(l, reflect(-v, n), disc_angular_radius, dtype)
+        n_dot_ls = np.maximum(_dot(n, l_spec), 1e-6)
+        spec_scale = (alpha / alpha_for_disc(alpha, disc_angular_radius)) ** 2 \
+            * np.maximum(_dot(n, l_spec), 0.0) / np.maximum(n_dot_l, 1e-6)
+    h = normalize(v + l_spec, dtype)
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
     v_dot_h = np.abs(_dot(v, h))
 
-    f_spec = (d_ggx(n_dot_h, alpha, dtype) * visibility(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
+    f_spec = (d_ggx(n_dot_h, alpha, dtype) * visibility(model, n_dot_ls, n_dot_v, r, alpha, False, dtype)
+              * spec_scale)[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc
     spec_d = f_spec * fd
@@ -415,7 +447,10 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
         e = np.maximum(np.asarray(e, dtype=dtype), _tiny(dtype))
         spec_d = spec_d * energy_compensation(np.asarray(DIELECTRIC_F0, dtype), e)
         spec_m = spec_m * energy_compensation(base, e)
-    dielectric = base / np.pi * (1.0 - fd) + spec_d
+    # The diffuse's Fresnel weight at the light's own half vector (a disc's centre).
+    fd_diffuse = fd if disc_angular_radius <= 0 else \
+        DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fresnel_weight(np.abs(_dot(v, normalize(v + l, dtype))))[..., None]
+    dielectric = base / np.pi * (1.0 - fd_diffuse) + spec_d
     f = (1.0 - metal) * dielectric + metal * spec_m
     f = np.where(lit[..., None], f, 0.0)
     # A scalar base colour still yields RGB.

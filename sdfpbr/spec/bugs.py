@@ -13,6 +13,7 @@ from typing import Any
 from ..errors import SpecError, did_you_mean
 from .material import MIN_PERCEPTUAL_ROUGHNESS
 from .checks import quote
+from .presets import Light
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,9 @@ BUG_MEASURE_SIZE = 512
 _R_MIN = MIN_PERCEPTUAL_ROUGHNESS
 _TEXTURED = {"textures": "procedural"}
 # The lobe bugs show on a dielectric chart with their lobe down the rows (roughness across).
+# Two soft boxes behind the spheres, left and right: light arriving at grazing half vectors.
+_RIM_LIGHTS = tuple(Light("directional", direction=(x, 0.3, -0.74), intensity=6.0, angular_radius_deg=6.0)
+                    for x in (0.6, -0.6))
 _COATED = {"y_axis": "clearcoat", "clearcoat": (0.0, 1.0), "clearcoat_roughness": 0.1, "metallic": (0.0, 0.0),
            "base_color": (0.6, 0.05, 0.05)}
 _SHEENED = {"y_axis": "sheen_roughness", "sheen_roughness": (0.2, 1.0), "sheen_color": (1.0, 0.5, 0.7),
@@ -69,9 +73,10 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "BUG_METAL_DIFFUSE"),
     _bug("diffuse-no-fresnel", "diffuse not weighted by 1 - F",
          "Dielectric rims glow too bright: light reflected by the coat cannot also enter the "
-         "body, so Lambert must be weighted by (1 - F); an orange body under the sky shows the rims "
-         "taking its colour. Fix: mix(diffuse, specular, F).",
-         "BUG_DIFFUSE_NO_FRESNEL", base_color=(0.9, 0.3, 0.05), env="sky"),
+         "body, so Lambert must be weighted by (1 - F); two rim lights behind the spheres, at the "
+         "grazing angles where F is large, show the rims taking the body's colour. Fix: "
+         "mix(diffuse, specular, F).",
+         "BUG_DIFFUSE_NO_FRESNEL", env="black", lights=_RIM_LIGHTS),
     _bug("clamp-tonemap", "clamp instead of a tone map",
          "Highlights and bright metals clip to flat white and shift hue: HDR radiance above 1 "
          "is cut off per channel. Fix: a tone mapper (ACES, Reinhard, Neutral) before encoding.",

@@ -18,7 +18,7 @@ from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
 from .gltf import GLTF_SUFFIXES, gltf_materials, grid_for
-from .material import AXIS_PARAMS, COLOR_PARAMS, PARAMS
+from .material import AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
                       LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
                       light_from_mapping)
@@ -250,7 +250,7 @@ FIELDS: tuple[Field, ...] = (
            annotation=tuple[float, float]),
     _other("range", "metallic", (0.0, 1.0), _range("metallic"), "metallic down the rows, inclusive (one value off an axis)", "LO:HI",
            many="LO:HI pairs", bounds=(0.0, 1.0), annotation=tuple[float, float]),
-    _other("color", "base_color", (0.75, 0.75, 0.75), _color("base_color"), "linear base colour", "R,G,B",
+    _other("color", "base_color", DEFAULT_BASE_COLOR, _color("base_color"), "linear base colour", "R,G,B",
            many="R,G,B colours (separated by ';')", bounds=(0.0, 1.0), annotation=tuple[float, float, float]),
     _other("names", "materials", (), _materials,
            f"a measured preset per row, overriding base_color (sets rows unless given): {', '.join(MATERIAL_PRESETS)}",

@@ -79,10 +79,15 @@ def param(name: str) -> Param:
     return _BY_NAME[name]
 
 
+# The chart's default base colour: a saturated orange, so that a metal's tinted reflections
+# read against a dielectric's coloured body under white highlights (a grey hides both).
+DEFAULT_BASE_COLOR = (0.8, 0.3, 0.08)
+
+
 @dataclass(frozen=True)
 class Material:
     """One cell's material: glTF 2.0 metallic-roughness and the KHR lobes (linear colours)."""
-    base_color: tuple[float, float, float] = (0.75, 0.75, 0.75)
+    base_color: tuple[float, float, float] = DEFAULT_BASE_COLOR
     metallic: float = 0.0
     roughness: float = 0.5
     clearcoat: float = 0.0

@@ -67,9 +67,12 @@ class Light:
         s(self, "range", number(self.range, "light range", 1e-6, 1e12))
 
 
+# A studio's two soft boxes, far enough to be directional and large enough that the smoothest
+# sphere shows each as a small disc (a 6-degree box reflects ~7 px wide on a 128-px sphere).
 KEY_LIGHT = Light("directional", direction=(-0.55, 0.65, 0.52), color=(1.0, 0.95, 0.88),
-                  intensity=3.0, angular_radius_deg=2.5)
-FILL_LIGHT = Light("point", position=(9.0, 1.5, 7.0), color=(0.85, 0.92, 1.0), intensity=25.0, range=60.0)
+                  intensity=3.0, angular_radius_deg=6.0)
+FILL_LIGHT = Light("directional", direction=(0.78, 0.30, 0.55), color=(0.85, 0.92, 1.0),
+                   intensity=0.4, angular_radius_deg=10.0)
 DEFAULT_LIGHTS = (KEY_LIGHT, FILL_LIGHT)
 
 

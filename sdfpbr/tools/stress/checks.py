@@ -160,17 +160,19 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
     alpha_mat = np.maximum(rough, mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
     pixel_size = 2 * camera.half_height / H * (1.0 if camera.orthographic else depth[..., 0])
     for light in spec.lights:
+        a, disc = alpha_mat, 0.0
         if light.kind == "directional":
             l = np.broadcast_to(np.asarray(light.direction), p.shape)
-            a = np.minimum(1.0, alpha_mat + 0.5 * math.sin(math.radians(light.angular_radius_deg)))
+            # A disc light's highlight is the disc (half vectors within theta/2 of its centre's)
+            # with edges as sharp as the material's own lobe (mirror.disc_representative).
+            disc = 0.5 * math.radians(light.angular_radius_deg)
         else:
             to_light = np.asarray(light.position) - p
             dist = np.linalg.norm(to_light, axis=-1)
             l = to_light / np.maximum(dist, 1e-300)[..., None]
-            a = alpha_mat
             test &= dist > 8 * pixel_size
         h = mirror.normalize(v + l)
-        delta = np.arccos(np.clip((n * h).sum(-1), -1.0, 1.0))
+        delta = np.maximum(np.arccos(np.clip((n * h).sum(-1), -1.0, 1.0)) - disc, 0.0)
         # h moves by dn_h = dn + dv/2 a pixel. D changes by at most exp(2 dn_h / alpha) per step
         # (its log slope peaks at 2/alpha), <= 2.4 when dn_h <= 0.44 alpha: a resolved lobe.
         # An unresolved one is skipped near its centre; beyond 4 dn_h its tail changes by
@@ -322,36 +324,33 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
             if rise > 1e-4:
                 failures.append(f"peak rises with roughness {rough[a]:g} -> {rough[b]:g}: {va:.6g} -> {vb:.6g}")
         worst_rise = max(worst_rise, rise)
-    # The float64 BRDF at the probe: the shader widens alpha by the light's disc (the mirror
-    # takes it as perceptual sqrt(alpha_light)) and takes E at the material's roughness.
-    worst_mirror = 0.0
-    widened = light.angular_radius_deg > 0
-    if not widened or spec.brdf == "gltf":
-        # Renormalised in float64: a float32 unit vector is off by ~6e-8 in length, which at
-        # the peak of an alpha = 0.002 lobe reads as a 3e-4 rad tilt and a 5 % lower D.
-        n = mirror.normalize(np.asarray(normals))
-        v = np.array([0.0, 0.0, 1.0])
-        l = np.asarray(light.direction)
-        alpha_light = np.minimum(1.0, rough ** 2 + 0.5 * math.sin(math.radians(light.angular_radius_deg)))
-        e = None
-        if spec.multiscatter:
-            A, B, _ = mirror.dfg_integrate(np.clip(n @ v, mirror.MIN_N_DOT_V, 1), rough, model=spec.brdf)
-            e = A + B
-        scale = np.clip(n @ l, 0, None) * light.intensity
-        lobes = [mirror.brdf(n, v, l, np.asarray(spec.base_color), metal, np.sqrt(alpha_light), model=spec.brdf,
-                             multiscatter=spec.multiscatter, e_spec=e).mean(-1) * scale
-                 for metal in (spec.material_array("metallic")[0, 0], 0.0, 1.0)]
-        want, got = lobes[0], np.asarray(values)
-        if spec.hdr_precision == "float16":
-            want = np.minimum(want, mirror.HALF_MAX)
-        # GLSL mix(a, b, 1) may be evaluated as a + (b - a): a few float32 ulps of the larger lobe
-        # remain (a black metal's Fresnel-only highlight sits 1e-7 below its dielectric lobe).
-        mix_ulps = 4 * 2.0 ** -24 * np.maximum(lobes[1], lobes[2])
-        rel = np.maximum(np.abs(got - want) - atol - mix_ulps, 0.0) / np.maximum(want, 1e-300)
-        worst_mirror = float(rel.max())
-        if worst_mirror > MIRROR_RTOL[spec.quality] + (HALF_EPS if half else 0):
-            failures.append(f"highlight centre differs from the float64 BRDF by {worst_mirror:.3g} "
-                            f"(got {got.tolist()}, want {want.tolist()})")
+    # The float64 BRDF at the probe, the light's disc shaded as the chart shades it
+    # (mirror.brdf's disc_angular_radius), E at the material's roughness.
+    # Renormalised in float64: a float32 unit vector is off by ~6e-8 in length, which at
+    # the peak of an alpha = 0.002 lobe reads as a 3e-4 rad tilt and a 5 % lower D.
+    n = mirror.normalize(np.asarray(normals))
+    v = np.array([0.0, 0.0, 1.0])
+    l = np.asarray(light.direction)
+    e = None
+    if spec.multiscatter:
+        A, B, _ = mirror.dfg_integrate(np.clip(n @ v, mirror.MIN_N_DOT_V, 1), rough, model=spec.brdf)
+        e = A + B
+    scale = np.clip(n @ l, 0, None) * light.intensity
+    lobes = [mirror.brdf(n, v, l, np.asarray(spec.base_color), metal, rough, model=spec.brdf,
+                         multiscatter=spec.multiscatter, e_spec=e,
+                         disc_angular_radius=math.radians(light.angular_radius_deg)).mean(-1) * scale
+             for metal in (spec.material_array("metallic")[0, 0], 0.0, 1.0)]
+    want, got = lobes[0], np.asarray(values)
+    if spec.hdr_precision == "float16":
+        want = np.minimum(want, mirror.HALF_MAX)
+    # GLSL mix(a, b, 1) may be evaluated as a + (b - a): a few float32 ulps of the larger lobe
+    # remain (a black metal's Fresnel-only highlight sits 1e-7 below its dielectric lobe).
+    mix_ulps = 4 * 2.0 ** -24 * np.maximum(lobes[1], lobes[2])
+    rel = np.maximum(np.abs(got - want) - atol - mix_ulps, 0.0) / np.maximum(want, 1e-300)
+    worst_mirror = float(rel.max())
+    if worst_mirror > MIRROR_RTOL[spec.quality] + (HALF_EPS if half else 0):
+        failures.append(f"highlight centre differs from the float64 BRDF by {worst_mirror:.3g} "
+                        f"(got {got.tolist()}, want {want.tolist()})")
     return failures, worst_rise, worst_mirror
 
 
