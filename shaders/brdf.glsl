@@ -132,6 +132,15 @@ vec3 surface_emission(Material m, vec3 v) {
 }
 #endif
 
+// The body's Lambert lobe, weighted by the share of light the coat lets in: 1 - F at cos x.
+vec3 diffuse_lobe(Material m, float f_cos) {
+#if BUG_DIFFUSE_NO_FRESNEL
+    return m.base_color_linear * INV_PI;
+#else
+    return m.base_color_linear * INV_PI * (1.0 - max3(dielectric_fresnel(m, f_cos)));
+#endif
+}
+
 // The base under the clearcoat: the core material, under SHEEN with the sheen layer over it.
 vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single) {
     float n_dot_l = dot(n, l);
@@ -169,11 +178,7 @@ vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float ligh
     float f_cos_diffuse = light_angle > 0.0 ? abs(dot(v, normalize(v + l))) : v_dot_h;
 #endif
     vec3 f_dielectric = dielectric_fresnel(m, f_cos);
-#if BUG_DIFFUSE_NO_FRESNEL
-    vec3 diffuse = m.base_color_linear * INV_PI;
-#else
-    vec3 diffuse = m.base_color_linear * INV_PI * (1.0 - max3(dielectric_fresnel(m, f_cos_diffuse)));
-#endif
+    vec3 diffuse = diffuse_lobe(m, f_cos_diffuse);
     vec3 spec_dielectric = f_spec * f_dielectric * energy_compensation(dielectric_f0(m), e_single);
     vec3 metal = f_spec * fresnel_schlick(m.base_color_linear, f_cos)
                * energy_compensation(m.base_color_linear, e_single);
@@ -192,6 +197,19 @@ vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float ligh
 #else
     return f * n_dot_l;
 #endif
+}
+
+// The diffuse share of f(v, l) * NdotL alone (no layers): a sphere's light on its floor besides
+// its mirror-like reflection of the lights, which stage_bounce.glsl takes in closed form.
+vec3 diffuse_brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
+    float n_dot_l = dot(n, l);
+    if (n_dot_l <= 0.0) return vec3(0.0);
+#if BUG_METAL_DIFFUSE
+    float body = 1.0;
+#else
+    float body = 1.0 - m.metallic;
+#endif
+    return body * diffuse_lobe(m, abs(dot(v, normalize(v + l)))) * n_dot_l;
 }
 
 // f(v, l) * NdotL for one light direction; e_single from the DFG LUT at (NdotV, r).

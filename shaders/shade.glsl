@@ -11,6 +11,15 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 }
 #endif
 
+// A punctual light's f cos, its specular share weighted by `specular` (1, a literal, at every
+// call but the bounce's: stage_bounce.glsl takes the rest of a smooth sphere's reflection of
+// the lights in closed form).
+vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
+                     float specular) {
+    if (specular >= 1.0) return brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
+    return mix(diffuse_brdf_cos(m, n, v, l), brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single), specular);
+}
+
 // Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
 // lights (the key light shadowed where shadows are composed in).
 // pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
@@ -19,7 +28,7 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 // `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
 // false gives the open floor a shadow catcher divides by.
 vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
-                 bool blocked) {
+                 float light_specular, bool blocked) {
 #if STAGE == cells
     g_shading_point = p;   // for the probe's parallax correction
 #endif
@@ -75,8 +84,8 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
         vec3 l = u_dir_light_direction[i];
-        vec3 c = brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single)
-               * u_dir_light_illuminance[i];
+        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single,
+                                 light_specular) * u_dir_light_illuminance[i];
 #if USE_SHADOWS && STAGE == cells
         // The ground receives every light's shadow (exact on this stage, shadow.glsl).
         if (ground && blocked && dot(n, l) > 0.0)
@@ -94,7 +103,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         vec3 to_light = u_point_light_position[i] - p;
         float dist = length(to_light);
         vec3 l = to_light / dist;
-        vec3 c = brdf_cos(m, n, v, l, n_dot_v, light_spread, e_single)
+        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, light_spread, e_single, light_specular)
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
@@ -113,24 +122,24 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 }
 
 vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0, true);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0, 1.0, true);
 }
 
 // The sphere's light as a few bounce rays sample it: each punctual light's highlight spread as
-// if the light were `spread` radians wide (the rays' spacing), energy kept, so a near-mirror's
-// pinpoint image is averaged over the cap instead of hit by one ray or missed.
-vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, true);
+// if the light were `spread` radians wide (the rays' spacing), and weighted by `specular`, the
+// share of the lights' reflection the rays can resolve (stage_bounce.glsl).
+vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread, float specular) {
+    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, true);
 }
 
 vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {
-    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, true);
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, true);
 }
 
 #if SHADOW_CATCHER
 // The ground as if no sphere stood on it: what a shadow catcher's transmittance is relative to.
 vec3 shade_open_ground(vec3 p, vec3 v, float pixel_size) {
-    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, false);
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, false);
 }
 
 // A shadow catcher's pixel, premultiplied: no colour of its own, and the alpha of the light its
