@@ -1,5 +1,6 @@
 // Punctual lights. Directional: direction towards the light, illuminance (colour x intensity)
-// and angular radius; point: position, intensity, range of the inverse-square window.
+// and angular radius; point: position, intensity, range of the inverse-square window and the
+// radius of its emitting sphere (0: a point).
 // The composer emits the loops only for the light kinds the scene has.
 
 #if NUM_DIR_LIGHTS > 0
@@ -23,6 +24,13 @@ vec3 light_discs(vec3 rd) {
 uniform vec3 u_point_light_position[NUM_POINT_LIGHTS];
 uniform vec3 u_point_light_intensity[NUM_POINT_LIGHTS];
 uniform float u_point_light_range[NUM_POINT_LIGHTS];
+uniform float u_point_light_radius[NUM_POINT_LIGHTS];
+
+// The angle a point light's sphere subtends from distance dist: its disc, as a directional
+// light's angular radius is.
+float point_angular_radius(int i, float dist) {
+    return asin(min(u_point_light_radius[i] / max(dist, 1e-30), 1.0));
+}
 
 // Inverse square with a smooth window to zero at the range (Karis 2013).
 float point_falloff(float dist, float range) {

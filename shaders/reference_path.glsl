@@ -3,7 +3,10 @@
 // next-event estimation for every light and the environment, and multiple importance sampling
 // (power heuristic) between BRDF sampling and each light or environment sampling technique.
 // Directional lights of angular radius theta > 0 are discs of radiance E / (pi sin^2 theta)
-// (what the chart shows in its background); theta = 0 lights and point lights are delta lights.
+// (what the chart shows in its background); point lights of radius R > 0 are spheres of
+// radiance I w(d) / (pi R^2) (E = I w(d) / d^2 on a surface that sees all of it; w the range
+// window at the centre's distance d), seen by the paths' bounces but not by camera rays, as in
+// the chart, and hiding nothing; theta = 0 and R = 0 lights are delta lights.
 // Textured spheres: the maps modulate the cell's factors and bend the shading normal as in
 // shade.glsl, read at full resolution (pixel samples do the filtering); light below the
 // geometric surface is blocked by it; the ORM occlusion darkens indirect light only (the
@@ -117,6 +120,33 @@ vec3 discs_seen(vec3 d, float pdf_brdf) {
     return sum;
 }
 
+#if NUM_POINT_LIGHTS > 0
+// A sphere light's radiance, I w(d) / (pi R^2): E = L pi sin^2(asin(R / d)) = I w(d) / d^2.
+vec3 sphere_light_radiance(int i, float dist) {
+    return u_point_light_intensity[i]
+         * (point_falloff(dist, u_point_light_range[i]) * dist * dist / (PI * sq(u_point_light_radius[i])));
+}
+
+// Radiance of the sphere lights a bounce ray from p along d meets before distance t_max, each
+// weighted against BRDF sampling with pdf pdf_brdf (the light's technique: its cone from p).
+vec3 spheres_seen(vec3 p, vec3 d, float t_max, float pdf_brdf) {
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < NUM_POINT_LIGHTS; ++i) {
+        float radius = u_point_light_radius[i];
+        if (radius <= 0.0) continue;
+        vec3 to_light = u_point_light_position[i] - p;
+        float dist = length(to_light);
+        if (dist <= radius) continue;
+        float t = ray_sphere(p, d, u_point_light_position[i], radius);
+        if (t <= 0.0 || t >= t_max) continue;
+        float omc = 2.0 * sq(sin(0.5 * point_angular_radius(i, dist)));
+        float w = power_heuristic(pdf_brdf, 1.0 / (2.0 * PI * omc));
+        sum += sphere_light_radiance(i, dist) * w;
+    }
+    return sum;
+}
+#endif
+
 vec3 environment_seen(vec3 d, float pdf_brdf) {
 #if ENV == black
     return vec3(0.0);
@@ -152,6 +182,19 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
     for (int i = 0; i < NUM_POINT_LIGHTS; ++i) {
         vec3 to_light = u_point_light_position[i] - p;
         float dist = length(to_light);
+        float radius = u_point_light_radius[i];
+        if (radius > 0.0) {   // a sphere: its cone from p, MIS against BRDF sampling (spheres_seen)
+            if (dist <= radius) continue;
+            float omc = 2.0 * sq(sin(0.5 * point_angular_radius(i, dist)));
+            vec3 l = sample_cone(to_light / dist, omc, rng_next4(rng).xy);
+            vec3 f = surface_f_cos(s, v, l);
+            float t_light = ray_sphere(p, l, u_point_light_position[i], radius);
+            if (any(greaterThan(f, vec3(0.0))) && t_light > 0.0 && !occluded(p, l, t_light, cell)) {
+                float pdf_light = 1.0 / (2.0 * PI * omc);
+                sum += f * sphere_light_radiance(i, dist) * (power_heuristic(pdf_light, surface_pdf(s, v, l)) / pdf_light);
+            }
+            continue;
+        }
         vec3 l = to_light / dist;
         vec3 f = surface_f_cos(s, v, l);
         if (any(greaterThan(f, vec3(0.0))) && !occluded(p, l, dist, cell))
@@ -196,6 +239,9 @@ vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
         if (!any(greaterThan(f, vec3(0.0)))) break;
         throughput *= f / pdf;
         Hit next = trace_scene(p, l, 1e30, hit.cell);
+#if NUM_POINT_LIGHTS > 0
+        radiance += throughput * spheres_seen(p, l, next.t < 0.0 ? 1e30 : next.t, pdf);
+#endif
         if (next.t < 0.0) {
             radiance += throughput * (environment_seen(l, pdf) * s.occlusion + discs_seen(l, pdf));
             break;

@@ -103,11 +103,16 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         vec3 to_light = u_point_light_position[i] - p;
         float dist = length(to_light);
         vec3 l = to_light / dist;
-        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, light_spread, e_single, light_specular)
+        float angle = point_angular_radius(i, dist);
+        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(angle, light_spread), e_single, light_specular)
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
-        if (ground && blocked) c *= point_shadow(p + n_geo * (1e-3 * u_radius), l, dist);   // the sphere's shadow on its floor
+        // The sphere's shadow on its floor: a sphere light's disc against the sphere's, as the sun's.
+        // (A light nearer than the sphere's near side cannot be hidden by it.)
+        if (ground && blocked)
+            c *= angle <= 0.0 ? point_shadow(p + n_geo * (1e-3 * u_radius), l, dist)
+               : dist > length(p) - u_radius ? soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(angle)) : 1.0;
 #endif
         color += c;
     }

@@ -1,6 +1,7 @@
 """Disc lights: a directional light with an angular radius is a disc of radiance
-E / (pi sin^2 theta); the smoothest sphere must show it as that disc (its image placed by ray
-geometry, its radiance the disc's own), not as a dead pixel or a blurred blob."""
+E / (pi sin^2 theta), a point light with a radius a sphere of radiance I / (pi R^2); the
+smoothest sphere must show either as that disc (its image placed by ray geometry, its radiance
+the light's own), not as a dead pixel or a blurred blob -- in the chart and in the reference."""
 import math
 
 import numpy as np
@@ -9,54 +10,117 @@ import pytest
 from sdfpbr.oracle import mirror
 from sdfpbr.shading.camera import frame
 from sdfpbr.spec.chart_spec import make_spec
+from sdfpbr.tools.reference import render_reference
 from sdfpbr.tools.stress.checks import pixel_rays
 
 SIZE = 400
 
 
-@pytest.mark.parametrize("theta_deg", [5.0, 10.0])
-def test_a_mirror_sphere_shows_a_disc_light_as_the_disc(session, theta_deg):
-    """A white metal mirror (F = 1) under only a disc light that sits behind the camera: where the
-    reflected ray points into the disc, the pixel holds the disc's radiance L = E / (pi sin^2 theta);
-    where it points more than a margin outside, less than half of it. Which pixels are which
-    comes from ray-sphere geometry here, not from the shader.
+MIRROR = dict(rows=1, cols=1, width=SIZE, height=SIZE, env="black", ibl=False, ground=False,
+              metallic=(1.0, 1.0), roughness=(0.0, 0.0), base_color=(1.0, 1.0, 1.0), multiscatter=False,
+              tonemap="none", exposure=0.0)
+FAR = 50.0    # a point light's distance: its sphere's angle changes by 2 % across the mirror
 
-    The disc's radiance in the chart is E / (4 pi alpha'^2 N.V) with alpha'^2 = alpha^2 +
-    sin^2(theta)/4 (brdf.glsl): relative error 4 alpha^2 / sin^2 theta (<= 0.26 % at 5 degrees,
-    alpha = 0.045^2) plus 1/N.V - 1 (<= 0.25 %: the disc's image lies within theta/2 + 1 degree of
-    the view direction); the tolerance is twice their sum. The margin: the reflected ray turns
-    by up to 2 / (sphere radius in pixels) per pixel (two pixels of it, for the edge's
-    anti-aliasing) and the lobe's own width falls to a quarter of its peak within 2 alpha."""
-    theta = math.radians(theta_deg)
-    base = dict(rows=1, cols=1, width=SIZE, height=SIZE, env="black", ibl=False, ground=False,
-                metallic=(1.0, 1.0), roughness=(0.0, 0.0), base_color=(1.0, 1.0, 1.0), multiscatter=False,
-                tonemap="none", exposure=0.0)
-    cam = frame(make_spec(**base))
-    # The light's axis: towards the camera, turned by 1 degree so the image is off-centre.
+
+def disc_scene(kind: str, theta: float):
+    """A light of angular radius theta (seen from the sphere's centre) behind the camera, turned
+    by 1 degree so its image is off-centre; returns (spec, axis, radiance L of the light)."""
+    cam = frame(make_spec(**MIRROR))
     axis = -cam.forward * math.cos(math.radians(1.0)) + cam.right * math.sin(math.radians(1.0))
-    E = 2.0
-    light = {"kind": "directional", "direction": axis.tolist(), "intensity": E, "angular_radius_deg": theta_deg}
-    spec = make_spec(**base, lights=[light])
-    hdr = session.render(spec).hdr.astype(np.float64)[..., :3]
+    if kind == "directional":
+        E = 2.0
+        light = {"kind": "directional", "direction": axis.tolist(), "intensity": E,
+                 "angular_radius_deg": math.degrees(theta)}
+        return make_spec(**MIRROR, lights=[light]), axis, E / (math.pi * math.sin(theta) ** 2)
+    radius, intensity = FAR * math.sin(theta), 2.0 * FAR ** 2
+    light = {"kind": "point", "position": (axis * FAR).tolist(), "intensity": intensity, "radius": radius,
+             "range": 1e9}
+    return make_spec(**MIRROR, lights=[light]), axis, intensity / (math.pi * radius ** 2)
 
-    ro, rd = pixel_rays(cam, SIZE, SIZE)
+
+def disc_image(spec, axis, theta):
+    """Per pixel: whether the camera ray hits the sphere, and the angle between its mirror
+    reflection and the light's axis; and the margin of one edge (see below)."""
+    cam = frame(spec)
+    ro, rd = pixel_rays(cam, spec.width, spec.height)
     r = spec.sphere_radius
     b = (ro * rd).sum(-1)
     disc = b * b - ((ro * ro).sum(-1) - r * r)
     hit = disc > 0
     t = -b - np.sqrt(np.where(hit, disc, 0.0))
     n = mirror.normalize(ro + rd * t[..., None])
-    reflected = mirror.reflect(rd, n)
-    angle = np.arccos(np.clip(reflected @ axis, -1.0, 1.0))
-
+    angle = np.arccos(np.clip(mirror.reflect(rd, n) @ axis, -1.0, 1.0))
     radius_px = r * np.abs(cam.project(np.zeros((1, 3)))[1][0])
-    alpha = mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
-    margin = 2 * 2.0 / radius_px + 2 * alpha
-    L = E / (math.pi * math.sin(theta) ** 2)
-    inside = hit & (angle < theta - margin)
-    outside = hit & (angle > theta + margin)
-    assert inside.sum() >= 12 and outside.sum() > 1000     # the disc's image is a disc, many pixels wide
+    margin = 2 * 2.0 / radius_px + 2 * mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
+    return hit, angle, margin
 
+
+@pytest.mark.parametrize("kind", ["directional", "point"])
+@pytest.mark.parametrize("theta_deg", [5.0, 10.0])
+def test_a_mirror_sphere_shows_a_disc_light_as_the_disc(session, kind, theta_deg):
+    """A white metal mirror (F = 1) under only a disc light that sits behind the camera: where the
+    reflected ray points into the disc, the pixel holds the light's radiance L; where it points
+    more than a margin outside, less than half of it. Which pixels are which comes from
+    ray-sphere geometry here, not from the shader.
+
+    The disc's radiance in the chart is E / (4 pi alpha'^2 N.V) with alpha'^2 = alpha^2 +
+    sin^2(theta)/4 (brdf.glsl): relative error 4 alpha^2 / sin^2 theta (<= 0.26 % at 5 degrees,
+    alpha = 0.045^2) plus 1/N.V - 1 (<= 0.25 %: the disc's image lies within theta/2 + 1 degree of
+    the view direction); the tolerance is twice their sum. (A point light's E / sin^2 theta is
+    I / R^2 from any distance.) The margin: the reflected ray turns by up to 2 / (sphere radius in
+    pixels) per pixel (two pixels of it, for the edge's anti-aliasing) and the lobe's own width
+    falls to a quarter of its peak within 2 alpha."""
+    theta = math.radians(theta_deg)
+    spec, axis, L = disc_scene(kind, theta)
+    hdr = session.render(spec).hdr.astype(np.float64)[..., :3]
+    hit, angle, margin = disc_image(spec, axis, theta)
+    inside, outside = hit & (angle < theta - margin), hit & (angle > theta + margin)
+    assert inside.sum() >= 12 and outside.sum() > 1000     # the disc's image is a disc, many pixels wide
+    alpha = mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
     rtol = 2 * (4 * alpha ** 2 / math.sin(theta) ** 2 + (1 / math.cos(theta / 2 + math.radians(1.0)) - 1))
     np.testing.assert_allclose(hdr[inside], L, rtol=rtol)
     assert hdr[outside].max() < 0.5 * L
+
+
+@pytest.mark.parametrize("kind", ["directional", "point"])
+def test_the_reference_mirror_shows_the_light_at_its_radiance(session, kind):
+    """The path tracer on the same mirror: inside the disc's image the pixels hold the light's
+    radiance (the BRDF sample meets the disc or sphere: exact for a mirror up to the lobe's
+    width), within 4 standard errors of their mean plus the lobe's 0.3 % (as above)."""
+    theta = math.radians(8.0)
+    spec, axis, L = disc_scene(kind, theta)
+    spec = make_spec(spec, width=320, height=320)
+    res = render_reference(spec, samples=64, seed=3, session=session)
+    hit, angle, margin = disc_image(spec, axis, theta)
+    inside = hit & (angle < theta - margin)
+    assert inside.sum() >= 12
+    got = res.hdr.astype(np.float64)[..., :3][inside]
+    stderr = float(np.sqrt((res.stderr.astype(np.float64)[inside] ** 2).sum()) / inside.sum())
+    assert abs(got.mean() - L) <= 4 * stderr + 0.003 * L, (got.mean(), L, stderr)
+
+
+def test_the_reference_lights_a_lambert_sphere_by_a_sphere_light_as_by_its_point(session):
+    """A uniform sphere light seen whole from a surface point gives a Lambert surface there the
+    irradiance of a point of the same intensity at its centre, I / d^2 (a lit sphere's outside
+    field is its centre's); only points that see part of it below their horizon differ. The
+    path tracer with every surface a Lambert reflector, lit by each, away from that band
+    (N.L < sin(theta) plus a margin for a pixel's footprint): equal within 4 standard errors of
+    the two renders' means. Sampling the sphere's cone (and MIS with the BRDF's rays that meet
+    it) must add up to the point light's delta."""
+    base = dict(rows=1, cols=1, width=96, height=96, env="black", ibl=False, ground=False,
+                metallic=(0.0, 0.0), roughness=(1.0, 1.0), base_color=(0.8, 0.8, 0.8), tonemap="none")
+    position = [-20.0, 30.0, 40.0]
+    point = {"kind": "point", "position": position, "intensity": 2500.0, "range": 1e9}
+    a, b = (make_spec(**base, lights=[light]) for light in (point, dict(point, radius=2.0)))
+    ro, rd = pixel_rays(frame(a), a.width, a.height)
+    bq = (ro * rd).sum(-1)
+    disc = bq * bq - ((ro * ro).sum(-1) - a.sphere_radius ** 2)
+    hit = disc > 0
+    n = mirror.normalize(ro + rd * (-bq - np.sqrt(np.where(hit, disc, 0.0)))[..., None])
+    l = mirror.normalize(np.asarray(position) - n)
+    keep = hit & ((n * l).sum(-1) > 2.0 / np.linalg.norm(position) + 0.05)
+    assert keep.sum() > 1000
+    res = [render_reference(s, samples=32, seed=5, session=session, lambert=True) for s in (a, b)]
+    ya, yb = (r.hdr.astype(np.float64)[..., :3][keep].mean() for r in res)
+    se = math.hypot(*(float(np.sqrt((r.stderr.astype(np.float64)[keep] ** 2).sum()) / keep.sum()) for r in res))
+    assert abs(ya - yb) <= 4 * se, (ya, yb, se)

@@ -121,6 +121,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         u["u_point_light_position"] = [light.position for light in point]
         u["u_point_light_intensity"] = [tuple(c * light.intensity for c in light.color) for light in point]
         u["u_point_light_range"] = [light.range for light in point]
+        u["u_point_light_radius"] = [light.radius for light in point]
     return u
 
 

@@ -42,7 +42,9 @@ MAX_SIZE = 16384 * 4
 class Light:
     """A punctual light. Directional: ``direction`` points towards the light, ``intensity`` is
     illuminance at normal incidence, ``angular_radius_deg`` sets the shadow penumbra and the
-    highlight size. Point: ``position``, ``intensity`` in candela-like units (E = I / d^2)."""
+    highlight size. Point: ``position``, ``intensity`` in candela-like units (E = I / d^2),
+    ``radius`` the emitting sphere's (world units; 0 is a point), which sets the highlight's
+    size and the shadow's penumbra as the angle it subtends does for a directional light."""
     kind: str = "directional"
     direction: tuple[float, float, float] = (0.0, 1.0, 0.0)
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -50,6 +52,7 @@ class Light:
     intensity: float = 1.0
     angular_radius_deg: float = 0.0
     range: float = 100.0
+    radius: float = 0.0
 
     def __post_init__(self):
         s = object.__setattr__
@@ -65,6 +68,7 @@ class Light:
         s(self, "intensity", number(self.intensity, "light intensity", 0.0, 1e12))
         s(self, "angular_radius_deg", number(self.angular_radius_deg, "light angular_radius_deg", 0.0, 45.0))
         s(self, "range", number(self.range, "light range", 1e-6, 1e12))
+        s(self, "radius", number(self.radius, "light radius", 0.0, 1e12))
 
 
 # A studio's two soft boxes, far enough to be directional and large enough that the smoothest

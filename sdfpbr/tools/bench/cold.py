@@ -8,15 +8,23 @@ import sys
 import tempfile
 import time
 
-from ...errors import SdfpbrError
+from ...errors import SdfpbrError, SpecError
 from ...spec.chart_spec import make_spec
-from ...spec.fields import spec_to_flags
+from ...spec.fields import spec_to_flags, spec_to_toml
 from .suite import BenchConfig
 
 
-def cli_flags(overrides: dict, preset: str, width: int, height: int, backend: str) -> list[str]:
-    """`sdfpbr chart` flags for a scene's overrides, written by the field table."""
-    return spec_to_flags(make_spec(width=width, height=height, quality=preset, backend=backend, **overrides))
+def cli_flags(overrides: dict, preset: str, width: int, height: int, backend: str, workdir: str) -> list[str]:
+    """`sdfpbr chart` flags for a scene's overrides, written by the field table; a scene whose
+    lights have no flag is written to a spec file in ``workdir`` and read with --spec."""
+    spec = make_spec(width=width, height=height, quality=preset, backend=backend, **overrides)
+    try:
+        return spec_to_flags(spec)
+    except SpecError:
+        path = os.path.join(workdir, "scene.toml")
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(spec_to_toml(spec))
+        return ["--spec", path]
 
 
 def cold_chart_seconds(flags: list[str], cache_dir: str, workdir: str) -> float:
@@ -34,8 +42,8 @@ def cold_chart_seconds(flags: list[str], cache_dir: str, workdir: str) -> float:
 
 def cold_times(overrides: dict, preset: str, cfg: BenchConfig) -> tuple[float, float]:
     """(empty sdfpbr cache, filled sdfpbr cache) seconds, both with Mesa's cache off."""
-    flags = cli_flags(overrides, preset, cfg.width, cfg.height, cfg.backend)
     with tempfile.TemporaryDirectory(prefix="sdfpbr-bench-") as tmp:
+        flags = cli_flags(overrides, preset, cfg.width, cfg.height, cfg.backend, tmp)
         cache = os.path.join(tmp, "cache")
         cold = cold_chart_seconds(flags, cache, tmp)
         warm = cold_chart_seconds(flags, cache, tmp)

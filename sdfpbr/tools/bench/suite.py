@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...errors import SpecError, did_you_mean
-from ...spec.chart_spec import QUALITY_PRESETS, ChartSpec, make_spec
+from ...spec.chart_spec import QUALITY_PRESETS, ChartSpec, Light, make_spec
 
 # The scene suite. Each scene is a set of spec overrides on the default chart.
 SCENES: dict[str, dict] = {
@@ -24,6 +24,13 @@ SCENES: dict[str, dict] = {
                 "base_color": (1.0, 1.0, 1.0)},
     # Every KHR lobe at once on the cells stage: clearcoat down the rows over a sheened,
     # ior-2 dielectric (roughness across), so the chart composes clearcoat, sheen and specular.
+    # The default chart before its orange base and soft boxes: a grey base under a 2.5-degree
+    # sun and a point light, the scene the stage's accuracy was first measured on (kept so those
+    # figures stay comparable: FLIP reads a coloured chart's errors larger).
+    "grey": {"stage": "cells", "base_color": (0.75, 0.75, 0.75),
+             "lights": (Light("directional", direction=(-0.55, 0.65, 0.52), color=(1.0, 0.95, 0.88), intensity=3.0,
+                              angular_radius_deg=2.5),
+                        Light("point", position=(9.0, 1.5, 7.0), color=(0.85, 0.92, 1.0), intensity=25.0, range=60.0))},
     "lobes": {"stage": "cells", "y_axis": "clearcoat", "metallic": 0.0, "base_color": (0.2, 0.3, 0.7),
               "sheen_color": (0.6, 0.3, 0.4), "sheen_roughness": 0.5, "ior": 2.0, "clearcoat_roughness": 0.1},
 }
@@ -35,6 +42,7 @@ SCENE_NOTES = {
     "grid10x10": "10x10 spheres",
     "bare": "no ground, shadows or AO",
     "furnace": "white spheres, uniform env, no lights/ground (white furnace)",
+    "grey": "5x5 cells stage, grey base, sun and point light (the earlier default)",
     "lobes": "5x5 cells stage, roughness x clearcoat over sheen and ior 2 (the KHR lobes)",
 }
 BASE_PRESETS = ("draft", "default", "high")

@@ -139,7 +139,7 @@ def _lights(d: _Draw, fam: dict, scene: float) -> tuple:
         where = d.pick((0.01, 0.5, 1.0, 3.0))
         position = tuple(float(c) for c in d.rng.uniform(-1, 1, 3) * scene * where)
         lights.append(Light("point", position=position, intensity=_intensity(d),
-                            range=d.log_edge(1e-3, 1e3) * scene))
+                            range=d.log_edge(1e-3, 1e3) * scene, radius=d.pick((0.0, 0.0, 0.02, 0.2)) * scene))
     return tuple(lights)
 
 

@@ -171,6 +171,7 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
             dist = np.linalg.norm(to_light, axis=-1)
             l = to_light / np.maximum(dist, 1e-300)[..., None]
             test &= dist > 8 * pixel_size
+            disc = 0.5 * np.arcsin(np.minimum(light.radius / np.maximum(dist, 1e-300), 1.0))   # a sphere light's
         h = mirror.normalize(v + l)
         delta = np.maximum(np.arccos(np.clip((n * h).sum(-1), -1.0, 1.0)) - disc, 0.0)
         # h moves by dn_h = dn + dv/2 a pixel. D changes by at most exp(2 dn_h / alpha) per step
