@@ -31,7 +31,7 @@ Surface make_surface(ivec2 cell, vec3 n_geometric, vec3 v) {
     float occlusion = 1.0;
 #if USE_TEXTURES
     if (cell.x >= 0) {
-        SurfaceTexels tx = sample_surface(n_geometric, 1e-20 * u_radius);   // level 0
+        SurfaceTexels tx = sample_surface(n_geometric, 1e-20 * u_radius, cell);   // level 0
         apply_texels(m, cell, tx);
         occlusion = tx.orm.r;
         n = tx.normal;

@@ -37,7 +37,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #if USE_TEXTURES
     float occlusion = 1.0;
     if (!ground) {   // glTF: texture values scale the cell's factors
-        SurfaceTexels tx = sample_surface(n_geo, pixel_size);
+        SurfaceTexels tx = sample_surface(n_geo, pixel_size, cell);
         apply_texels(m, cell, tx);
         occlusion = tx.orm.r;
         n = tx.normal;

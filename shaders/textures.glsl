@@ -30,21 +30,40 @@ float map_lod(int map_width, float pixel_size) {
     return max(log2(pixel_size / texel_world), 0.0);
 }
 
-// n: geometric sphere normal.
-SurfaceTexels sample_surface(vec3 n, float pixel_size) {
+// u_map_layers > 1: each map holds that many sphere maps stacked top to bottom, cell k's in
+// layer k (a glTF asset's materials); v is kept half a texel inside its layer so filtering
+// reads no neighbour at level 0 (coarser levels blur across the layers' seams at the poles).
+uniform int u_map_layers;
+
+vec2 layer_uv(vec2 uv, ivec2 cell, int map_height) {
+    if (u_map_layers <= 1) return uv;
+    float h = float(map_height) / float(u_map_layers);
+    float v = clamp(uv.y, 0.5 / h, 1.0 - 0.5 / h);
+    return vec2(uv.x, (float(cell.y * u_grid.x + cell.x) + v) / float(u_map_layers));
+}
+
+// Mip level for a layer of the map, whose width spans the equator (2 pi R).
+float layer_lod(sampler2D map, float pixel_size) {
+    return map_lod(textureSize(map, 0).x, pixel_size);
+}
+
+// n: geometric sphere normal; cell: whose layer (u_map_layers > 1).
+SurfaceTexels sample_surface(vec3 n, float pixel_size, ivec2 cell) {
     vec2 uv = vec2(0.5 + atan(n.x, n.z) * (0.5 * INV_PI), acos(clamp(n.y, -1.0, 1.0)) * INV_PI);
     SurfaceTexels s = SurfaceTexels(vec3(1.0), vec3(1.0), n);
 #if HAS_BASE_COLOR_MAP
-    s.base_color_linear = textureLod(u_base_color_map, uv, map_lod(textureSize(u_base_color_map, 0).x, pixel_size)).rgb;
+    s.base_color_linear = textureLod(u_base_color_map, layer_uv(uv, cell, textureSize(u_base_color_map, 0).y),
+                                     layer_lod(u_base_color_map, pixel_size)).rgb;
 #endif
 #if HAS_ORM_MAP
-    s.orm = textureLod(u_orm_map, uv, map_lod(textureSize(u_orm_map, 0).x, pixel_size)).rgb;
+    s.orm = textureLod(u_orm_map, layer_uv(uv, cell, textureSize(u_orm_map, 0).y), layer_lod(u_orm_map, pixel_size)).rgb;
 #if BUG_ORM_SRGB
     s.orm = srgb_eotf(s.orm);
 #endif
 #endif
 #if HAS_NORMAL_MAP
-    vec3 texel = textureLod(u_normal_map, uv, map_lod(textureSize(u_normal_map, 0).x, pixel_size)).rgb;
+    vec3 texel = textureLod(u_normal_map, layer_uv(uv, cell, textureSize(u_normal_map, 0).y),
+                            layer_lod(u_normal_map, pixel_size)).rgb;
 #if BUG_NORMAL_MAP_SRGB
     texel = srgb_eotf(texel);
 #endif

@@ -72,7 +72,7 @@ def test_features_left_out_are_absent_from_the_source():
     full = render_plan(make_spec(lights=[*DEFAULT_LIGHTS, point])).chart.text
     bare = render_plan(make_spec(ground=False, ao=False, lights="none")).chart.text
     for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light",
-                   "brdf_cos(m, n, v, l, n_dot_v, light_spread"):
+                   "lights_brdf_cos(m, n, v, l, n_dot_v, "):
         assert needle in full and needle not in bare, needle
 
 

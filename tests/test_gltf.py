@@ -45,14 +45,14 @@ def test_named_materials_in_their_order_and_a_misspelt_name_suggested():
 
 def test_a_gltf_json_file_with_texture_and_alpha_mode_is_charted_and_says_what_it_left_out(tmp_path, cache_dir):
     doc = gltf_asset([pygltflib.Material(name="leaf", pbrMetallicRoughness=pbr((0.1, 0.5, 0.1), 0.0, 0.6),
-                                         alphaMode="MASK", normalTexture=pygltflib.NormalMaterialTexture(index=0))])
+                                         alphaMode="MASK", emissiveTexture=pygltflib.TextureInfo(index=0))])
     path = tmp_path / "leaf.gltf"
     doc.save_json(str(path))
     out = tmp_path / "leaf.png"
     r = subprocess.run([sys.executable, "-m", "sdfpbr", "chart", "--gltf", str(path), "-o", str(out),
                         "--size", "96x96"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert "leaf: normalTexture is not charted" in r.stderr and "leaf: alphaMode MASK" in r.stderr
+    assert "leaf: emissiveTexture is not charted" in r.stderr and "leaf: alphaMode MASK" in r.stderr
     assert out.stat().st_size > 0
 
 
@@ -92,3 +92,111 @@ def test_cells_render_their_own_material(session):
     assert np.argmax(means) == 5 and (cell(1, 2) >= np.array([3.0, 1.8, 0.6]) * (1 - 1e-4)).all()
     rim, centre = aov["ndotv"] < 0.3, aov["ndotv"] > 0.9
     assert cell(1, 0, rim).mean() > cell(1, 0, centre).mean()
+
+
+# ---- textures --------------------------------------------------------------------------------
+
+LAYER = (1024, 512)   # gpu.textures.GLTF_LAYER_SIZE: a map's texels on the sphere
+
+
+def png_bytes(img: np.ndarray) -> bytes:
+    import io
+
+    import imageio.v3 as iio
+    buf = io.BytesIO()
+    iio.imwrite(buf, img, extension=".png")
+    return buf.getvalue()
+
+
+def textured_glb(path, images, materials, samplers=()):
+    """A .glb whose images (PNG bytes) lie in its binary buffer, one texture each (texture i
+    reads image i with sampler i if given)."""
+    blob, views = b"", []
+    for data in images:
+        views.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data)))
+        blob += data + b"\0" * (-len(data) % 4)
+    doc = gltf_asset(materials)
+    doc.buffers = [pygltflib.Buffer(byteLength=len(blob))]
+    doc.bufferViews = views
+    doc.images = [pygltflib.Image(bufferView=i, mimeType="image/png") for i in range(len(images))]
+    doc.samplers = list(samplers)
+    doc.textures = [pygltflib.Texture(source=i, sampler=i if i < len(samplers) else None) for i in range(len(images))]
+    doc.set_binary_blob(blob)
+    doc.save_binary(str(path))
+    return str(path)
+
+
+def pattern(seed: int) -> np.ndarray:
+    """A layer-sized RGB pattern: smooth bands plus noise, so a misplaced texel shows."""
+    rng = np.random.default_rng(seed)
+    h, w = LAYER[1], LAYER[0]
+    j, i = np.mgrid[:h, :w]
+    img = np.stack([128 + 100 * np.sin(i / 40.0), 128 + 100 * np.cos(j / 25.0), 60 + 0 * i], -1)
+    return np.clip(img + rng.integers(-20, 21, img.shape), 0, 255).astype(np.uint8)
+
+
+def textured(info_extensions=None, **pbr_extra):
+    return pygltflib.Material(name="textured", pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.5,
+        baseColorTexture=pygltflib.TextureInfo(index=0, extensions=info_extensions or {}), **pbr_extra))
+
+
+def test_a_base_colour_texture_is_the_png_the_asset_holds(session, tmp_path):
+    """A layer-sized image in the .glb's buffer lands on the sphere texel for texel: the chart
+    equals the same image given as --base-color-texture on a white, rough-0.5 dielectric."""
+    img = pattern(1)
+    (tmp_path / "t.png").write_bytes(png_bytes(img))
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(img)], [textured()])
+    kw = dict(size="160x160", labels=False)
+    got = session.render(make_spec(gltf=glb, **kw)).image
+    want = session.render(make_spec(base_color_texture=str(tmp_path / "t.png"), base_color=(1.0, 1.0, 1.0),
+                                    metallic=(0.0, 0.0), roughness=(0.5, 0.5), rows=1, cols=1, **kw)).image
+    assert np.abs(got.astype(int) - want).max() <= 1
+
+
+def test_khr_texture_transform_and_wrap_are_applied(session, tmp_path):
+    """scale (2, 1) with repeat wrap: the sphere's u runs twice over the image, so the layer's
+    texel i is the image's texels 2i and 2i + 1 averaged (bilinear at their midpoint); offset
+    (0, 0.25) with clamp shifts v down a quarter and holds the last row. Computed here from the
+    image alone, given as a PNG: the chart must match it."""
+    img = pattern(2)
+    h = img.shape[0]
+    doubled = (img.astype(np.float64)[:, 0::2] + img[:, 1::2]) / 2.0
+    doubled = np.concatenate([doubled, doubled], 1)
+    rows = np.clip(np.arange(h) + h // 4, 0, h - 1)    # v + 0.25 lands exactly a quarter of the rows down
+    want_img = np.rint(doubled[rows]).astype(np.uint8)
+    (tmp_path / "want.png").write_bytes(png_bytes(want_img))
+    transform = {"KHR_texture_transform": {"scale": [2.0, 1.0], "offset": [0.0, 0.25]}}
+    sampler = pygltflib.Sampler(wrapS=10497, wrapT=33071)
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(img)], [textured(transform)], [sampler])
+    kw = dict(size="160x160", labels=False)
+    got = session.render(make_spec(gltf=glb, **kw)).image
+    want = session.render(make_spec(base_color_texture=str(tmp_path / "want.png"), base_color=(1.0, 1.0, 1.0),
+                                    metallic=(0.0, 0.0), roughness=(0.5, 0.5), rows=1, cols=1, **kw)).image
+    assert np.abs(got.astype(int) - want).max() <= 1
+
+
+def test_each_cell_reads_its_own_materials_textures(session, tmp_path):
+    """Four materials: a red base-colour texture; a green one with a metallic-roughness texture
+    (G roughness 0, B metalness 1) over factors 1, 1; an untextured blue; and the green metal
+    by factors alone (roughness 0, metallic 1). Every cell reads its own layer: the red and
+    green cells take their texture's colour, the textured metal equals the factor metal below
+    it (identical cells: the same pixels), the blue cell keeps its factors."""
+    red = np.zeros((8, 16, 3), np.uint8); red[..., 0] = 255
+    green = np.zeros((8, 16, 3), np.uint8); green[..., 1] = 255
+    mr = np.zeros((8, 16, 3), np.uint8); mr[..., 2] = 255
+    plain = pygltflib.Material(name="plain", pbrMetallicRoughness=pbr((0.2, 0.2, 0.9), 0.0, 0.5))
+    metal = pygltflib.Material(name="metal", pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0, roughnessFactor=1.0,
+        baseColorTexture=pygltflib.TextureInfo(index=1), metallicRoughnessTexture=pygltflib.TextureInfo(index=2)))
+    by_factors = pygltflib.Material(name="factors", pbrMetallicRoughness=pbr((0.0, 1.0, 0.0), 1.0, 0.0))
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(red), png_bytes(green), png_bytes(mr)],
+                       [textured(), metal, plain, by_factors])
+    spec = make_spec(gltf=glb, size="160x160", labels=False)
+    res = session.render(spec)
+    aov, hdr = res.aov, res.hdr.astype(np.float64)[..., :3]
+    def cell(r, c):
+        return hdr[(aov["row"] == r) & (aov["col"] == c) & (aov["coverage"] == 1)]
+    r, g, b = cell(0, 0).mean(0), cell(0, 1).mean(0), cell(1, 0).mean(0)
+    assert r[0] > 4 * r[1] and g[1] > 4 * g[0] and b[2] > 2 * b[0]
+    np.testing.assert_allclose(cell(0, 1), cell(1, 1), rtol=1e-3, atol=1e-4)

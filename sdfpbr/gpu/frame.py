@@ -177,8 +177,10 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     bindings.add_texture("u_cell_materials", upload_materials(ctx, spec.cell_materials()), owned=True)
     if uses_textures:
         from .textures import texture_set, upload
-        for name, tex in upload(ctx, texture_set(spec)).items():
+        maps = texture_set(spec)
+        for name, tex in upload(ctx, maps).items():
             bindings.add_texture(name, tex, owned=True)
+        bindings.uniforms["u_map_layers"] = maps.layers
     return bindings
 
 

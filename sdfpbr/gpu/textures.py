@@ -19,10 +19,13 @@ GL_SRGB8_ALPHA8 = 0x8C43
 
 @dataclass(frozen=True)
 class TextureSet:
-    """The maps a spec composes in; None: that map is absent (the factors stand alone)."""
+    """The maps a spec composes in; None: that map is absent (the factors stand alone).
+    ``layers`` > 1: each map holds that many sphere maps stacked top to bottom, one per cell
+    (a glTF asset's materials; textures.glsl reads the cell's layer)."""
     base_color_srgb8: np.ndarray | None   # (H, W, 4) uint8, sRGB
     orm_linear8: np.ndarray | None        # (H, W, 4) uint8, linear
     normal_linear8: np.ndarray | None     # (H, W, 4) uint8, linear, OpenGL convention
+    layers: int = 1
 
 
 @lru_cache(maxsize=1)
@@ -62,17 +65,22 @@ def procedural_set() -> TextureSet:
 
 
 def _load_png(path: str, what: str) -> np.ndarray:
+    return _rgba8(path, f"{what} {path}", "PNG")
+
+
+def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
+    """An 8-bit image file (a path or its bytes) as (H, W, 4) uint8."""
     import imageio.v3 as iio
     try:
-        img = np.asarray(iio.imread(path))
+        img = np.asarray(iio.imread(source))
     except Exception as exc:   # imageio raises many types for unreadable files
-        raise SpecError(f"{what} {path}: cannot read it as PNG ({exc.__class__.__name__})") from None
+        raise SpecError(f"{what}: cannot read it as {kind} ({exc.__class__.__name__})") from None
     if img.dtype != np.uint8:
-        raise SpecError(f"{what} {path}: 8-bit PNG required, got {img.dtype}")
+        raise SpecError(f"{what}: 8-bit {kind} required, got {img.dtype}")
     if img.ndim == 2:
         img = img[..., None]
     if img.ndim != 3 or img.shape[-1] not in (1, 2, 3, 4):
-        raise SpecError(f"{what} {path}: one still image (grey, grey+alpha, RGB or RGBA) required, "
+        raise SpecError(f"{what}: one still image (grey, grey+alpha, RGB or RGBA) required, "
                         f"got an array of shape {img.shape}" + (" (an animated PNG?)" if img.ndim == 4 else ""))
     if img.shape[-1] <= 2:   # grey (+ alpha): the grey in R, G and B
         img = np.concatenate([np.repeat(img[..., :1], 3, -1), img[..., 1:]], -1)
@@ -81,9 +89,88 @@ def _load_png(path: str, what: str) -> np.ndarray:
     return np.ascontiguousarray(img[..., :4])
 
 
+# A glTF material's maps on the sphere: (width, height) of a layer; fewer texels a layer when
+# many materials share the stacked map (GL's texture limit is 16384 texels a side).
+GLTF_LAYER_SIZE = PROCEDURAL_SIZE
+GLTF_LAYER_SIZE_MANY = (512, 256)
+_NEUTRAL = {"base": (255, 255, 255, 255), "orm": (255, 255, 255, 255), "normal": (128, 128, 255, 255)}
+
+
+def _wrap(x: np.ndarray, mode: str) -> np.ndarray:
+    if mode == "clamp":
+        return np.clip(x, 0.0, 1.0)
+    if mode == "mirror":
+        t = np.mod(x, 2.0)
+        return np.where(t > 1.0, 2.0 - t, t)
+    return x - np.floor(x)
+
+
+def _sample(img: np.ndarray, u: np.ndarray, v: np.ndarray, ref) -> np.ndarray:
+    """float64 texels of ``img`` at texture coordinates (u, v) as ``ref``'s sampler reads them:
+    its wrap modes, nearest or bilinear (on the stored values)."""
+    h, w = img.shape[:2]
+    x, y = _wrap(u, ref.wrap[0]) * w - 0.5, _wrap(v, ref.wrap[1]) * h - 0.5
+    def index(i, n, mode):
+        return np.mod(i, n) if mode == "repeat" else np.clip(i, 0, n - 1)
+    if ref.nearest:
+        return img[index(np.floor(y + 0.5).astype(int), h, ref.wrap[1]),
+                   index(np.floor(x + 0.5).astype(int), w, ref.wrap[0])].astype(np.float64)
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    xs = [index(x0, w, ref.wrap[0]), index(x0 + 1, w, ref.wrap[0])]
+    ys = [index(y0, h, ref.wrap[1]), index(y0 + 1, h, ref.wrap[1])]
+    top = img[ys[0], xs[0]] * (1 - fx) + img[ys[0], xs[1]] * fx
+    bottom = img[ys[1], xs[0]] * (1 - fx) + img[ys[1], xs[1]] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def _on_sphere(ref, size: tuple[int, int]) -> np.ndarray:
+    """``ref``'s image over the sphere's (u, v) texel centres, (H, W, 4) float64 in 0..255:
+    KHR_texture_transform (offset, rotation, scale, with the rotation's sign as glTF-Sample-Viewer
+    and the sample model read it, glTF issue 1563), then the sampler."""
+    w, h = size
+    u, v = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
+    (ox, oy), rot, (sx, sy) = ref.transform
+    c, s = np.cos(rot), np.sin(rot)
+    tu, tv = ox + c * sx * u + s * sy * v, oy - s * sx * u + c * sy * v
+    return _sample(_rgba8(ref.data, ref.what), tu, tv, ref)
+
+
+def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
+    """One material's layer of map ``kind`` (base, orm, normal), neutral where it has none."""
+    w, h = size
+    out = np.empty((h, w, 4), np.float64)
+    out[...] = _NEUTRAL[kind]
+    if kind == "base" and tex.base_color:
+        out = _on_sphere(tex.base_color, size)
+    elif kind == "orm":
+        if tex.occlusion:   # occlusion from R, scaled by its strength: 1 + s (o - 1)
+            out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount * (_on_sphere(tex.occlusion, size)[..., 0] / 255.0 - 1.0))
+        if tex.metallic_roughness:   # roughness in G, metalness in B
+            out[..., 1:3] = _on_sphere(tex.metallic_roughness, size)[..., 1:3]
+    elif kind == "normal" and tex.normal:
+        n = _on_sphere(tex.normal, size)[..., :3] / 255.0 * 2.0 - 1.0
+        n[..., :2] *= tex.normal.amount        # glTF's normal scale
+        n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+        out[..., :3] = (n * 0.5 + 0.5) * 255.0
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+
+
+def gltf_set(materials) -> TextureSet:
+    """A glTF asset's textures as stacked layers, one per material in cell order, for the maps
+    any of them has (spec.gltf.GltfMaterials)."""
+    has = materials.has_textures
+    size = GLTF_LAYER_SIZE if len(materials.textures) <= 16 else GLTF_LAYER_SIZE_MANY
+    maps = [np.concatenate([_layer(kind, tex, size) for tex in materials.textures]) if present else None
+            for kind, present in zip(("base", "orm", "normal"), has)]
+    return TextureSet(*maps, layers=len(materials.textures))
+
+
 def texture_set(spec) -> TextureSet:
     """The maps the plan composes in (shading.plan.texture_maps): the spec's PNGs where given,
-    the procedural ones elsewhere in procedural mode, none otherwise."""
+    the procedural ones elsewhere in procedural mode, none otherwise; a glTF asset's own."""
+    if spec.gltf:
+        return gltf_set(spec.gltf_maps())
     fallback = procedural_set() if spec.textures == "procedural" else TextureSet(None, None, None)
     return TextureSet(*(_load_png(getattr(spec, name), name) if getattr(spec, name) else getattr(fallback, field)
                         for name, field in (("base_color_texture", "base_color_srgb8"),

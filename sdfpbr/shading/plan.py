@@ -111,7 +111,9 @@ def uses_analytic_intersection(spec: ChartSpec) -> bool:
 def texture_maps(spec: ChartSpec) -> tuple[bool, bool, bool]:
     """Which of base colour, ORM and normal map the chart composes in: all three for the
     procedural set (a PNG replacing its part of it), else only the PNGs the spec names (a
-    base-colour texture alone adds no rivets)."""
+    base-colour texture alone adds no rivets); for a glTF asset, those any material has."""
+    if spec.gltf:   # the asset's own textures, one layer per cell (gpu.textures)
+        return spec.gltf_maps().has_textures
     procedural = spec.textures == "procedural"
     return tuple(procedural or bool(p) for p in (spec.base_color_texture, spec.orm_texture, spec.normal_texture))
 

@@ -56,7 +56,14 @@ class _ChartSpecMethods:
         return forced == "analytic" if forced else self.intersect in ("auto", "analytic")
 
     def uses_textures(self) -> bool:
+        if self.gltf:
+            return any(self.gltf_maps().has_textures)
         return self.textures != "none" or any((self.base_color_texture, self.orm_texture, self.normal_texture))
+
+    def gltf_maps(self):
+        """The glTF asset's materials with their textures (spec.gltf.GltfMaterials)."""
+        from .gltf import gltf_materials
+        return gltf_materials(self.gltf, self.gltf_materials)
 
     def brdf_model(self) -> str:
         return self.quality_settings().brdf or self.brdf

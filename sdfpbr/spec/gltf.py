@@ -1,8 +1,12 @@
 """A glTF 2.0 asset's materials as chart cells (the ``gltf`` extra: pygltflib).
 
-Each material becomes the keywords of one sdfpbr.spec.material.Material: the metallic-roughness factors, emissive factor and the
-KHR_materials_clearcoat, _sheen, _specular, _ior and _emissive_strength factors. Textures are
-not charted yet: a material that has any is named in ``ignored`` so the caller can say so.
+Each material becomes the keywords of one sdfpbr.spec.material.Material: the metallic-roughness
+factors, emissive factor and the KHR_materials_clearcoat, _sheen, _specular, _ior and
+_emissive_strength factors; and its base-colour, metallic-roughness, normal and occlusion
+textures become TextureRefs (the image's bytes from the .glb's buffer, a data URI or a file
+beside the .gltf, its sampler's wrap and filter modes, KHR_texture_transform), which
+gpu.textures bakes onto the sphere. What is not charted (the emissive texture and the
+extensions' textures, alpha modes) is named in ``ignored`` so the caller can say so.
 """
 from __future__ import annotations
 
@@ -14,14 +18,46 @@ from ..errors import SpecError, did_you_mean
 from .checks import quote
 
 GLTF_SUFFIXES = (".gltf", ".glb")
-_TEXTURE_KEYS = ("baseColorTexture", "metallicRoughnessTexture")
-_MATERIAL_TEXTURE_KEYS = ("normalTexture", "occlusionTexture", "emissiveTexture")
+_MATERIAL_TEXTURE_KEYS = ("emissiveTexture",)
+# glTF sampler enums: wrap modes, and the nearest magnification filter.
+WRAP_MODES = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
+NEAREST = 9728
+
+
+@dataclass(frozen=True)
+class TextureRef:
+    """One texture of a material, as the sphere samples it. The sphere's (u, v) stands for
+    every texCoord set (it has only one); ``transform`` is KHR_texture_transform's (offset,
+    rotation, scale); ``amount`` the normal texture's scale or the occlusion's strength."""
+    data: bytes
+    what: str                               # "material 'x' baseColorTexture", for messages
+    wrap: tuple[str, str] = ("repeat", "repeat")
+    nearest: bool = False
+    transform: tuple = ((0.0, 0.0), 0.0, (1.0, 1.0))
+    amount: float = 1.0
+
+
+@dataclass(frozen=True)
+class MaterialTextures:
+    base_color: TextureRef | None = None
+    metallic_roughness: TextureRef | None = None
+    normal: TextureRef | None = None
+    occlusion: TextureRef | None = None
 
 
 @dataclass(frozen=True)
 class GltfMaterials:
     materials: tuple[dict, ...]   # Material keywords, one per material
     ignored: tuple[str, ...]      # "material: what was not charted"
+    textures: tuple = ()          # MaterialTextures, one per material
+
+    @property
+    def has_textures(self) -> tuple[bool, bool, bool]:
+        """Whether any material has a base colour, an ORM (metallic-roughness or occlusion)
+        and a normal texture: the maps the chart composes in."""
+        t = self.textures
+        return (any(m.base_color for m in t), any(m.metallic_roughness or m.occlusion for m in t),
+                any(m.normal for m in t))
 
 
 def _load(path: str):
@@ -47,8 +83,7 @@ def _material(index: int, m) -> tuple[dict, list[str]]:
     name = m.name or f"material {index}"
     pbr = m.pbrMetallicRoughness
     ext = m.extensions or {}
-    ignored = [k for k in _TEXTURE_KEYS if pbr is not None and getattr(pbr, k, None) is not None]
-    ignored += [k for k in _MATERIAL_TEXTURE_KEYS if getattr(m, k, None) is not None]
+    ignored = [k for k in _MATERIAL_TEXTURE_KEYS if getattr(m, k, None) is not None]
     values = dict(name=name)
     if pbr is not None:
         values["base_color"] = _factor(pbr.baseColorFactor, (1.0, 1.0, 1.0), 3)
@@ -92,6 +127,67 @@ def _check(name: str, values: dict) -> None:
                 raise SpecError(f"material {quote(name)}: {key} {quote(value)} is outside glTF's range")
 
 
+def _bytes_of_uri(uri: str, base: Path, what: str) -> bytes:
+    import base64
+    from urllib.parse import unquote
+    if uri.startswith("data:"):
+        try:
+            return base64.b64decode(uri.split(",", 1)[1])
+        except (IndexError, ValueError):
+            raise SpecError(f"{what}: its data URI cannot be decoded") from None
+    try:
+        return (base / unquote(uri)).read_bytes()
+    except OSError:
+        raise SpecError(f"{what}: {uri} beside the asset cannot be read") from None
+
+
+def _image_bytes(doc, base: Path, index, what: str) -> bytes:
+    try:
+        image = doc.images[index]
+        if image.uri is not None:
+            return _bytes_of_uri(image.uri, base, what)
+        view = doc.bufferViews[image.bufferView]
+        buffer = doc.buffers[view.buffer]
+    except (TypeError, IndexError):
+        raise SpecError(f"{what}: its image or buffer view does not exist") from None
+    blob = _bytes_of_uri(buffer.uri, base, what) if buffer.uri is not None else doc.binary_blob()
+    start, length = view.byteOffset or 0, view.byteLength
+    if blob is None or start + length > len(blob):
+        raise SpecError(f"{what}: its buffer view reaches past the buffer")
+    return bytes(blob[start:start + length])
+
+
+def _texture_ref(doc, base: Path, info, what: str, amount_key: str | None = None) -> TextureRef | None:
+    if info is None:
+        return None
+    try:
+        texture = doc.textures[info.index]
+    except (TypeError, IndexError):
+        raise SpecError(f"{what}: texture {quote(info.index)} does not exist") from None
+    if texture.source is None:
+        raise SpecError(f"{what}: its texture has no image")
+    sampler = doc.samplers[texture.sampler] if texture.sampler is not None and texture.sampler < len(doc.samplers) else None
+    wrap = tuple(WRAP_MODES.get(getattr(sampler, k, None) if sampler else None, "repeat") for k in ("wrapS", "wrapT"))
+    nearest = sampler is not None and sampler.magFilter == NEAREST
+    t = (info.extensions or {}).get("KHR_texture_transform", {})
+    transform = (tuple(_factor(t.get("offset"), (0.0, 0.0), 2)), _factor(t.get("rotation"), 0.0),
+                 tuple(_factor(t.get("scale"), (1.0, 1.0), 2)))
+    if not all(math.isfinite(v) for v in (*transform[0], transform[1], *transform[2])):
+        raise SpecError(f"{what}: KHR_texture_transform holds a non-finite number")
+    amount = _factor(getattr(info, amount_key, None), 1.0) if amount_key else 1.0
+    return TextureRef(_image_bytes(doc, base, texture.source, what), what, wrap, nearest, transform, amount)
+
+
+def _textures(doc, base: Path, index: int, m) -> MaterialTextures:
+    name = quote(m.name or f"material {index}")
+    pbr = m.pbrMetallicRoughness
+    return MaterialTextures(
+        _texture_ref(doc, base, pbr and pbr.baseColorTexture, f"material {name} baseColorTexture"),
+        _texture_ref(doc, base, pbr and pbr.metallicRoughnessTexture, f"material {name} metallicRoughnessTexture"),
+        _texture_ref(doc, base, m.normalTexture, f"material {name} normalTexture", "scale"),
+        _texture_ref(doc, base, m.occlusionTexture, f"material {name} occlusionTexture", "strength"))
+
+
 _memo: dict = {}
 
 
@@ -106,10 +202,10 @@ def gltf_materials(path: str, names: tuple[str, ...] = ()) -> GltfMaterials:
     key = (str(p.resolve()), stat.st_mtime_ns, stat.st_size, tuple(names))
     if key not in _memo:
         doc = _load(str(p))
-        read = [_material(i, m) for i, m in enumerate(doc.materials or [])]
+        read = [(*_material(i, m), _textures(doc, p.parent, i, m)) for i, m in enumerate(doc.materials or [])]
         if not read:
             raise SpecError(f"gltf {path} has no materials")
-        by_name = {m["name"]: (m, ig) for m, ig in read}
+        by_name = {m["name"]: (m, ig, tx) for m, ig, tx in read}
         if names:
             missing = [n for n in names if n not in by_name]
             if missing:
@@ -117,7 +213,8 @@ def gltf_materials(path: str, names: tuple[str, ...] = ()) -> GltfMaterials:
                                 f"it has: {', '.join(by_name)}")
             read = [by_name[n] for n in names]
         _memo.clear()
-        _memo[key] = GltfMaterials(tuple(m for m, _ in read), tuple(i for _, ig in read for i in ig))
+        _memo[key] = GltfMaterials(tuple(m for m, _, _ in read), tuple(i for _, ig, _ in read for i in ig),
+                                   tuple(tx for _, _, tx in read))
     return _memo[key]
 
 

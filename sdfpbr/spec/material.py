@@ -186,6 +186,10 @@ def check_axes(spec) -> None:
         if count != spec.rows * spec.cols:
             raise SpecError(f"gltf charts {count} materials, one per cell: rows x cols must be {count}, "
                             f"got {spec.rows} x {spec.cols}")
+        given = [n for n in ("base_color_texture", "orm_texture", "normal_texture") if getattr(spec, n)]
+        if given or spec.textures != "none":
+            raise SpecError(f"gltf charts the asset's own textures; {(given or ['textures'])[0]} applies to "
+                            "charts without gltf")
     elif spec.gltf_materials:
         raise SpecError("gltf_materials names materials of a glTF asset; give gltf too")
 
