@@ -127,6 +127,9 @@ vec3 sphere_light_radiance(int i, float dist) {
          * (point_falloff(dist, u_point_light_range[i]) * dist * dist / (PI * sq(u_point_light_radius[i])));
 }
 
+// 1 - cos of the cone a sphere light subtends from distance dist (> its radius).
+float sphere_one_minus_cos(int i, float dist) { return 2.0 * sq(sin(0.5 * point_angular_radius(i, dist))); }
+
 // Radiance of the sphere lights a bounce ray from p along d meets before distance t_max, each
 // weighted against BRDF sampling with pdf pdf_brdf (the light's technique: its cone from p).
 vec3 spheres_seen(vec3 p, vec3 d, float t_max, float pdf_brdf) {
@@ -139,7 +142,7 @@ vec3 spheres_seen(vec3 p, vec3 d, float t_max, float pdf_brdf) {
         if (dist <= radius) continue;
         float t = ray_sphere(p, d, u_point_light_position[i], radius);
         if (t <= 0.0 || t >= t_max) continue;
-        float omc = 2.0 * sq(sin(0.5 * point_angular_radius(i, dist)));
+        float omc = sphere_one_minus_cos(i, dist);
         float w = power_heuristic(pdf_brdf, 1.0 / (2.0 * PI * omc));
         sum += sphere_light_radiance(i, dist) * w;
     }
@@ -185,7 +188,7 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
         float radius = u_point_light_radius[i];
         if (radius > 0.0) {   // a sphere: its cone from p, MIS against BRDF sampling (spheres_seen)
             if (dist <= radius) continue;
-            float omc = 2.0 * sq(sin(0.5 * point_angular_radius(i, dist)));
+            float omc = sphere_one_minus_cos(i, dist);
             vec3 l = sample_cone(to_light / dist, omc, rng_next4(rng).xy);
             vec3 f = surface_f_cos(s, v, l);
             float t_light = ray_sphere(p, l, u_point_light_position[i], radius);

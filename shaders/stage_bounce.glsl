@@ -23,12 +23,12 @@ vec3 sphere_fresnel(Material m, float x) {
 // u (a parallel beam spreads evenly; F at the incidence that turns l into u, cos = sqrt((1 +
 // l.u) / 2)); a rough sphere blurs that even spread without changing it much. Seen from q at
 // distance d, under the floor's cosine: E_q = E R^2 F cos_q / (4 d^2).
-vec3 sphere_reflected_light(vec3 q, ivec2 cell) {
+// m: the cell's material.
+vec3 sphere_reflected_light(vec3 q, Material m) {
     float dist = length(q);
     vec3 u = q / dist;                  // from the sphere's centre towards q
     float cos_q = -u.y;                 // the floor's normal is +y; q sees the centre along -u
     if (cos_q <= 0.0) return vec3(0.0);
-    Material m = cell_material(cell, u);
     vec3 sum = vec3(0.0);
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i)
@@ -63,7 +63,8 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     vec3 t, b;
     basis(axis, t, b);
     float ring = BOUNCE_RING * asin(min(u_radius / dist, 1.0));
-    float resolved = bounce_resolves(cell_material(cell, axis).alpha);
+    Material sphere_material = cell_material(cell, axis);
+    float resolved = bounce_resolves(sphere_material.alpha);
     vec3 sum = vec3(0.0);
     float weight = 0.0;
     int rays = ff < BOUNCE_FEW_FF ? 1 : BOUNCE_RAYS;
@@ -80,7 +81,7 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     }
     Material floor_material = ground_material();
     vec3 dfg = dfg_lookup(max(v.y, MIN_N_DOT_V), floor_material.perceptual_roughness);
-    vec3 reflected = floor_material.base_color_linear * dfg.z * INV_PI * sphere_reflected_light(q, cell)
+    vec3 reflected = floor_material.base_color_linear * dfg.z * INV_PI * sphere_reflected_light(q, sphere_material)
                    * (1.0 - resolved);
     if (weight <= 0.0) return reflected;
     vec3 albedo = floor_material.base_color_linear * dfg.z * ff;

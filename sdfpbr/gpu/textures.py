@@ -156,14 +156,23 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
+_last_gltf_set: list = []   # [(GltfMaterials, TextureSet)]: the last asset's bake
+
+
 def gltf_set(materials) -> TextureSet:
     """A glTF asset's textures as stacked layers, one per material in cell order, for the maps
-    any of them has (spec.gltf.GltfMaterials)."""
+    any of them has (spec.gltf.GltfMaterials). Baked once per asset version: gltf_materials
+    returns the same object until the file or the names change, and every frame of an
+    animation or build entry reuses its bake."""
+    if _last_gltf_set and _last_gltf_set[0][0] is materials:
+        return _last_gltf_set[0][1]
     has = materials.has_textures
     size = GLTF_LAYER_SIZE if len(materials.textures) <= 16 else GLTF_LAYER_SIZE_MANY
     maps = [np.concatenate([_layer(kind, tex, size) for tex in materials.textures]) if present else None
             for kind, present in zip(("base", "orm", "normal"), has)]
-    return TextureSet(*maps, layers=len(materials.textures))
+    baked = TextureSet(*maps, layers=len(materials.textures))
+    _last_gltf_set[:] = [(materials, baked)]
+    return baked
 
 
 def texture_set(spec) -> TextureSet:
