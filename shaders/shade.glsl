@@ -17,6 +17,7 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
                      float specular) {
     if (specular >= 1.0) return brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
+    if (specular <= 0.0) return diffuse_brdf_cos(m, n, v, l);
     return mix(diffuse_brdf_cos(m, n, v, l), brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single), specular);
 }
 
