@@ -47,5 +47,8 @@ void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
     m.base_color_linear *= tx.base_color_linear;
     m.metallic = t0.a * tx.orm.b;
     set_roughness(m, cell_texel(cell, 1).x * tx.orm.g);
+#if EMISSION
+    m.emission_linear *= tx.emission_linear;
+#endif
 }
 #endif

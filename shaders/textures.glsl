@@ -1,4 +1,4 @@
-// Textured spheres (glTF conventions): base colour sampled through an sRGB texture; ORM and
+// Textured spheres (glTF conventions): base colour and emission sampled through sRGB textures; ORM and
 // normal maps are linear data; tangent-space normals, +Y up (OpenGL). The bugs below decode
 // the linear maps as colour, or read the green channel with the DirectX convention.
 // HAS_*_MAP: the maps the spec gives; an absent one leaves the factors (or the geometric
@@ -12,6 +12,9 @@ uniform sampler2D u_orm_map;
 #if HAS_NORMAL_MAP
 uniform sampler2D u_normal_map;
 #endif
+#if HAS_EMISSIVE_MAP
+uniform sampler2D u_emissive_map;
+#endif
 
 vec3 srgb_eotf(vec3 c) {
     return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), c));
@@ -21,6 +24,8 @@ struct SurfaceTexels {
     vec3 base_color_linear;
     vec3 orm;              // occlusion, roughness, metallic factors
     vec3 normal;           // world-space shading normal
+    vec3 emission_linear;  // scales the emissive factor
+    float alpha;           // the base colour map's alpha (scales the factor's)
 };
 
 // Mip level for a map whose width spans the equator (2 pi R): texels per world unit along
@@ -50,10 +55,16 @@ float layer_lod(sampler2D map, float pixel_size) {
 // n: geometric sphere normal; cell: whose layer (u_map_layers > 1).
 SurfaceTexels sample_surface(vec3 n, float pixel_size, ivec2 cell) {
     vec2 uv = vec2(0.5 + atan(n.x, n.z) * (0.5 * INV_PI), acos(clamp(n.y, -1.0, 1.0)) * INV_PI);
-    SurfaceTexels s = SurfaceTexels(vec3(1.0), vec3(1.0), n);
+    SurfaceTexels s = SurfaceTexels(vec3(1.0), vec3(1.0), n, vec3(1.0), 1.0);
 #if HAS_BASE_COLOR_MAP
-    s.base_color_linear = textureLod(u_base_color_map, layer_uv(uv, cell, textureSize(u_base_color_map, 0).y),
-                                     layer_lod(u_base_color_map, pixel_size)).rgb;
+    vec4 base = textureLod(u_base_color_map, layer_uv(uv, cell, textureSize(u_base_color_map, 0).y),
+                           layer_lod(u_base_color_map, pixel_size));
+    s.base_color_linear = base.rgb;
+    s.alpha = base.a;
+#endif
+#if HAS_EMISSIVE_MAP
+    s.emission_linear = textureLod(u_emissive_map, layer_uv(uv, cell, textureSize(u_emissive_map, 0).y),
+                                   layer_lod(u_emissive_map, pixel_size)).rgb;
 #endif
 #if HAS_ORM_MAP
     s.orm = textureLod(u_orm_map, layer_uv(uv, cell, textureSize(u_orm_map, 0).y), layer_lod(u_orm_map, pixel_size)).rgb;

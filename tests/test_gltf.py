@@ -43,16 +43,18 @@ def test_named_materials_in_their_order_and_a_misspelt_name_suggested():
         make_spec(gltf=str(GLB), material="glod")
 
 
-def test_a_gltf_json_file_with_texture_and_alpha_mode_is_charted_and_says_what_it_left_out(tmp_path, cache_dir):
+def test_a_gltf_json_file_with_an_extension_texture_is_charted_and_says_what_it_left_out(tmp_path, cache_dir):
     doc = gltf_asset([pygltflib.Material(name="leaf", pbrMetallicRoughness=pbr((0.1, 0.5, 0.1), 0.0, 0.6),
-                                         alphaMode="MASK", emissiveTexture=pygltflib.TextureInfo(index=0))])
+                                         extensions={"KHR_materials_sheen": {
+                                             "sheenColorFactor": [1.0, 1.0, 1.0],
+                                             "sheenColorTexture": {"index": 0}}})])
     path = tmp_path / "leaf.gltf"
     doc.save_json(str(path))
     out = tmp_path / "leaf.png"
     r = subprocess.run([sys.executable, "-m", "sdfpbr", "chart", "--gltf", str(path), "-o", str(out),
                         "--size", "96x96"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert "leaf: emissiveTexture is not charted" in r.stderr and "leaf: alphaMode MASK" in r.stderr
+    assert "leaf: sheenColorTexture is not charted" in r.stderr
     assert out.stat().st_size > 0
 
 
@@ -204,3 +206,36 @@ def test_each_cell_reads_its_own_materials_textures(session, tmp_path):
     r, g, b = cell(0, 0).mean(0), cell(0, 1).mean(0), cell(1, 0).mean(0)
     assert r[0] > 4 * r[1] and g[1] > 4 * g[0] and b[2] > 2 * b[0]
     np.testing.assert_allclose(cell(0, 1), cell(1, 1), rtol=1e-3, atol=1e-4)
+
+
+def test_an_emissive_texture_scales_the_emissive_factor(session, tmp_path):
+    """No light but the sphere's own: every sphere pixel is strength x factor x the texel,
+    sRGB-decoded (glTF: the emissive texture is sRGB). The texture's left half (u < 0.5) and
+    right half differ, so the test also sees that each half lands on its side of the sphere."""
+    img = np.zeros((8, 16, 3), np.uint8)
+    img[:, :8] = (200, 100, 50)
+    img[:, 8:] = (20, 220, 120)
+    lamp = pygltflib.Material(name="lamp", pbrMetallicRoughness=pbr((0.0, 0.0, 0.0), 0.0, 1.0),
+                              emissiveFactor=[1.0, 0.5, 1.0], emissiveTexture=pygltflib.TextureInfo(index=0),
+                              extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}})
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(img)], [lamp], [pygltflib.Sampler(magFilter=9728)])
+    spec = make_spec(gltf=glb, size="128x128", labels=False, env="black", ibl=False, ground=False, lights=())
+    res = session.render(spec)
+    aov, hdr = res.aov, res.hdr.astype(np.float64)[..., :3]
+    def srgb_code(linear):   # the sRGB OETF, as 8-bit codes (not rounded)
+        c = np.clip(linear, 0.0, 1.0)
+        return 255.0 * np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+    # u = 0.5 + atan2(n.x, n.z) / 2 pi: u < 0.5 where n.x < 0, the sphere's left half on screen.
+    normal_x = aov["normal"][..., 0]
+    inside = (aov["coverage"] == 1) & (aov["row"] == 0)
+    for side, texel in ((normal_x < -0.2, img[0, 0]), (normal_x > 0.2, img[0, 15])):
+        got = hdr[inside & side] / (2.0 * np.array([1.0, 0.5, 1.0]))
+        assert len(got) > 500
+        # Back to the texel's codes: GL decodes 8-bit sRGB approximately (llvmpipe by a
+        # polynomial), so each pixel is held to within half a code of its texel.
+        assert np.abs(srgb_code(got) - texel).max() <= 0.5
+    # The reference reads the same texels (at level 0): its sphere equals the chart's there.
+    from sdfpbr.tools.reference import render_reference
+    ref = render_reference(spec, samples=4, seed=3, session=session).hdr[..., :3]
+    for side in (normal_x < -0.2, normal_x > 0.2):
+        np.testing.assert_allclose(ref[inside & side].mean(0), hdr[inside & side].mean(0), rtol=2e-3)

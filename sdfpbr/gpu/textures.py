@@ -1,6 +1,7 @@
 """Textures for the textured spheres: a procedural set (riveted panels) or PNGs from the spec.
 
-Conventions (glTF 2.0): base colour is sRGB-encoded and sampled through an sRGB texture; the
+Conventions (glTF 2.0): base colour and emission are sRGB-encoded and sampled through sRGB
+textures; the
 ORM map (R occlusion, G roughness, B metallic) and the normal map are linear data; the normal
 map is tangent space with +X along increasing u and +Y up (OpenGL), +Z out of the surface.
 The sphere's u runs once around the vertical axis, v from the top pole (0) to the bottom (1)."""
@@ -25,6 +26,7 @@ class TextureSet:
     base_color_srgb8: np.ndarray | None   # (H, W, 4) uint8, sRGB
     orm_linear8: np.ndarray | None        # (H, W, 4) uint8, linear
     normal_linear8: np.ndarray | None     # (H, W, 4) uint8, linear, OpenGL convention
+    emissive_srgb8: np.ndarray | None = None   # (H, W, 4) uint8, sRGB (glTF assets only)
     layers: int = 1
 
 
@@ -93,7 +95,8 @@ def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
 # many materials share the stacked map (GL's texture limit is 16384 texels a side).
 GLTF_LAYER_SIZE = PROCEDURAL_SIZE
 GLTF_LAYER_SIZE_MANY = (512, 256)
-_NEUTRAL = {"base": (255, 255, 255, 255), "orm": (255, 255, 255, 255), "normal": (128, 128, 255, 255)}
+_NEUTRAL = {"base": (255, 255, 255, 255), "orm": (255, 255, 255, 255), "normal": (128, 128, 255, 255),
+            "emissive": (255, 255, 255, 255)}
 
 
 def _wrap(x: np.ndarray, mode: str) -> np.ndarray:
@@ -137,7 +140,8 @@ def _on_sphere(ref, size: tuple[int, int]) -> np.ndarray:
 
 
 def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
-    """One material's layer of map ``kind`` (base, orm, normal), neutral where it has none."""
+    """One material's layer of map ``kind`` (base, orm, normal, emissive), neutral where it has
+    none (white: the factors stand alone)."""
     w, h = size
     out = np.empty((h, w, 4), np.float64)
     out[...] = _NEUTRAL[kind]
@@ -148,6 +152,8 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
             out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount * (_on_sphere(tex.occlusion, size)[..., 0] / 255.0 - 1.0))
         if tex.metallic_roughness:   # roughness in G, metalness in B
             out[..., 1:3] = _on_sphere(tex.metallic_roughness, size)[..., 1:3]
+    elif kind == "emissive" and tex.emissive:
+        out[..., :3] = _on_sphere(tex.emissive, size)[..., :3]
     elif kind == "normal" and tex.normal:
         n = _on_sphere(tex.normal, size)[..., :3] / 255.0 * 2.0 - 1.0
         n[..., :2] *= tex.normal.amount        # glTF's normal scale
@@ -169,7 +175,7 @@ def gltf_set(materials) -> TextureSet:
     has = materials.has_textures
     size = GLTF_LAYER_SIZE if len(materials.textures) <= 16 else GLTF_LAYER_SIZE_MANY
     maps = [np.concatenate([_layer(kind, tex, size) for tex in materials.textures]) if present else None
-            for kind, present in zip(("base", "orm", "normal"), has)]
+            for kind, present in zip(("base", "orm", "normal", "emissive"), has)]
     baked = TextureSet(*maps, layers=len(materials.textures))
     _last_gltf_set[:] = [(materials, baked)]
     return baked
@@ -196,7 +202,8 @@ def upload(ctx, maps: TextureSet) -> dict:
     out = {}
     for name, img, fmt in (("u_base_color_map", maps.base_color_srgb8, GL_SRGB8_ALPHA8),
                            ("u_orm_map", maps.orm_linear8, None),
-                           ("u_normal_map", maps.normal_linear8, None)):
+                           ("u_normal_map", maps.normal_linear8, None),
+                           ("u_emissive_map", maps.emissive_srgb8, GL_SRGB8_ALPHA8)):
         if img is None:
             continue
         h, w = img.shape[:2]

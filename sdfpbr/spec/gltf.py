@@ -2,11 +2,11 @@
 
 Each material becomes the keywords of one sdfpbr.spec.material.Material: the metallic-roughness
 factors, emissive factor and the KHR_materials_clearcoat, _sheen, _specular, _ior and
-_emissive_strength factors; and its base-colour, metallic-roughness, normal and occlusion
-textures become TextureRefs (the image's bytes from the .glb's buffer, a data URI or a file
-beside the .gltf, its sampler's wrap and filter modes, KHR_texture_transform), which
-gpu.textures bakes onto the sphere. What is not charted (the emissive texture and the
-extensions' textures, alpha modes) is named in ``ignored`` so the caller can say so.
+_emissive_strength factors, the alpha mode; and its base-colour, metallic-roughness, normal,
+occlusion and emissive textures become TextureRefs (the image's bytes from the .glb's buffer,
+a data URI or a file beside the .gltf, its sampler's wrap and filter modes,
+KHR_texture_transform), which gpu.textures bakes onto the sphere. What is not charted (the
+extensions' textures) is named in ``ignored`` so the caller can say so.
 """
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ from ..errors import SpecError, did_you_mean
 from .checks import quote
 
 GLTF_SUFFIXES = (".gltf", ".glb")
-_MATERIAL_TEXTURE_KEYS = ("emissiveTexture",)
 # glTF sampler enums: wrap modes, and the nearest magnification filter.
 WRAP_MODES = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 NEAREST = 9728
@@ -43,6 +42,7 @@ class MaterialTextures:
     metallic_roughness: TextureRef | None = None
     normal: TextureRef | None = None
     occlusion: TextureRef | None = None
+    emissive: TextureRef | None = None
 
 
 @dataclass(frozen=True)
@@ -52,12 +52,12 @@ class GltfMaterials:
     textures: tuple = ()          # MaterialTextures, one per material
 
     @property
-    def has_textures(self) -> tuple[bool, bool, bool]:
-        """Whether any material has a base colour, an ORM (metallic-roughness or occlusion)
-        and a normal texture: the maps the chart composes in."""
+    def has_textures(self) -> tuple[bool, bool, bool, bool]:
+        """Whether any material has a base colour, an ORM (metallic-roughness or occlusion),
+        a normal and an emissive texture: the maps the chart composes in."""
         t = self.textures
         return (any(m.base_color for m in t), any(m.metallic_roughness or m.occlusion for m in t),
-                any(m.normal for m in t))
+                any(m.normal for m in t), any(m.emissive for m in t))
 
 
 def _load(path: str):
@@ -83,7 +83,7 @@ def _material(index: int, m) -> tuple[dict, list[str]]:
     name = m.name or f"material {index}"
     pbr = m.pbrMetallicRoughness
     ext = m.extensions or {}
-    ignored = [k for k in _MATERIAL_TEXTURE_KEYS if getattr(m, k, None) is not None]
+    ignored = []
     values = dict(name=name)
     if pbr is not None:
         values["base_color"] = _factor(pbr.baseColorFactor, (1.0, 1.0, 1.0), 3)
@@ -185,7 +185,8 @@ def _textures(doc, base: Path, index: int, m) -> MaterialTextures:
         _texture_ref(doc, base, pbr and pbr.baseColorTexture, f"material {name} baseColorTexture"),
         _texture_ref(doc, base, pbr and pbr.metallicRoughnessTexture, f"material {name} metallicRoughnessTexture"),
         _texture_ref(doc, base, m.normalTexture, f"material {name} normalTexture", "scale"),
-        _texture_ref(doc, base, m.occlusionTexture, f"material {name} occlusionTexture", "strength"))
+        _texture_ref(doc, base, m.occlusionTexture, f"material {name} occlusionTexture", "strength"),
+        _texture_ref(doc, base, m.emissiveTexture, f"material {name} emissiveTexture"))
 
 
 _memo: dict = {}
