@@ -46,11 +46,9 @@ uniform sampler2D u_floor_plate;   // the floor's light without its sphere's bou
 uniform vec2 u_plate_origin;       // the cell pixel of its texel (0, 0)
 #endif
 
-// Radiance along the primary ray through `position` (cell frame on the cells stage): a hit's
-// shading, or the background; a = coverage. `hit` receives what the ray found (for the AOVs).
-vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
-    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
-    hit = intersect_scene(ro, rd, footprint);
+// Radiance and coverage of what the primary ray through `position` (cell frame on the cells
+// stage) found: a hit's shading, or the background.
+vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
     if (hit.t < 0.0) return vec4(background(rd), 0.0);
     vec3 p = ro + rd * hit.t;
     float pixel_size = footprint.x + footprint.y * hit.t;
@@ -72,6 +70,34 @@ vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
 #endif
 #endif
     return vec4(radiance, 1.0);
+}
+
+// Radiance along the primary ray through `position`, a = coverage. `hit` receives what the
+// ray found first (for the AOVs).
+vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
+    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
+    hit = intersect_scene(ro, rd, footprint);
+#if SEE_THROUGH
+    if (hit.t >= 0.0 && hit.cell.x >= 0) {
+        float alpha = sphere_alpha(hit.cell, hit.normal, footprint.x + footprint.y * hit.t);
+        if (alpha < 1.0) {
+            // Single-sided, as glTF's default: the ray crosses the sphere unseen (a chord of
+            // 2 R cos) and goes on to what lies behind it; the sphere is laid over that.
+            float t_exit = hit.t + 2.0 * u_radius * max(dot(hit.normal, -rd), 0.0) + 1e-3 * u_radius;
+            Hit behind = intersect_scene(ro + rd * t_exit, rd, footprint);
+            if (behind.t >= 0.0) behind.t += t_exit;
+#if HAS_GROUND
+            // The floor from the camera itself: a ray grazing the sphere's foot leaves it
+            // (t_exit) already below the floor.
+            float t_floor = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;
+            if (t_floor > hit.t && (behind.t < 0.0 || t_floor < behind.t)) behind = Hit(t_floor, vec3(0.0, 1.0, 0.0), ivec2(-1));
+#endif
+            vec4 back = shade_hit(position, ro, rd, behind, footprint);
+            return alpha > 0.0 ? mix(back, shade_hit(position, ro, rd, hit, footprint), alpha) : back;
+        }
+    }
+#endif
+    return shade_hit(position, ro, rd, hit, footprint);
 }
 
 void main() {

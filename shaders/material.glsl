@@ -1,8 +1,8 @@
 // The chart's materials: one row of texels per cell in u_cell_materials (cell index
 // row * cols + col), written by sdfpbr/shading/material_table.py from each cell's Material:
 //   0: base colour (linear), metallic      1: roughness, clearcoat, clearcoat roughness, sheen roughness
-//   2: sheen colour, -                      3: specular f0 (from ior and specular colour), specular
-//   4: emission (emissive colour x strength), -
+//   2: sheen colour, alpha                  3: specular f0 (from ior and specular colour), specular
+//   4: emission (emissive colour x strength), alpha test (-2 opaque, -1 blend, else the mask's cutoff)
 // A program reads only the texels of the lobes it composes in. The ground is uniforms.
 uniform sampler2D u_cell_materials;
 uniform vec3 u_ground_color;
@@ -50,5 +50,21 @@ void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
 #if EMISSION
     m.emission_linear *= tx.emission_linear;
 #endif
+}
+#endif
+
+#if SEE_THROUGH
+// The share of its pixel the camera sees of a sphere at geometric normal n_geo (glTF
+// alphaMode): 1 for opaque; the alpha (the factor times the base colour map's) for blend; for
+// mask, 1 where the alpha reaches the cutoff and 0 below it.
+float sphere_alpha(ivec2 cell, vec3 n_geo, float pixel_size) {
+    float test = cell_texel(cell, 4).a;
+    float alpha = cell_texel(cell, 2).a;
+#if USE_TEXTURES
+    alpha *= base_alpha(n_geo, pixel_size, cell);
+#endif
+    if (test < -1.5) return 1.0;
+    if (test < 0.0) return alpha;
+    return alpha >= test ? 1.0 : 0.0;
 }
 #endif

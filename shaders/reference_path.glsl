@@ -219,6 +219,12 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
 // One path from the camera: rgb radiance and coverage (1 where the camera ray hits a surface).
 vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
     Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);
+#if SEE_THROUGH
+    // The camera sees past a sphere with probability 1 - alpha (its texel at full resolution);
+    // the light sees every sphere solid, as the chart does.
+    if (hit.t >= 0.0 && hit.cell.x >= 0 && rng_next4(rng).x >= sphere_alpha(hit.cell, hit.normal, 1e-20 * u_radius))
+        hit = trace_scene(ro, rd, 1e30, hit.cell);
+#endif
     if (hit.t < 0.0) {
 #if TRANSPARENT
         return vec4(0.0);   // premultiplied, as the chart: misses add no colour, only less coverage

@@ -52,9 +52,24 @@ float layer_lod(sampler2D map, float pixel_size) {
     return map_lod(textureSize(map, 0).x, pixel_size);
 }
 
+// The sphere's (u, v) at geometric normal n: u once around +y, v from the top pole down.
+vec2 sphere_uv(vec3 n) {
+    return vec2(0.5 + atan(n.x, n.z) * (0.5 * INV_PI), acos(clamp(n.y, -1.0, 1.0)) * INV_PI);
+}
+
+// The base colour map's alpha alone (1 without the map): what a see-through sphere tests first.
+float base_alpha(vec3 n, float pixel_size, ivec2 cell) {
+#if HAS_BASE_COLOR_MAP
+    return textureLod(u_base_color_map, layer_uv(sphere_uv(n), cell, textureSize(u_base_color_map, 0).y),
+                      layer_lod(u_base_color_map, pixel_size)).a;
+#else
+    return 1.0;
+#endif
+}
+
 // n: geometric sphere normal; cell: whose layer (u_map_layers > 1).
 SurfaceTexels sample_surface(vec3 n, float pixel_size, ivec2 cell) {
-    vec2 uv = vec2(0.5 + atan(n.x, n.z) * (0.5 * INV_PI), acos(clamp(n.y, -1.0, 1.0)) * INV_PI);
+    vec2 uv = sphere_uv(n);
     SurfaceTexels s = SurfaceTexels(vec3(1.0), vec3(1.0), n, vec3(1.0), 1.0);
 #if HAS_BASE_COLOR_MAP
     vec4 base = textureLod(u_base_color_map, layer_uv(uv, cell, textureSize(u_base_color_map, 0).y),

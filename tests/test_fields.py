@@ -44,6 +44,7 @@ SAMPLES = {
     "base_colors": (((1.0, 0.0, 0.0),) * 5, ";".join(["1,0,0"] * 5)), "clearcoat": ((0.5, 0.5), "0.5"),
     "clearcoat_roughness": ((0.2, 0.2), "0.2"), "sheen_roughness": ((0.3, 0.3), "0.3"), "ior": ((1.3, 1.3), "1.3"),
     "specular": ((0.5, 0.5), "0.5"), "emissive_strength": ((2.0, 2.0), "2"), "base_color_hue": ((10.0, 200.0), "10:200"),
+    "alpha": ((0.5, 0.5), "0.5"), "alpha_mode": ("mask", "mask"), "alpha_cutoff": (0.25, "0.25"),
     "sheen_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"), "specular_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
     "emissive": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
     "gltf": (str(Path(__file__).parent / "data" / "materials.glb"),) * 2,
@@ -375,3 +376,12 @@ def test_a_size_nobody_chose_follows_the_grid_and_a_chosen_one_stays(tmp_path):
     for spec in (chosen, make_spec(rows=1), make_spec(rows=2, cols=7, width=300)):
         args = build_parser().parse_args(["chart", *spec_to_flags(spec)])
         assert spec_from_args(args) == spec, spec_to_flags(spec)
+
+
+def test_a_spec_rebuilt_with_no_changes_is_the_same_spec():
+    """An axis parameter held at its default single value stays there when nothing moves the
+    axes (a --spec file read back with no flags): only a parameter put on or taken off an axis
+    follows it."""
+    base = make_spec(rows=1, x_axis="metallic", y_axis="clearcoat", clearcoat=(0.0, 0.0))
+    assert make_spec(base) == base and make_spec(base, cols=3).clearcoat == (0.0, 0.0)
+    assert make_spec(base, y_axis="ior").ior == (1.0, 2.5)

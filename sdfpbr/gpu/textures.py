@@ -70,9 +70,37 @@ def _load_png(path: str, what: str) -> np.ndarray:
     return _rgba8(path, f"{what} {path}", "PNG")
 
 
+# The largest image read: GL's usual texture limit a side, and 2^26 texels in all (256 MiB as
+# RGBA8): a small file may declare a huge image, which a decoder would allocate first.
+MAX_IMAGE_SIDE = 16384
+MAX_IMAGE_TEXELS = 1 << 26
+
+
+def _declared_size(source) -> tuple[int, int] | None:
+    """The (width, height) an image file's header declares, without decoding it; None where
+    Pillow cannot tell (the decoder then reports the file)."""
+    import io
+
+    import warnings
+
+    from PIL import Image
+    limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None   # read the header, whatever it says
+    try:
+        with warnings.catch_warnings(), Image.open(io.BytesIO(source) if isinstance(source, bytes) else source) as im:
+            return im.size
+    except Exception:   # not an image Pillow knows: left to imageio's error
+        return None
+    finally:
+        Image.MAX_IMAGE_PIXELS = limit
+
+
 def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
     """An 8-bit image file (a path or its bytes) as (H, W, 4) uint8."""
     import imageio.v3 as iio
+    size = _declared_size(source)
+    if size and (max(size) > MAX_IMAGE_SIDE or size[0] * size[1] > MAX_IMAGE_TEXELS):
+        raise SpecError(f"{what}: the image is {size[0]}x{size[1]}; sdfpbr reads images of at most "
+                        f"{MAX_IMAGE_SIDE} texels a side and {MAX_IMAGE_TEXELS} in all: scale it down")
     try:
         img = np.asarray(iio.imread(source))
     except Exception as exc:   # imageio raises many types for unreadable files

@@ -4,9 +4,9 @@ TEXELS_PER_CELL RGBA float texels per cell, row index = grid row * cols + column
 Texel layout (material.glsl reads it; change both together):
   0: base colour (linear), metallic
   1: perceptual roughness, clearcoat, clearcoat roughness, sheen roughness
-  2: sheen colour (linear), 0
+  2: sheen colour (linear), alpha
   3: specular f0 = min(f0(ior) x specular colour, 1), specular weight
-  4: emission = emissive colour x emissive strength, 0
+  4: emission = emissive colour x emissive strength, alpha test (ALPHA_TEST below)
 """
 from __future__ import annotations
 
@@ -15,6 +15,13 @@ import numpy as np
 from ..spec.material import Material, dielectric_f0
 
 TEXELS_PER_CELL = 5
+# How material.glsl's sphere_alpha reads a cell's alpha: opaque, blend, or mask with the
+# cutoff itself (>= 0) as the code.
+ALPHA_TEST = {"opaque": -2.0, "blend": -1.0}
+
+
+def alpha_test(material: Material) -> float:
+    return ALPHA_TEST.get(material.alpha_mode, material.alpha_cutoff)
 
 
 def cell_texels(material: Material) -> np.ndarray:
@@ -23,9 +30,9 @@ def cell_texels(material: Material) -> np.ndarray:
     return np.array([
         [*m.base_color, m.metallic],
         [m.roughness, m.clearcoat, m.clearcoat_roughness, m.sheen_roughness],
-        [*m.sheen_color, 0.0],
+        [*m.sheen_color, m.alpha],
         [*dielectric_f0(m.ior, m.specular_color), m.specular],
-        [*(np.asarray(m.emissive) * m.emissive_strength), 0.0],
+        [*(np.asarray(m.emissive) * m.emissive_strength), alpha_test(m)],
     ], np.float64)
 
 

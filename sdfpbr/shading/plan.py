@@ -15,7 +15,7 @@ from typing import Mapping
 
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
-from ..spec.material import spec_lobes
+from ..spec.material import spec_lobes, spec_see_through
 from .compose import ComposedSource, OptionSchema, Value, compose
 
 # Every shader option, the values it may take, and the switches the bug catalog adds (off
@@ -45,7 +45,7 @@ SCHEMA = OptionSchema(
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
-    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP"),
+    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -145,6 +145,8 @@ def chart_options(spec: ChartSpec) -> dict:
         "NUM_POINT_LIGHTS": point,
         "HALF_RADIANCE": spec.hdr_precision == "float16",
         "USE_TEXTURES": spec.uses_textures(),
+        # Some sphere shows what lies behind it (glTF alpha modes).
+        "SEE_THROUGH": spec_see_through(spec),
         "SCENE_SDF": q.scene_sdf,
         "STAGE": stage(spec),
     }

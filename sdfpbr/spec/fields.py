@@ -18,7 +18,7 @@ from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
 from .gltf import GLTF_SUFFIXES, gltf_materials, grid_for
-from .material import AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, PARAMS
+from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
                       LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
                       light_from_mapping)
@@ -328,6 +328,9 @@ FIELDS: tuple[Field, ...] = (
     *(_other("color", name, default, _color(name), help, "R,G,B", many="R,G,B colours (separated by ';')",
              bounds=(0.0, 1.0), annotation=tuple[float, float, float])
       for name, (default, _lobe, help) in COLOR_PARAMS.items()),
+    _choice("alpha_mode", "auto", ALPHA_MODES, "glTF alphaMode of the spheres (auto: blend where alpha < 1); "
+            "alpha shows the backdrop, floor or sky behind a sphere, the light still sees it solid"),
+    _float("alpha_cutoff", 0.5, 0.0, 1.0, "alpha_mode mask: alpha below this is cut out"),
     _other("path", "gltf", "", _gltf, "chart a glTF 2.0 asset's materials, one labelled cell each (needs the gltf "
            "extra); sets rows and cols unless given", "FILE", annotation=str),
     _other("names", "gltf_materials", (), _gltf_names, "the glTF materials to chart, in this order (default: all)",

@@ -71,50 +71,75 @@ def _load(path: str):
         raise SpecError(f"gltf {path} cannot be read as glTF 2.0: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
 
 
-def _factor(value, default, n=None):
+def _factor(value, default, what: str, length: int | None = None):
+    """A number (length None) or a list of ``length`` numbers from the asset, as floats;
+    ``default`` where it is absent. Anything else is the asset's fault, said in one line."""
     if value is None:
         return default
-    if n is not None:
-        return tuple(float(v) for v in list(value)[:n])
-    return float(value)
+    def number(v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise SpecError(f"{what}: {quote(value)} is not {'a number' if length is None else f'{length} numbers'}")
+        return float(v)
+    if length is None:
+        return number(value)
+    if not isinstance(value, (list, tuple)) or len(value) != length:
+        raise SpecError(f"{what}: {quote(value)} is not {length} numbers")
+    return tuple(number(v) for v in value)
+
+
+def _material_name(index: int, m) -> str:
+    return m.name if isinstance(m.name, str) and m.name else f"material {index}"
 
 
 def _material(index: int, m) -> tuple[dict, list[str]]:
-    name = m.name or f"material {index}"
+    name = _material_name(index, m)
     pbr = m.pbrMetallicRoughness
-    ext = m.extensions or {}
+    ext = m.extensions if isinstance(m.extensions, dict) else {}
     ignored = []
     values = dict(name=name)
-    if pbr is not None:
-        values["base_color"] = _factor(pbr.baseColorFactor, (1.0, 1.0, 1.0), 3)
-        values["metallic"] = _factor(pbr.metallicFactor, 1.0)
-        values["roughness"] = _factor(pbr.roughnessFactor, 1.0)
-    else:   # the glTF defaults: white, metallic 1, roughness 1
-        values.update(base_color=(1.0, 1.0, 1.0), metallic=1.0, roughness=1.0)
-    values["emissive"] = _factor(m.emissiveFactor, (0.0, 0.0, 0.0), 3)
+
+    def factor(value, default, key, length=None):
+        return _factor(value, default, f"material {quote(name)} {key}", length)
+
+    def extension(key):
+        e = ext.get(key, {})
+        if not isinstance(e, dict):
+            raise SpecError(f"material {quote(name)}: {key} is not a JSON object")
+        return e
+
+    # The glTF defaults where a factor is absent: white, alpha 1, metallic 1, roughness 1.
+    rgba = factor(pbr and pbr.baseColorFactor, (1.0, 1.0, 1.0, 1.0), "baseColorFactor", 4)
+    values.update(base_color=rgba[:3], alpha=rgba[3],
+                  metallic=factor(pbr and pbr.metallicFactor, 1.0, "metallicFactor"),
+                  roughness=factor(pbr and pbr.roughnessFactor, 1.0, "roughnessFactor"))
+    values["emissive"] = factor(m.emissiveFactor, (0.0, 0.0, 0.0), "emissiveFactor", 3)
     if "KHR_materials_emissive_strength" in ext:
-        values["emissive_strength"] = _factor(ext["KHR_materials_emissive_strength"].get("emissiveStrength"), 1.0)
+        values["emissive_strength"] = factor(extension("KHR_materials_emissive_strength").get("emissiveStrength"), 1.0,
+                                             "emissiveStrength")
     if "KHR_materials_clearcoat" in ext:
-        e = ext["KHR_materials_clearcoat"]
-        values["clearcoat"] = _factor(e.get("clearcoatFactor"), 0.0)
-        values["clearcoat_roughness"] = _factor(e.get("clearcoatRoughnessFactor"), 0.0)
+        e = extension("KHR_materials_clearcoat")
+        values["clearcoat"] = factor(e.get("clearcoatFactor"), 0.0, "clearcoatFactor")
+        values["clearcoat_roughness"] = factor(e.get("clearcoatRoughnessFactor"), 0.0, "clearcoatRoughnessFactor")
         ignored += [k for k in ("clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture") if k in e]
     if "KHR_materials_sheen" in ext:
-        e = ext["KHR_materials_sheen"]
-        values["sheen_color"] = _factor(e.get("sheenColorFactor"), (0.0, 0.0, 0.0), 3)
-        values["sheen_roughness"] = _factor(e.get("sheenRoughnessFactor"), 0.0)
+        e = extension("KHR_materials_sheen")
+        values["sheen_color"] = factor(e.get("sheenColorFactor"), (0.0, 0.0, 0.0), "sheenColorFactor", 3)
+        values["sheen_roughness"] = factor(e.get("sheenRoughnessFactor"), 0.0, "sheenRoughnessFactor")
         ignored += [k for k in ("sheenColorTexture", "sheenRoughnessTexture") if k in e]
     if "KHR_materials_specular" in ext:
-        e = ext["KHR_materials_specular"]
-        values["specular"] = _factor(e.get("specularFactor"), 1.0)
-        values["specular_color"] = _factor(e.get("specularColorFactor"), (1.0, 1.0, 1.0), 3)
+        e = extension("KHR_materials_specular")
+        values["specular"] = factor(e.get("specularFactor"), 1.0, "specularFactor")
+        values["specular_color"] = factor(e.get("specularColorFactor"), (1.0, 1.0, 1.0), "specularColorFactor", 3)
         ignored += [k for k in ("specularTexture", "specularColorTexture") if k in e]
     if "KHR_materials_ior" in ext:
-        ior = _factor(ext["KHR_materials_ior"].get("ior"), 1.5)
+        ior = factor(extension("KHR_materials_ior").get("ior"), 1.5, "ior")
         values["ior"] = 1e9 if ior == 0.0 else ior   # glTF: 0 means infinite (f0 = 1)
-    if m.alphaMode not in (None, "OPAQUE"):
-        ignored.append(f"alphaMode {m.alphaMode}")
+    mode = m.alphaMode if m.alphaMode is not None else "OPAQUE"
+    if mode not in ("OPAQUE", "MASK", "BLEND"):
+        raise SpecError(f"material {quote(name)}: alphaMode {quote(mode)} is not OPAQUE, MASK or BLEND")
+    values["alpha_cutoff"] = factor(m.alphaCutoff, 0.5, "alphaCutoff")
     _check(name, values)
+    values["alpha_mode"] = mode.lower()
     return values, [f"{name}: {k}" for k in ignored]
 
 
@@ -123,7 +148,7 @@ def _check(name: str, values: dict) -> None:
         if key == "name":
             continue
         for v in value if isinstance(value, tuple) else (value,):
-            if not math.isfinite(v) or v < 0.0 or (key not in ("emissive_strength", "ior") and v > 1.0):
+            if not math.isfinite(v) or v < 0.0 or (key not in ("emissive_strength", "ior", "alpha_cutoff") and v > 1.0):
                 raise SpecError(f"material {quote(name)}: {key} {quote(value)} is outside glTF's range")
 
 
@@ -141,17 +166,24 @@ def _bytes_of_uri(uri: str, base: Path, what: str) -> bytes:
         raise SpecError(f"{what}: {uri} beside the asset cannot be read") from None
 
 
+def _entry(items, index, what: str, kind: str):
+    """items[index] for an index the asset gives: a whole number naming an existing entry
+    (Python's negative indices are not glTF's)."""
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(items or ()):
+        raise SpecError(f"{what}: {kind} {quote(index)} does not exist")
+    return items[index]
+
+
 def _image_bytes(doc, base: Path, index, what: str) -> bytes:
-    try:
-        image = doc.images[index]
-        if image.uri is not None:
-            return _bytes_of_uri(image.uri, base, what)
-        view = doc.bufferViews[image.bufferView]
-        buffer = doc.buffers[view.buffer]
-    except (TypeError, IndexError):
-        raise SpecError(f"{what}: its image or buffer view does not exist") from None
+    image = _entry(doc.images, index, what, "image")
+    if image.uri is not None:
+        return _bytes_of_uri(image.uri, base, what)
+    view = _entry(doc.bufferViews, image.bufferView, what, "buffer view")
+    buffer = _entry(doc.buffers, view.buffer, what, "buffer")
     blob = _bytes_of_uri(buffer.uri, base, what) if buffer.uri is not None else doc.binary_blob()
     start, length = view.byteOffset or 0, view.byteLength
+    if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in (start, length)):
+        raise SpecError(f"{what}: its buffer view's byteOffset and byteLength must be whole numbers >= 0")
     if blob is None or start + length > len(blob):
         raise SpecError(f"{what}: its buffer view reaches past the buffer")
     return bytes(blob[start:start + length])
@@ -160,26 +192,33 @@ def _image_bytes(doc, base: Path, index, what: str) -> bytes:
 def _texture_ref(doc, base: Path, info, what: str, amount_key: str | None = None) -> TextureRef | None:
     if info is None:
         return None
-    try:
-        texture = doc.textures[info.index]
-    except (TypeError, IndexError):
-        raise SpecError(f"{what}: texture {quote(info.index)} does not exist") from None
+    texture = _entry(doc.textures, info.index, what, "texture")
     if texture.source is None:
         raise SpecError(f"{what}: its texture has no image")
-    sampler = doc.samplers[texture.sampler] if texture.sampler is not None and texture.sampler < len(doc.samplers) else None
-    wrap = tuple(WRAP_MODES.get(getattr(sampler, k, None) if sampler else None, "repeat") for k in ("wrapS", "wrapT"))
+    sampler = None if texture.sampler is None else _entry(doc.samplers, texture.sampler, what, "sampler")
+    wrap = []
+    for key in ("wrapS", "wrapT"):
+        mode = getattr(sampler, key, None) if sampler else None
+        if mode is not None and mode not in WRAP_MODES:
+            raise SpecError(f"{what}: its sampler's {key} {quote(mode)} is not a glTF wrap mode "
+                            f"({', '.join(f'{k} {v}' for k, v in WRAP_MODES.items())})")
+        wrap.append(WRAP_MODES.get(mode, "repeat"))
     nearest = sampler is not None and sampler.magFilter == NEAREST
-    t = (info.extensions or {}).get("KHR_texture_transform", {})
-    transform = (tuple(_factor(t.get("offset"), (0.0, 0.0), 2)), _factor(t.get("rotation"), 0.0),
-                 tuple(_factor(t.get("scale"), (1.0, 1.0), 2)))
-    if not all(math.isfinite(v) for v in (*transform[0], transform[1], *transform[2])):
-        raise SpecError(f"{what}: KHR_texture_transform holds a non-finite number")
-    amount = _factor(getattr(info, amount_key, None), 1.0) if amount_key else 1.0
-    return TextureRef(_image_bytes(doc, base, texture.source, what), what, wrap, nearest, transform, amount)
+    extensions = info.extensions if info.extensions is not None else {}
+    t = extensions.get("KHR_texture_transform", {}) if isinstance(extensions, dict) else None
+    if not isinstance(t, dict):
+        raise SpecError(f"{what}: its extensions or KHR_texture_transform is not a JSON object")
+    transform = (_factor(t.get("offset"), (0.0, 0.0), f"{what} offset", 2),
+                 _factor(t.get("rotation"), 0.0, f"{what} rotation"),
+                 _factor(t.get("scale"), (1.0, 1.0), f"{what} scale", 2))
+    amount = _factor(getattr(info, amount_key, None), 1.0, f"{what} {amount_key}") if amount_key else 1.0
+    if not all(math.isfinite(v) for v in (*transform[0], transform[1], *transform[2], amount)):
+        raise SpecError(f"{what}: KHR_texture_transform or its {amount_key or 'factor'} holds a non-finite number")
+    return TextureRef(_image_bytes(doc, base, texture.source, what), what, tuple(wrap), nearest, transform, amount)
 
 
 def _textures(doc, base: Path, index: int, m) -> MaterialTextures:
-    name = quote(m.name or f"material {index}")
+    name = quote(_material_name(index, m))
     pbr = m.pbrMetallicRoughness
     return MaterialTextures(
         _texture_ref(doc, base, pbr and pbr.baseColorTexture, f"material {name} baseColorTexture"),

@@ -57,6 +57,8 @@ PARAMS: tuple[Param, ...] = (
           "specular"),
     Param("emissive_strength", 0.0, 1e4, 1.0, "emissive strength", "KHR_materials_emissive_strength",
           "emission", axis_range=(0.0, 4.0)),
+    Param("alpha", 0.0, 1.0, 1.0, "alpha", "base-colour alpha: the sphere's share of its pixels over what lies "
+          "behind it (alpha_mode: blend, or cut out below alpha_cutoff)"),
     Param("base_color_hue", 0.0, 360.0, 0.0, "base colour hue (°)",
           "hue of the base colour in degrees, on an axis only (saturation and value kept; 0.8 for a grey)",
           axis_only=True, axis_range=(0.0, 300.0)),
@@ -71,6 +73,12 @@ COLOR_PARAMS = {
     "specular_color": ((1.0, 1.0, 1.0), "specular", "linear KHR_materials_specular colour (scales f0)"),
     "emissive": ((0.0, 0.0, 0.0), "emission", "linear emissive colour"),
 }
+
+# glTF's alphaMode: opaque ignores alpha, mask cuts out the texels below the cutoff, blend lays
+# the sphere over what lies behind it by its alpha; auto (a chart's choice) blends where a
+# cell's alpha is below 1. Alpha applies to what the camera sees; the light treats every
+# sphere as solid (its shadow, occlusion and bounce), in the chart and the reference alike.
+ALPHA_MODES = ("auto", "opaque", "mask", "blend")
 
 GREY_HUE_SATURATION = 0.8   # the saturation a hue axis gives a grey base colour
 
@@ -99,7 +107,15 @@ class Material:
     specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
     emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
     emissive_strength: float = 1.0
+    alpha: float = 1.0
+    alpha_mode: str = "opaque"      # opaque, mask or blend (ALPHA_MODES less auto)
+    alpha_cutoff: float = 0.5
     name: str = ""
+
+    @property
+    def see_through(self) -> bool:
+        """Whether the camera may see past this sphere: by its alpha, or its texture's."""
+        return self.alpha_mode != "opaque"
 
     def lobes(self) -> set[str]:
         """The lobes this material needs beyond the core (values that change nothing need none)."""
@@ -123,7 +139,7 @@ def dielectric_f0(ior, specular_color=(1.0, 1.0, 1.0)):
 
 
 
-MATERIAL_FIELDS = tuple(f.name for f in fields(Material) if f.name != "name")
+MATERIAL_FIELDS = tuple(f.name for f in fields(Material) if f.name not in ("name", "alpha_mode"))
 
 
 def inclusive(rng: tuple[float, float], n: int) -> list[float]:
@@ -218,7 +234,11 @@ def cell_materials(spec) -> list[list[Material]]:
             hue = values.pop("base_color_hue", None)
             if "base_color_hue" in (spec.x_axis, spec.y_axis):
                 base = with_hue(base, hue)
-            row.append(Material(base_color=tuple(float(x) for x in base), **values))
+            mode = spec.alpha_mode
+            if mode == "auto":
+                mode = "blend" if values["alpha"] < 1.0 else "opaque"
+            row.append(Material(base_color=tuple(float(x) for x in base), alpha_mode=mode,
+                                alpha_cutoff=spec.alpha_cutoff, **values))
         out.append(row)
     return out
 
@@ -233,15 +253,24 @@ def spec_lobes(spec) -> set[str]:
     return set().union(*(m.lobes() for row in cell_materials(spec) for m in row))
 
 
+def spec_see_through(spec) -> bool:
+    """Whether the camera may see past some cell's sphere (Material.see_through)."""
+    return any(m.see_through for row in cell_materials(spec) for m in row)
+
+
 def displaced_defaults(base, values: dict, default_spec) -> dict:
     """Parameters the user left at their defaults follow the axes: one no axis shows any more
     takes its one value (roughness 0.5, metallic 0), one an axis now shows takes its sweep
-    (clearcoat 0:1, ior 1:2.5), so ``x_axis = "clearcoat"`` alone is a chart of clearcoat."""
+    (clearcoat 0:1, ior 1:2.5), so ``x_axis = "clearcoat"`` alone is a chart of clearcoat. Only
+    a parameter the new values put on or take off an axis moves: ``base`` stays as it is."""
     axes = (values.get("x_axis", base.x_axis), values.get("y_axis", base.y_axis))
+    old_axes = (base.x_axis, base.y_axis)
     out = {}
     for p in PARAMS:
         current = getattr(base, p.name)
         if p.name in values or p.axis_only or current != getattr(default_spec, p.name):
+            continue
+        if (p.name in axes) == (p.name in old_axes):
             continue
         if p.name not in axes and current[0] != current[1]:
             out[p.name] = (p.value, p.value)

@@ -1,0 +1,125 @@
+"""Alpha modes (glTF alphaMode): a blend sphere is laid over what lies behind it by its alpha,
+a mask sphere is cut out below its cutoff, opaque ignores alpha; by factor, by the base colour
+map's alpha and in the reference. The light sees every sphere solid (its shadow and bounce
+stay), so a see-through sphere's pixel is exactly a mix of the opaque sphere's and of the
+pixel with no sphere in front (alpha 0): the tests check that identity, which follows from the
+definition alone."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sdfpbr.errors import SpecError
+from sdfpbr.spec.chart_spec import make_spec
+
+BASE = dict(rows=1, cols=1, size="128x128", labels=False, roughness=(0.3, 0.3))
+# float32 radiance through the same arithmetic: a mix of two values differs from the value
+# mixed in the shader by rounding only (a few ulp); the HDR target stores float32.
+RTOL, ATOL = 1e-5, 1e-6
+
+
+def hdr(session, **kw):
+    return session.render(make_spec(**{**BASE, **kw})).hdr.astype(np.float64)
+
+
+@pytest.mark.parametrize("alpha", [0.3, 0.75])
+def test_blend_is_the_opaque_sphere_laid_over_what_lies_behind_it(session, alpha):
+    opaque, empty = hdr(session), hdr(session, alpha=(0.0, 0.0))
+    got = hdr(session, alpha=(alpha, alpha))
+    # The alpha-0 render shows the floor and sky behind the sphere, the opaque one the sphere.
+    assert np.abs(opaque - empty).max() > 0.1
+    np.testing.assert_allclose(got, alpha * opaque + (1 - alpha) * empty, rtol=RTOL, atol=ATOL)
+
+
+def test_mask_cuts_out_below_the_cutoff_and_keeps_the_rest_opaque(session):
+    opaque, empty = hdr(session), hdr(session, alpha=(0.0, 0.0))
+    kept = hdr(session, alpha=(0.6, 0.6), alpha_mode="mask", alpha_cutoff=0.5)
+    cut = hdr(session, alpha=(0.4, 0.4), alpha_mode="mask", alpha_cutoff=0.5)
+    np.testing.assert_allclose(kept, opaque, rtol=RTOL, atol=ATOL)
+    np.testing.assert_allclose(cut, empty, rtol=RTOL, atol=ATOL)
+    # opaque ignores alpha
+    np.testing.assert_allclose(hdr(session, alpha=(0.2, 0.2), alpha_mode="opaque"), opaque, rtol=RTOL, atol=ATOL)
+
+
+def test_alpha_on_an_axis_blends_each_cell_by_its_own_value(session):
+    spec = make_spec(rows=1, cols=3, size="192x64", labels=False, x_axis="alpha", y_axis="roughness",
+                     roughness=(0.3, 0.3))
+    assert [m.alpha_mode for m in spec.cell_materials()[0]] == ["blend", "blend", "opaque"]
+    res = session.render(spec)
+    aov, got = res.aov, res.hdr.astype(np.float64)
+    opaque = session.render(make_spec(rows=1, cols=3, size="192x64", labels=False, roughness=(0.3, 0.3),
+                                      metallic=(0.0, 0.0))).hdr.astype(np.float64)
+    for col, alpha in enumerate((0.0, 0.5, 1.0)):
+        sphere = (aov["col"] == col) & (aov["coverage"] == 1)
+        if alpha == 1.0:
+            np.testing.assert_allclose(got[sphere], opaque[sphere], rtol=RTOL, atol=ATOL)
+        else:   # brighter or darker than the opaque cell by its blend, never equal to it
+            assert np.abs(got[sphere] - opaque[sphere]).mean() > 0.01
+
+
+def test_the_reference_blends_by_the_same_alpha(session):
+    """Emission only (no light, black sky, no floor): the opaque sphere is its emission E, so
+    the blend sphere is alpha E over black. The reference sees past it with probability
+    1 - alpha per camera path: over n samples of p pixels its mean is within 4 standard errors,
+    E sqrt(alpha (1 - alpha) / (n p)), of alpha E."""
+    from sdfpbr.tools.reference import render_reference
+    alpha, emission, samples = 0.35, np.array([1.0, 0.5, 0.25]), 64
+    spec = make_spec(**BASE, alpha=(alpha, alpha), emissive=tuple(emission), base_color=(0.0, 0.0, 0.0),
+                     env="black", ibl=False, ground=False, lights=())
+    ref = render_reference(spec, samples=samples, seed=5, session=session)
+    chart = session.render(spec)
+    inside = chart.aov["coverage"] == 1
+    pixels = int(inside.sum())
+    got = ref.hdr[..., :3].astype(np.float64)[inside].mean(0)
+    sigma = emission * np.sqrt(alpha * (1 - alpha) / (samples * pixels))
+    assert np.all(np.abs(got - alpha * emission) <= 4 * sigma), (got, alpha * emission, sigma)
+    np.testing.assert_allclose(chart.hdr[..., :3][inside], np.broadcast_to(alpha * emission, (pixels, 3)),
+                               rtol=1e-4)
+
+
+# ---- glTF -----------------------------------------------------------------------------------
+
+pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
+sys.path.insert(0, str(Path(__file__).parent))
+from test_gltf import png_bytes, textured_glb  # noqa: E402
+
+
+def glb_with_alpha(tmp_path, mode, factor_alpha=1.0, cutoff=None, left=0, right=255):
+    """A white dielectric whose base colour map's alpha is `left` on the texture's left half
+    (u < 0.5: the sphere's left half on screen) and `right` on its right half."""
+    img = np.full((8, 16, 4), 255, np.uint8)
+    img[:, :8, 3], img[:, 8:, 3] = left, right
+    m = pygltflib.Material(name="leaf", alphaMode=mode, alphaCutoff=cutoff,
+                           pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+                               baseColorFactor=[1.0, 1.0, 1.0, factor_alpha], metallicFactor=0.0,
+                               roughnessFactor=0.3, baseColorTexture=pygltflib.TextureInfo(index=0)))
+    return textured_glb(tmp_path / f"{mode}.glb", [png_bytes(img)], [m], [pygltflib.Sampler(magFilter=9728)])
+
+
+@pytest.mark.parametrize("mode, factor, cutoff, left, right, want_left, want_right", [
+    ("MASK", 1.0, 0.5, 0, 255, 0.0, 1.0),       # the left half cut out
+    ("MASK", 0.6, 0.7, 255, 255, 0.0, 0.0),     # factor x texel below the cutoff everywhere
+    ("BLEND", 0.5, None, 255, 102, 0.5, 0.2),   # factor x texel (alpha is linear: 102 / 255 = 0.4)
+    ("OPAQUE", 0.2, None, 0, 0, 1.0, 1.0),      # alpha ignored
+])
+def test_gltf_alpha_modes_read_the_factor_and_the_maps_alpha(session, tmp_path, mode, factor, cutoff, left, right,
+                                                              want_left, want_right):
+    kw = dict(size="128x128", labels=False)
+    got_res = session.render(make_spec(gltf=glb_with_alpha(tmp_path, mode, factor, cutoff, left, right), **kw))
+    # The same sphere opaque, and with nothing in front (alpha 0 by factor).
+    opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr.astype(np.float64)
+    empty = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "BLEND", 0.0), **kw)).hdr.astype(np.float64)
+    got, aov = got_res.hdr.astype(np.float64), got_res.aov
+    inside = aov["coverage"] == 1
+    nx = aov["normal"][..., 0]
+    for side, a in ((inside & (nx < -0.2), want_left), (inside & (nx > 0.2), want_right)):
+        want = a * opaque[side] + (1 - a) * empty[side]
+        # The map's alpha is filtered (8-bit, level of detail): within half a step of the texel.
+        np.testing.assert_allclose(got[side], want, atol=0.5 / 255 * np.abs(opaque[side] - empty[side]).max() + 1e-5)
+
+
+def test_a_bad_alpha_mode_is_one_line(tmp_path):
+    path = glb_with_alpha(tmp_path, "SEETHROUGH")
+    with pytest.raises(SpecError, match="alphaMode 'SEETHROUGH' is not OPAQUE, MASK or BLEND"):
+        make_spec(gltf=path)
