@@ -18,7 +18,7 @@ from sdfpbr.errors import SpecError
 from sdfpbr.spec import (BUGS, ENTRY_KEYS, FIELD_NAMES, FIELDS, ChartSpec, Light, field_value, field_value_from_text,
                          load_spec, make_spec, read_entry_document, resolve_field, spec_to_flags, spec_to_toml,
                          spec_from_mapping, split_entry, sweep_defaults, sweep_values_from_text)
-from sdfpbr.spec.fields import toml_value
+from sdfpbr.spec.fields import resolve_relative_files, toml_value
 from sdfpbr.spec.material import AXIS_PARAMS
 from sdfpbr.spec.presets import DEFAULT_LIGHTS
 
@@ -198,9 +198,10 @@ def test_the_issues_python_commands(cache_dir):
 
 @pytest.mark.parametrize("path", CHARTS, ids=lambda p: p.name)
 def test_every_chart_file_loads_as_a_spec(path):
+    """(The files a chart names, e.g. gltf-materials.toml's asset, are found beside it.)"""
     spec_mapping, entry = read_entry_document(path)
     assert set(entry) <= set(ENTRY_KEYS) and not set(spec_mapping) & set(ENTRY_KEYS)
-    assert load_spec(path) == spec_from_mapping(spec_mapping)
+    assert load_spec(path) == spec_from_mapping(resolve_relative_files(spec_mapping, path.parent))
 
 
 def test_a_docs_entry_renders_with_chart_spec(tmp_path, cache_dir):
@@ -385,3 +386,18 @@ def test_a_spec_rebuilt_with_no_changes_is_the_same_spec():
     base = make_spec(rows=1, x_axis="metallic", y_axis="clearcoat", clearcoat=(0.0, 0.0))
     assert make_spec(base) == base and make_spec(base, cols=3).clearcoat == (0.0, 0.0)
     assert make_spec(base, y_axis="ior").ior == (1.0, 2.5)
+
+
+def test_a_spec_files_relative_files_are_found_beside_it(tmp_path, monkeypatch):
+    """A spec file in another directory names its glTF asset beside it; the same name from the
+    working directory, where no such file is, would not load."""
+    import shutil
+    glb = Path(__file__).parent / "data" / "materials.glb"
+    pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
+    (tmp_path / "sub").mkdir()
+    shutil.copy(glb, tmp_path / "sub" / "m.glb")
+    (tmp_path / "sub" / "spec.toml").write_text('gltf = "m.glb"\n')
+    monkeypatch.chdir(tmp_path)
+    assert load_spec("sub/spec.toml").gltf == str(Path("sub") / "m.glb")
+    with pytest.raises(SpecError, match="m.glb"):
+        make_spec(gltf="m.glb")

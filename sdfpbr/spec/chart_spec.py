@@ -15,7 +15,7 @@ from typing import Any, Mapping
 from ..errors import SpecError
 from .bugs import get_bug
 from .checks import parse_color, parse_range, parse_size  # noqa: F401  (re-exported)
-from .fields import FIELDS, STORED_FIELDS, attr_values, read_entry_document
+from .fields import FIELDS, STORED_FIELDS, attr_values, read_entry_document, resolve_relative_files
 from .material import axis_values, cell_materials, check_axes, displaced_defaults, material_array
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, FILL_LIGHT,  # noqa: F401
                       HDR_PRECISIONS, INTERSECT_METHODS, KEY_LIGHT, LIGHT_KINDS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE,
@@ -145,10 +145,11 @@ def spec_from_mapping(data: Mapping[str, Any], base: ChartSpec | None = None, wh
 
 def load_spec(path: str | Path, base: ChartSpec | None = None) -> ChartSpec:
     """The chart spec a TOML file describes: a spec file, a chart entry (``caption`` and the spec
-    keys), or a [compare]/[sweep] entry (its [spec] base)."""
+    keys), or a [compare]/[sweep] entry (its [spec] base). Files it names are found beside it
+    first."""
     spec_mapping, entry = read_entry_document(path)
     where = f"{path} [spec]" if "spec" in entry else str(path)
-    return spec_from_mapping(spec_mapping, base, where=where)
+    return spec_from_mapping(resolve_relative_files(spec_mapping, Path(path).parent), base, where=where)
 
 
 def as_spec(spec: "ChartSpec | str | Path | None", what: str = "spec") -> ChartSpec:

@@ -338,6 +338,23 @@ FIELDS: tuple[Field, ...] = (
            annotation=tuple[str, ...]),
 )
 
+def names_file(key: str, value) -> bool:
+    """Whether spec key ``key`` holding ``value`` names a file: an env that is no preset, a
+    texture, a glTF asset."""
+    return isinstance(value, str) and bool(value) and (
+        key == "env" and value not in ENV_PRESETS or key.endswith("_texture") or key == "gltf")
+
+
+def resolve_relative_files(mapping: Mapping[str, Any], base_dir: Path) -> dict:
+    """A relative file named in a spec file or entry is found beside it first (then, as given,
+    from the working directory)."""
+    out = dict(mapping)
+    for key, value in mapping.items():
+        if names_file(key, value) and not Path(value).is_absolute() and (base_dir / value).exists():
+            out[key] = str(base_dir / value)
+    return out
+
+
 FIELD_NAMES = tuple(f.name for f in FIELDS)
 STORED_FIELDS = tuple(f for f in FIELDS if len(f.stored) == 1)   # one ChartSpec attribute each
 _BY_NAME = {n: f for f in FIELDS for n in (f.name, *f.aliases)}

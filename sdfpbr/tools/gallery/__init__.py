@@ -27,7 +27,7 @@ scanned, so they can hold specs that entries refer to). ``OUT/<file stem>.png`` 
 * **Sweep**: ``[sweep] field = "tonemap"`` and ``values = [...]`` (any spec key; each value as it
   would be written in a chart entry), with an optional ``[spec]`` base and ``caption``.
 
-An ``env`` file named in an entry is found relative to the entry's directory.
+A file named in an entry (``env``, a texture, ``gltf``) is found relative to the entry's directory.
 
 Cache
 -----

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...errors import SpecError
-from ...spec.chart_spec import ENV_PRESETS, ChartSpec, load_spec, spec_from_mapping
-from ...spec.fields import ENTRY_SECTIONS, field_value, resolve_field, split_entry
+from ...spec.chart_spec import ChartSpec, load_spec, spec_from_mapping
+from ...spec.fields import ENTRY_SECTIONS, field_value, resolve_field, resolve_relative_files, split_entry
 from ...spec.toml_file import read_toml
 
 
@@ -48,16 +48,6 @@ def _spec_overrides(spec: ChartSpec) -> dict:
     return {k: v for k, v in spec.to_dict().items() if default.get(k) != v}
 
 
-def _resolve_env(mapping: dict, base_dir: Path) -> dict:
-    """A relative env file in an entry is relative to the entry, not to the working directory."""
-    env = mapping.get("env")
-    if isinstance(env, str) and env not in ENV_PRESETS and not Path(env).is_absolute():
-        candidate = base_dir / env
-        if candidate.exists():
-            return {**mapping, "env": str(candidate)}
-    return mapping
-
-
 def _table(data: dict, key: str, where: str) -> dict:
     value = data.get(key, {})
     if not isinstance(value, dict):
@@ -77,10 +67,10 @@ def parse_entry(data: dict, where: str, base_dir: Path, stem: str) -> list[Item]
     caption = _text(entry.get("caption", ""), "caption", where)
     section = next((k for k in ENTRY_SECTIONS if k in entry), None)
     if section is None:
-        spec = spec_from_mapping(_resolve_env(spec_keys, base_dir), where=where)
+        spec = spec_from_mapping(resolve_relative_files(spec_keys, base_dir), where=where)
         return [Item(stem, where, "chart", data, (spec,), caption or spec.title,
                      {"spec": _spec_overrides(spec)})]
-    base = spec_from_mapping(_resolve_env(spec_keys, base_dir), where=f"{where} [spec]")
+    base = spec_from_mapping(resolve_relative_files(spec_keys, base_dir), where=f"{where} [spec]")
     table = _table(entry, section, where)
     if section == "sweep":
         return [_sweep_item(data, table, base, caption, where, stem)]

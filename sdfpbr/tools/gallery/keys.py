@@ -9,7 +9,8 @@ from typing import Sequence
 
 from ... import __version__
 from ...cache import content_key
-from ...spec.chart_spec import ENV_PRESETS, ChartSpec
+from ...spec.chart_spec import ChartSpec
+from ...spec.fields import names_file
 from .entries import Item
 
 # The modules that make an image; the key hashes them and every sdfpbr module they import.
@@ -42,8 +43,7 @@ def _spec_for_key(spec: ChartSpec) -> dict:
     the key follows what a file holds, not where the checkout lives."""
     out = {}
     for k, v in spec.to_dict().items():
-        names_file = k == "env" and v not in ENV_PRESETS or k.endswith("_texture") or k == "gltf"
-        if names_file and isinstance(v, str) and v and Path(v).is_file():
+        if names_file(k, v) and Path(v).is_file():
             v = "sha256:" + _file_digest(v)
         out[k] = v
     return out
