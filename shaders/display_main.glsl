@@ -1,6 +1,9 @@
 #include "common.glsl"
 #include "tonemap.glsl"
 #include "encode.glsl"
+#if EXPOSURE_AXIS != none
+#include "cell_grid.glsl"
+#endif
 
 // Display program: linear HDR -> exposure -> tone map -> OETF, straight alpha out.
 uniform sampler2D u_radiance;
@@ -9,6 +12,11 @@ uniform float u_exposure_scale;   // 2^EV
 uniform vec3 u_backdrop_srgb;     // the page colour under the render's alpha
 #endif
 layout(location = 0) out vec4 out_color;
+#if EXPOSURE_AXIS != none
+// Exposure on an axis: each cell's EV (relative to u_exposure_scale's) by its column (x) or row (y).
+uniform float u_axis_ev[64];       // MAX_GRID entries (spec/presets.py)
+uniform vec2 u_display_origin;    // this pass's pixel (0, 0) in the image (tiles)
+#endif
 
 void main() {
     vec4 hdr = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
@@ -20,6 +28,15 @@ void main() {
     float alpha = 1.0;
 #endif
     vec3 x = radiance * u_exposure_scale;
+#if EXPOSURE_AXIS != none
+    ivec2 index;
+    ivec2 cell = grid_cell(gl_FragCoord.xy - 0.5 + u_display_origin, index);
+#if EXPOSURE_AXIS == x
+    x *= exp2(u_axis_ev[cell.x]);
+#else
+    x *= exp2(u_axis_ev[cell.y]);
+#endif
+#endif
 #if BUG_DOUBLE_TONEMAP
     x = x / (1.0 + x);   // Reinhard, then the chosen tone map again
 #endif

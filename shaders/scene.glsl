@@ -1,7 +1,11 @@
 // The chart scene. STAGE shared: a rows x cols grid of equal spheres in the z = 0 plane, row 0
 // on top, and an optional ground plane under the bottom row. STAGE cells: one sphere at the
 // origin on its own floor, shown once per cell (below).
+#if STAGE == cells
+#include "cell_grid.glsl"
+#else
 uniform ivec2 u_grid;          // (cols, rows)
+#endif
 uniform float u_radius;        // sphere radius
 uniform float u_spacing;       // centre-to-centre distance
 uniform float u_ground_y;      // height of the ground plane
@@ -36,8 +40,6 @@ float sdf_spheres(vec3 p, out ivec2 cell) {
 
 // The cell a pixel (GL coordinates) shows, and the pixel moved into that cell's own frame;
 // cells are whole pixels wide, so every cell computes exactly the same rays.
-uniform ivec2 u_cell_size;     // pixels per cell
-uniform ivec2 u_grid_origin;   // lower-left pixel of the grid
 
 // The stage probe (stage_probe_main.glsl) sees the stage from the sphere's centre; a ray from
 // a surface point that meets the floor meets it elsewhere. Reading the probe towards that
@@ -51,8 +53,8 @@ vec3 stage_parallax(vec3 dir) {
 }
 
 vec2 cell_pixel(vec2 pixel, out ivec2 cell) {
-    ivec2 index = clamp(ivec2(floor(floor(pixel - vec2(u_grid_origin)) / vec2(u_cell_size))), ivec2(0), u_grid - 1);
-    cell = ivec2(index.x, u_grid.y - 1 - index.y);   // row 0 on top, GL rows run up
+    ivec2 index;
+    cell = grid_cell(pixel, index);
     return pixel - vec2(u_grid_origin + index * u_cell_size);
 }
 #else

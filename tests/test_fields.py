@@ -301,6 +301,8 @@ def specs(draw):
             values[field.name] = draw(_value(field, rows))
             if field.kind == "range" and field.name not in axes:
                 values[field.name] = values[field.name][0]   # one value off an axis
+    if "exposure" in axes:
+        values["stage"] = "cells"   # the only stage an exposure axis is drawn on
     return make_spec(**values)
 
 

@@ -12,7 +12,8 @@ import numpy as np
 from ..shading import camera as camera_mod
 from ..shading import plan
 from ..shading.material_table import upload as upload_materials
-from ..spec.chart_spec import ChartSpec, Quality
+from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
+from ..spec.material import exposure_axis
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
 
@@ -184,22 +185,30 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     return bindings
 
 
-def display_uniforms(spec: ChartSpec) -> dict:
-    return {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white,
-            "u_radiance": RADIANCE_UNIT, **({"u_backdrop_srgb": tuple(spec.backdrop)} if spec.backdrop else {})}
+def display_uniforms(spec: ChartSpec, origin: tuple[int, int] = (0, 0)) -> dict:
+    """The display program's uniforms; ``origin``: the pass's pixel (0, 0) in the image."""
+    out = {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white,
+           "u_radiance": RADIANCE_UNIT, **({"u_backdrop_srgb": tuple(spec.backdrop)} if spec.backdrop else {})}
+    axis = exposure_axis(spec)
+    if axis:   # each column's (row's) EV relative to the spec's, and where the cells lie
+        ev = [v - spec.exposure for v in spec.axis_values(axis)]
+        out.update(camera_mod.cell_grid(spec).uniforms(spec.height), u_grid=(spec.cols, spec.rows),
+                   u_display_origin=origin, u_axis_ev=ev + [0.0] * (MAX_GRID - len(ev)))   # the array is MAX_GRID long
+    return out
 
 
 def display_pass(ctx: moderngl.Context, program, radiance, spec: ChartSpec, width: int, height: int,
-                 pool: TargetPool | None = None) -> np.ndarray:
+                 pool: TargetPool | None = None, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
     """Exposure, tone map and OETF of ``radiance`` (a float RGBA texture) through the display
-    program: (height, width, 4) uint8, top row first. ``pool``: where its target comes from."""
+    program: (height, width, 4) uint8, top row first. ``pool``: where its target comes from;
+    ``origin``: the texture's pixel (0, 0) in the image (a tile's, GL coordinates)."""
     ldr = pool.take(width, height, "f1") if pool else ctx.texture((width, height), 4)
     fbo = ctx.framebuffer(color_attachments=[ldr])
     vao = ctx.vertex_array(program, [])
     try:
         fbo.use()
         radiance.use(RADIANCE_UNIT)
-        set_uniforms(program, display_uniforms(spec))
+        set_uniforms(program, display_uniforms(spec, origin))
         vao.render(moderngl.TRIANGLES, vertices=3)
         return read_rgba(ldr, width, height, np.uint8)
     finally:

@@ -183,7 +183,7 @@ def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool
                 program["u_tile_origin"].value = (x0, y0)
                 vao.render(moderngl.TRIANGLES, vertices=3)
                 where = image_slices(H, x0, y0, tw, th)
-                image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool)
+                image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool, origin=(x0, y0))
                 if read_hdr:
                     radiance = read_rgba(targets[0], tw, th, np.float16 if half else np.float32)
                     hdr[where] = radiance[..., :3]

@@ -10,7 +10,7 @@ import numpy as np
 from ..shading.camera import cell_grid, sphere_centers
 from ..shading.plan import brdf_model, stage
 from ..spec.chart_spec import ChartSpec
-from ..spec.material import axis_param
+from ..spec.material import axis_param, exposure_axis
 from .layout import Cell, compose_chart
 
 
@@ -29,7 +29,9 @@ def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
 def footer_scene_parts(spec: ChartSpec, brdf: str) -> list[str]:
     """What the chart and the reference footers share: display and scene settings."""
     env = spec.env if len(spec.env) < 40 else "…" + spec.env[-38:]
-    return [f"tone map {spec.tonemap}", f"exposure {spec.exposure:+g} EV", f"env {env}",
+    axis = exposure_axis(spec)
+    exposure = f"exposure {spec.exposure:+g} EV" if not axis else f"exposure per {'column' if axis == 'x' else 'row'}"
+    return [f"tone map {spec.tonemap}", exposure, f"env {env}",
             f"BRDF {brdf}" + ("" if spec.multiscatter else " (single scatter)")]
 
 

@@ -15,7 +15,7 @@ from typing import Mapping
 
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
-from ..spec.material import spec_lobes, spec_see_through
+from ..spec.material import exposure_axis, spec_lobes, spec_see_through
 from .compose import ComposedSource, OptionSchema, Value, compose
 
 # Every shader option, the values it may take, and the switches the bug catalog adds (off
@@ -36,6 +36,7 @@ SCHEMA = OptionSchema(
         "IBL_DOMINANT_DIR": ("none", "frostbite", "moments"),
         "PREFILTER_KERNEL": ("cosine", "brdf"),
         "STAGE": ("shared", "cells"),
+        "EXPOSURE_AXIS": ("none", "x", "y"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
@@ -185,7 +186,8 @@ def chart_options(spec: ChartSpec) -> dict:
 
 
 def display_options(spec: ChartSpec) -> dict:
-    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": has_alpha(spec), "BACKDROP": bool(spec.backdrop)}
+    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": has_alpha(spec), "BACKDROP": bool(spec.backdrop),
+            "EXPOSURE_AXIS": exposure_axis(spec) or "none"}
     opts.update(bug_options(spec, "display"))
     return opts
 

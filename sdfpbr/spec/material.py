@@ -64,8 +64,13 @@ PARAMS: tuple[Param, ...] = (
           axis_only=True, axis_range=(0.0, 300.0)),
 )
 PARAM_NAMES = tuple(p.name for p in PARAMS)
-AXIS_PARAMS = PARAM_NAMES
-_BY_NAME = {p.name: p for p in PARAMS}
+# Exposure is no material parameter but can be an axis: the display pass then exposes each
+# cell (floor and all) by its column's or row's EV, around the spec's exposure (± 2 EV unless
+# values are given). The cells stage only: there every pixel belongs to one cell.
+EXPOSURE_AXIS = Param("exposure", -40.0, 40.0, 0.0, "exposure (EV)", "exposure in EV", axis_only=True,
+                      axis_range=(-2.0, 2.0))
+AXIS_PARAMS = PARAM_NAMES + (EXPOSURE_AXIS.name,)
+_BY_NAME = {p.name: p for p in (*PARAMS, EXPOSURE_AXIS)}
 
 # Colour parameters of the lobes: name -> (default, lobe, help).
 COLOR_PARAMS = {
@@ -156,7 +161,15 @@ def axis_values(spec, axis: str) -> list[float]:
     given = spec.x_values if axis == "x" else spec.y_values
     if given:
         return list(given)
-    return inclusive(getattr(spec, axis_param(spec, axis).name), spec.cols if axis == "x" else spec.rows)
+    p, n = axis_param(spec, axis), spec.cols if axis == "x" else spec.rows
+    if p is EXPOSURE_AXIS:   # around the spec's exposure
+        return [spec.exposure + v for v in inclusive(p.sweep, n)]
+    return inclusive(getattr(spec, p.name), n)
+
+
+def exposure_axis(spec) -> str | None:
+    """'x' or 'y' where exposure is on an axis, else None."""
+    return next((a for a in ("x", "y") if axis_param(spec, a) is EXPOSURE_AXIS), None)
 
 
 def with_hue(color, hue_deg: float) -> tuple[float, float, float]:
@@ -181,6 +194,9 @@ def check_axes(spec) -> None:
     grid, and every other parameter at one value."""
     if spec.x_axis == spec.y_axis:
         raise SpecError(f"x_axis and y_axis are both {spec.x_axis}; give two different parameters")
+    if EXPOSURE_AXIS.name in (spec.x_axis, spec.y_axis) and (spec.stage != "cells" or spec.gltf):
+        raise SpecError("exposure on an axis needs the cells stage (stage = \"cells\"), where every pixel "
+                        "belongs to one cell, and no gltf")
     for axis, values, n, count in (("x", spec.x_values, spec.cols, "cols"), ("y", spec.y_values, spec.rows, "rows")):
         p = axis_param(spec, axis)
         if values and len(values) != n:
@@ -230,6 +246,7 @@ def cell_materials(spec) -> list[list[Material]]:
         row = []
         for c in range(cols):
             values = {**fixed, spec.x_axis: xs[c], spec.y_axis: ys[r]}
+            values.pop(EXPOSURE_AXIS.name, None)   # the display's, not the material's
             base = tuple(bases[r][c])
             hue = values.pop("base_color_hue", None)
             if "base_color_hue" in (spec.x_axis, spec.y_axis):
