@@ -1,7 +1,7 @@
 // The chart's materials: one row of texels per cell in u_cell_materials (cell index
 // row * cols + col), written by sdfpbr/shading/material_table.py from each cell's Material:
 //   0: base colour (linear), metallic      1: roughness, clearcoat, clearcoat roughness, sheen roughness
-//   2: sheen colour, alpha                  3: specular f0 (from ior and specular colour), specular
+//   2: sheen colour, alpha                  3: f0(ior) x specular colour (unclamped), specular
 //   4: emission (emissive colour x strength), alpha test (-2 opaque, -1 blend, else the mask's cutoff)
 // A program reads only the texels of the lobes it composes in. The ground is uniforms.
 uniform sampler2D u_cell_materials;
@@ -31,7 +31,7 @@ Material cell_material(ivec2 cell, vec3 n_geo) {
 #endif
 #if KHR_SPECULAR && !BUG_IOR_IGNORED
     vec4 t3 = cell_texel(cell, 3);
-    m.specular_f0 = t3.rgb;
+    m.specular_f0 = min(t3.rgb, vec3(1.0));
     m.specular_weight = t3.a;
 #endif
 #if EMISSION
@@ -49,6 +49,20 @@ void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
     set_roughness(m, cell_texel(cell, 1).x * tx.orm.g);
 #if EMISSION
     m.emission_linear *= tx.emission_linear;
+#endif
+    // The KHR extensions' maps (glTF: texture x factor; f0 clamped after the colour).
+#if CLEARCOAT
+    m.clearcoat *= tx.khr.r;
+    set_clearcoat_roughness(m, cell_texel(cell, 1).z * tx.khr.g);
+    m.clearcoat_normal = tx.coat_normal;
+#endif
+#if SHEEN
+    m.sheen_color_linear *= tx.sheen_color_linear;
+    m.sheen_perceptual_roughness = max(cell_texel(cell, 1).w * tx.khr.a, MIN_PERCEPTUAL_ROUGHNESS);
+#endif
+#if KHR_SPECULAR && !BUG_IOR_IGNORED
+    m.specular_f0 = min(cell_texel(cell, 3).rgb * tx.specular_color_linear, vec3(1.0));
+    m.specular_weight *= tx.khr.b;
 #endif
 }
 #endif

@@ -15,6 +15,18 @@ uniform sampler2D u_normal_map;
 #if HAS_EMISSIVE_MAP
 uniform sampler2D u_emissive_map;
 #endif
+#if HAS_KHR_MAP
+uniform sampler2D u_khr_map;              // clearcoat, clearcoat roughness, specular, sheen roughness
+#endif
+#if HAS_COAT_NORMAL_MAP
+uniform sampler2D u_coat_normal_map;
+#endif
+#if HAS_SHEEN_COLOR_MAP
+uniform sampler2D u_sheen_color_map;
+#endif
+#if HAS_SPECULAR_COLOR_MAP
+uniform sampler2D u_specular_color_map;
+#endif
 
 vec3 srgb_eotf(vec3 c) {
     return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), c));
@@ -26,7 +38,28 @@ struct SurfaceTexels {
     vec3 normal;           // world-space shading normal
     vec3 emission_linear;  // scales the emissive factor
     float alpha;           // the base colour map's alpha (scales the factor's)
+    vec4 khr;              // scale clearcoat, clearcoat roughness, specular, sheen roughness
+    vec3 coat_normal;      // world-space clearcoat normal
+    vec3 sheen_color_linear;      // scales the sheen colour
+    vec3 specular_color_linear;   // scales the specular colour
 };
+
+// A map's texel at the sphere's (u, v), in the cell's layer, at the pixel's level of detail.
+#define SAMPLE_MAP(map, uv, cell, pixel_size) textureLod(map, layer_uv(uv, cell, textureSize(map, 0).y), layer_lod(map, pixel_size))
+
+// A tangent-space normal map texel (0..1) on the sphere at geometric normal n: tangent along
+// increasing u (around +y), bitangent = N x T (up on the front).
+vec3 tangent_normal(vec3 texel, vec3 n) {
+    vec3 ts = texel * 2.0 - 1.0;
+#if BUG_NORMAL_MAP_GREEN_FLIP
+    ts.y = -ts.y;
+#endif
+    vec3 t = vec3(n.z, 0.0, -n.x);
+    float tl = length(t);
+    t = tl > 1e-6 ? t / tl : vec3(1.0, 0.0, 0.0);
+    vec3 b = cross(n, t);
+    return normalize(ts.x * t + ts.y * b + ts.z * n);
+}
 
 // Mip level for a map whose width spans the equator (2 pi R): texels per world unit along
 // u; isotropic footprint. pixel_size: world size of a pixel at the hit.
@@ -60,8 +93,7 @@ vec2 sphere_uv(vec3 n) {
 // The base colour map's alpha alone (1 without the map): what a see-through sphere tests first.
 float base_alpha(vec3 n, float pixel_size, ivec2 cell) {
 #if HAS_BASE_COLOR_MAP
-    return textureLod(u_base_color_map, layer_uv(sphere_uv(n), cell, textureSize(u_base_color_map, 0).y),
-                      layer_lod(u_base_color_map, pixel_size)).a;
+    return SAMPLE_MAP(u_base_color_map, sphere_uv(n), cell, pixel_size).a;
 #else
     return 1.0;
 #endif
@@ -70,39 +102,39 @@ float base_alpha(vec3 n, float pixel_size, ivec2 cell) {
 // n: geometric sphere normal; cell: whose layer (u_map_layers > 1).
 SurfaceTexels sample_surface(vec3 n, float pixel_size, ivec2 cell) {
     vec2 uv = sphere_uv(n);
-    SurfaceTexels s = SurfaceTexels(vec3(1.0), vec3(1.0), n, vec3(1.0), 1.0);
+    SurfaceTexels s = SurfaceTexels(vec3(1.0), vec3(1.0), n, vec3(1.0), 1.0, vec4(1.0), n, vec3(1.0), vec3(1.0));
 #if HAS_BASE_COLOR_MAP
-    vec4 base = textureLod(u_base_color_map, layer_uv(uv, cell, textureSize(u_base_color_map, 0).y),
-                           layer_lod(u_base_color_map, pixel_size));
+    vec4 base = SAMPLE_MAP(u_base_color_map, uv, cell, pixel_size);
     s.base_color_linear = base.rgb;
     s.alpha = base.a;
 #endif
 #if HAS_EMISSIVE_MAP
-    s.emission_linear = textureLod(u_emissive_map, layer_uv(uv, cell, textureSize(u_emissive_map, 0).y),
-                                   layer_lod(u_emissive_map, pixel_size)).rgb;
+    s.emission_linear = SAMPLE_MAP(u_emissive_map, uv, cell, pixel_size).rgb;
 #endif
 #if HAS_ORM_MAP
-    s.orm = textureLod(u_orm_map, layer_uv(uv, cell, textureSize(u_orm_map, 0).y), layer_lod(u_orm_map, pixel_size)).rgb;
+    s.orm = SAMPLE_MAP(u_orm_map, uv, cell, pixel_size).rgb;
 #if BUG_ORM_SRGB
     s.orm = srgb_eotf(s.orm);
 #endif
 #endif
 #if HAS_NORMAL_MAP
-    vec3 texel = textureLod(u_normal_map, layer_uv(uv, cell, textureSize(u_normal_map, 0).y),
-                            layer_lod(u_normal_map, pixel_size)).rgb;
+    vec3 texel = SAMPLE_MAP(u_normal_map, uv, cell, pixel_size).rgb;
 #if BUG_NORMAL_MAP_SRGB
     texel = srgb_eotf(texel);
 #endif
-    vec3 ts = texel * 2.0 - 1.0;
-#if BUG_NORMAL_MAP_GREEN_FLIP
-    ts.y = -ts.y;
+    s.normal = tangent_normal(texel, n);
 #endif
-    // Tangent along increasing u (around +y), bitangent = N x T points up on the front.
-    vec3 t = vec3(n.z, 0.0, -n.x);
-    float tl = length(t);
-    t = tl > 1e-6 ? t / tl : vec3(1.0, 0.0, 0.0);
-    vec3 b = cross(n, t);
-    s.normal = normalize(ts.x * t + ts.y * b + ts.z * n);
+#if HAS_KHR_MAP
+    s.khr = SAMPLE_MAP(u_khr_map, uv, cell, pixel_size);
+#endif
+#if HAS_COAT_NORMAL_MAP
+    s.coat_normal = tangent_normal(SAMPLE_MAP(u_coat_normal_map, uv, cell, pixel_size).rgb, n);
+#endif
+#if HAS_SHEEN_COLOR_MAP
+    s.sheen_color_linear = SAMPLE_MAP(u_sheen_color_map, uv, cell, pixel_size).rgb;
+#endif
+#if HAS_SPECULAR_COLOR_MAP
+    s.specular_color_linear = SAMPLE_MAP(u_specular_color_map, uv, cell, pixel_size).rgb;
 #endif
     return s;
 }

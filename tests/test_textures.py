@@ -84,10 +84,10 @@ def test_normal_map_tilts_toward_plus_y_up(session, tmp_path):
 
 def test_procedural_maps_are_valid():
     maps = procedural_set()
-    n = maps.normal_linear8[..., :3] / 255.0 * 2 - 1
+    n = maps.images["normal"][..., :3] / 255.0 * 2 - 1
     assert np.allclose(np.linalg.norm(n, axis=-1), 1.0, atol=0.02)
     assert (n[..., 2] > 0).all()
-    orm = maps.orm_linear8[..., :3] / 255.0
+    orm = maps.images["orm"][..., :3] / 255.0
     assert 0.3 < orm[..., 1].min() and orm[..., 1].max() == 1.0
 
 

@@ -177,8 +177,7 @@ def cmd_chart(args) -> int:
     if spec.gltf:   # say what of the asset the chart leaves out, so no image is silently partial
         from ..spec.gltf import gltf_materials
         for what in gltf_materials(spec.gltf, spec.gltf_materials).ignored:
-            print(f"sdfpbr: note: {what} is not charted (factors only: textures and alpha modes are not read)",
-                  file=sys.stderr)
+            print(f"sdfpbr: note: {what} is not charted", file=sys.stderr)
     start = time.perf_counter()
     result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov))
     result.save(args.output, hdr=args.hdr, aov=args.aov)

@@ -13,6 +13,9 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import SpecError
+from ..shading.maps import MAPS
+
+MAPS_BY_NAME = {m.name: m for m in MAPS}
 
 PROCEDURAL_SIZE = (1024, 512)   # (width, height): u spans 2 pi, v spans pi, so texels stay square
 GL_SRGB8_ALPHA8 = 0x8C43
@@ -20,13 +23,11 @@ GL_SRGB8_ALPHA8 = 0x8C43
 
 @dataclass(frozen=True)
 class TextureSet:
-    """The maps a spec composes in; None: that map is absent (the factors stand alone).
+    """The maps a spec composes in, by name (shading.maps): (H, W, 4) uint8 images, sRGB or
+    linear as the table says; a map left out is absent (the factors stand alone).
     ``layers`` > 1: each map holds that many sphere maps stacked top to bottom, one per cell
     (a glTF asset's materials; textures.glsl reads the cell's layer)."""
-    base_color_srgb8: np.ndarray | None   # (H, W, 4) uint8, sRGB
-    orm_linear8: np.ndarray | None        # (H, W, 4) uint8, linear
-    normal_linear8: np.ndarray | None     # (H, W, 4) uint8, linear, OpenGL convention
-    emissive_srgb8: np.ndarray | None = None   # (H, W, 4) uint8, sRGB (glTF assets only)
+    images: dict
     layers: int = 1
 
 
@@ -62,8 +63,8 @@ def procedural_set() -> TextureSet:
     orm = np.rint(np.stack([occlusion, roughness, metallic], -1) * 255).astype(np.uint8)
     base = np.where(checker[..., None], 255, 214).astype(np.uint8) * np.ones(3, np.uint8)
     alpha = np.full((h, w, 1), 255, np.uint8)
-    return TextureSet(np.concatenate([base, alpha], -1), np.concatenate([orm, alpha], -1),
-                      np.concatenate([normal, alpha], -1))
+    return TextureSet({"base": np.concatenate([base, alpha], -1), "orm": np.concatenate([orm, alpha], -1),
+                       "normal": np.concatenate([normal, alpha], -1)})
 
 
 def _load_png(path: str, what: str) -> np.ndarray:
@@ -123,10 +124,6 @@ def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
 # many materials share the stacked map (GL's texture limit is 16384 texels a side).
 GLTF_LAYER_SIZE = PROCEDURAL_SIZE
 GLTF_LAYER_SIZE_MANY = (512, 256)
-_NEUTRAL = {"base": (255, 255, 255, 255), "orm": (255, 255, 255, 255), "normal": (128, 128, 255, 255),
-            "emissive": (255, 255, 255, 255)}
-
-
 def _wrap(x: np.ndarray, mode: str) -> np.ndarray:
     if mode == "clamp":
         return np.clip(x, 0.0, 1.0)
@@ -167,26 +164,44 @@ def _on_sphere(ref, size: tuple[int, int]) -> np.ndarray:
     return _sample(_rgba8(ref.data, ref.what), tu, tv, ref)
 
 
+def _normal_layer(ref, size: tuple[int, int]) -> np.ndarray:
+    """A tangent-space normal map on the sphere, its XY scaled by glTF's normal scale."""
+    n = _on_sphere(ref, size)[..., :3] / 255.0 * 2.0 - 1.0
+    n[..., :2] *= ref.amount
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+    return (n * 0.5 + 0.5) * 255.0
+
+
 def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
-    """One material's layer of map ``kind`` (base, orm, normal, emissive), neutral where it has
-    none (white: the factors stand alone)."""
+    """One material's layer of map ``kind`` (shading.maps), its neutral value where the
+    material has no texture for it (the factors stand alone)."""
     w, h = size
     out = np.empty((h, w, 4), np.float64)
-    out[...] = _NEUTRAL[kind]
-    if kind == "base" and tex.base_color:
-        out = _on_sphere(tex.base_color, size)
+    out[...] = MAPS_BY_NAME[kind].neutral
+    def channel(ref, source: int, target: int):   # a texture's channel into the layer's
+        if ref:
+            out[..., target] = _on_sphere(ref, size)[..., source]
+    if kind == "base":
+        if tex.base_color:
+            out = _on_sphere(tex.base_color, size)
     elif kind == "orm":
         if tex.occlusion:   # occlusion from R, scaled by its strength: 1 + s (o - 1)
             out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount * (_on_sphere(tex.occlusion, size)[..., 0] / 255.0 - 1.0))
         if tex.metallic_roughness:   # roughness in G, metalness in B
             out[..., 1:3] = _on_sphere(tex.metallic_roughness, size)[..., 1:3]
-    elif kind == "emissive" and tex.emissive:
-        out[..., :3] = _on_sphere(tex.emissive, size)[..., :3]
-    elif kind == "normal" and tex.normal:
-        n = _on_sphere(tex.normal, size)[..., :3] / 255.0 * 2.0 - 1.0
-        n[..., :2] *= tex.normal.amount        # glTF's normal scale
-        n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
-        out[..., :3] = (n * 0.5 + 0.5) * 255.0
+    elif kind == "khr":   # glTF's channels: clearcoat R, its roughness G, specular A, sheen roughness A
+        channel(tex.clearcoat, 0, 0)
+        channel(tex.clearcoat_roughness, 1, 1)
+        channel(tex.specular, 3, 2)
+        channel(tex.sheen_roughness, 3, 3)
+    elif kind in ("normal", "coat_normal"):
+        ref = tex.normal if kind == "normal" else tex.clearcoat_normal
+        if ref:
+            out[..., :3] = _normal_layer(ref, size)
+    else:   # colour maps: RGB as the texture holds it
+        ref = {"emissive": tex.emissive, "sheen_color": tex.sheen_color, "specular_color": tex.specular_color}[kind]
+        if ref:
+            out[..., :3] = _on_sphere(ref, size)[..., :3]
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
@@ -200,11 +215,10 @@ def gltf_set(materials) -> TextureSet:
     animation or build entry reuses its bake."""
     if _last_gltf_set and _last_gltf_set[0][0] is materials:
         return _last_gltf_set[0][1]
-    has = materials.has_textures
     size = GLTF_LAYER_SIZE if len(materials.textures) <= 16 else GLTF_LAYER_SIZE_MANY
-    maps = [np.concatenate([_layer(kind, tex, size) for tex in materials.textures]) if present else None
-            for kind, present in zip(("base", "orm", "normal", "emissive"), has)]
-    baked = TextureSet(*maps, layers=len(materials.textures))
+    images = {kind: np.concatenate([_layer(kind, tex, size) for tex in materials.textures])
+              for kind, present in materials.has_textures.items() if present}
+    baked = TextureSet(images, layers=len(materials.textures))
     _last_gltf_set[:] = [(materials, baked)]
     return baked
 
@@ -214,37 +228,35 @@ def texture_set(spec) -> TextureSet:
     the procedural ones elsewhere in procedural mode, none otherwise; a glTF asset's own."""
     if spec.gltf:
         return gltf_set(spec.gltf_maps())
-    fallback = procedural_set() if spec.textures == "procedural" else TextureSet(None, None, None)
-    return TextureSet(*(_load_png(getattr(spec, name), name) if getattr(spec, name) else getattr(fallback, field)
-                        for name, field in (("base_color_texture", "base_color_srgb8"),
-                                            ("orm_texture", "orm_linear8"),
-                                            ("normal_texture", "normal_linear8"))))
+    images = dict(procedural_set().images) if spec.textures == "procedural" else {}
+    for name, field in (("base", "base_color_texture"), ("orm", "orm_texture"), ("normal", "normal_texture")):
+        if getattr(spec, field):
+            images[name] = _load_png(getattr(spec, field), field)
+    return TextureSet(images)
 
 
 def upload(ctx, maps: TextureSet) -> dict:
-    """GL textures with mipmaps for the maps present; base colour through an sRGB format so
-    filtering is linear. A map larger than the driver's texture limit is refused (GL would
-    leave it undefined: a black sphere)."""
+    """GL textures with mipmaps for the maps present, by sampler name; colour maps through an
+    sRGB format so filtering is linear. A map larger than the driver's texture limit is
+    refused (GL would leave it undefined: a black sphere)."""
     import moderngl
     limit = int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384))
     out = {}
-    for name, img, fmt in (("u_base_color_map", maps.base_color_srgb8, GL_SRGB8_ALPHA8),
-                           ("u_orm_map", maps.orm_linear8, None),
-                           ("u_normal_map", maps.normal_linear8, None),
-                           ("u_emissive_map", maps.emissive_srgb8, GL_SRGB8_ALPHA8)):
+    for kind in MAPS:
+        img = maps.images.get(kind.name)
         if img is None:
             continue
         h, w = img.shape[:2]
         if max(w, h) > limit:
             for tex in out.values():
                 tex.release()
-            raise SpecError(f"{name[2:].replace('_map', '')} texture is {w}x{h}; this GL takes at most "
+            raise SpecError(f"{kind.name.replace('_', ' ')} texture is {w}x{h}; this GL takes at most "
                             f"{limit} texels a side: scale it down")
         # Image row 0 is v = 0; uploading it as the first GL row keeps texture(v) = image row v.
-        kwargs = {"internal_format": fmt} if fmt else {}
+        kwargs = {"internal_format": GL_SRGB8_ALPHA8} if kind.srgb else {}
         tex = ctx.texture((w, h), 4, np.ascontiguousarray(img).tobytes(), **kwargs)
         tex.build_mipmaps()
         tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         tex.repeat_x, tex.repeat_y = True, False
-        out[name] = tex
+        out[kind.uniform] = tex
     return out

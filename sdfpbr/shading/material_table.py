@@ -5,7 +5,7 @@ Texel layout (material.glsl reads it; change both together):
   0: base colour (linear), metallic
   1: perceptual roughness, clearcoat, clearcoat roughness, sheen roughness
   2: sheen colour (linear), alpha
-  3: specular f0 = min(f0(ior) x specular colour, 1), specular weight
+  3: f0(ior) x specular colour (the shader clamps it to 1 after a specular colour map), specular weight
   4: emission = emissive colour x emissive strength, alpha test (ALPHA_TEST below)
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ def cell_texels(material: Material) -> np.ndarray:
         [*m.base_color, m.metallic],
         [m.roughness, m.clearcoat, m.clearcoat_roughness, m.sheen_roughness],
         [*m.sheen_color, m.alpha],
-        [*dielectric_f0(m.ior, m.specular_color), m.specular],
+        [*(dielectric_f0(m.ior) * np.asarray(m.specular_color)), m.specular],
         [*(np.asarray(m.emissive) * m.emissive_strength), alpha_test(m)],
     ], np.float64)
 

@@ -17,6 +17,7 @@ from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
 from .compose import ComposedSource, OptionSchema, Value, compose
+from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 
 # Every shader option, the values it may take, and the switches the bug catalog adds (off
 # unless a plan sets them). The composer checks options against this, so a typo in Python or
@@ -40,8 +41,7 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE", "HAS_BASE_COLOR_MAP", "HAS_ORM_MAP", "HAS_NORMAL_MAP",
-           "HAS_EMISSIVE_MAP"),
+           "ANALYTIC_AA", "FLOOR_PLATE") + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
@@ -110,15 +110,15 @@ def uses_analytic_intersection(spec: ChartSpec) -> bool:
     return forced == "analytic" if forced else spec.intersect in ("auto", "analytic")
 
 
-def texture_maps(spec: ChartSpec) -> tuple[bool, bool, bool, bool]:
-    """Which of base colour, ORM, normal and emissive map the chart composes in: the first
-    three for the procedural set (a PNG replacing its part of it), else only the PNGs the spec
-    names (a base-colour texture alone adds no rivets); for a glTF asset, those any material
-    has (the emissive map only there)."""
+def texture_maps(spec: ChartSpec) -> dict[str, bool]:
+    """Which maps (shading.maps) the chart composes in: base colour, ORM and normal for the
+    procedural set (a PNG replacing its part of it), else only the PNGs the spec names (a
+    base-colour texture alone adds no rivets); for a glTF asset, those any material has."""
     if spec.gltf:   # the asset's own textures, one layer per cell (gpu.textures)
         return spec.gltf_maps().has_textures
     procedural = spec.textures == "procedural"
-    return (*(procedural or bool(p) for p in (spec.base_color_texture, spec.orm_texture, spec.normal_texture)), False)
+    given = {"base": spec.base_color_texture, "orm": spec.orm_texture, "normal": spec.normal_texture}
+    return {name: procedural and name in given or bool(given.get(name)) for name in MAP_NAMES}
 
 
 def chart_options(spec: ChartSpec) -> dict:
@@ -156,8 +156,8 @@ def chart_options(spec: ChartSpec) -> dict:
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
     if opts["USE_TEXTURES"]:   # read by textures.glsl
-        (opts["HAS_BASE_COLOR_MAP"], opts["HAS_ORM_MAP"], opts["HAS_NORMAL_MAP"],
-         opts["HAS_EMISSIVE_MAP"]) = texture_maps(spec)
+        present = texture_maps(spec)
+        opts.update({m.option: present[m.name] for m in MAPS})
     # The cells stage's floor shaded once per cell pixel (stage_floor_main.glsl).
     opts["FLOOR_PLATE"] = opts["STAGE"] == "cells" and spec.ground and q.floor_plate
     # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): the cells

@@ -57,7 +57,7 @@ class _ChartSpecMethods:
 
     def uses_textures(self) -> bool:
         if self.gltf:
-            return any(self.gltf_maps().has_textures)
+            return any(self.gltf_maps().has_textures.values())
         return self.textures != "none" or any((self.base_color_texture, self.orm_texture, self.normal_texture))
 
     def gltf_maps(self):

@@ -5,8 +5,9 @@ factors, emissive factor and the KHR_materials_clearcoat, _sheen, _specular, _io
 _emissive_strength factors, the alpha mode; and its base-colour, metallic-roughness, normal,
 occlusion and emissive textures become TextureRefs (the image's bytes from the .glb's buffer,
 a data URI or a file beside the .gltf, its sampler's wrap and filter modes,
-KHR_texture_transform), which gpu.textures bakes onto the sphere. What is not charted (the
-extensions' textures) is named in ``ignored`` so the caller can say so.
+KHR_texture_transform), which gpu.textures bakes onto the sphere, as do the KHR extensions'
+textures. What is not charted (other material extensions: transmission, volume, ...) is
+named in ``ignored`` so the caller can say so.
 """
 from __future__ import annotations
 
@@ -18,6 +19,8 @@ from ..errors import SpecError, did_you_mean
 from .checks import quote
 
 GLTF_SUFFIXES = (".gltf", ".glb")
+CHARTED_EXTENSIONS = ("KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular", "KHR_materials_ior",
+                      "KHR_materials_emissive_strength")
 # glTF sampler enums: wrap modes, and the nearest magnification filter.
 WRAP_MODES = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 NEAREST = 9728
@@ -43,6 +46,15 @@ class MaterialTextures:
     normal: TextureRef | None = None
     occlusion: TextureRef | None = None
     emissive: TextureRef | None = None
+    # The KHR extensions' maps: clearcoat (R), its roughness (G) and normal; sheen colour (RGB)
+    # and roughness (A); specular (A) and specular colour (RGB).
+    clearcoat: TextureRef | None = None
+    clearcoat_roughness: TextureRef | None = None
+    clearcoat_normal: TextureRef | None = None
+    sheen_color: TextureRef | None = None
+    sheen_roughness: TextureRef | None = None
+    specular: TextureRef | None = None
+    specular_color: TextureRef | None = None
 
 
 @dataclass(frozen=True)
@@ -52,12 +64,18 @@ class GltfMaterials:
     textures: tuple = ()          # MaterialTextures, one per material
 
     @property
-    def has_textures(self) -> tuple[bool, bool, bool, bool]:
-        """Whether any material has a base colour, an ORM (metallic-roughness or occlusion),
-        a normal and an emissive texture: the maps the chart composes in."""
+    def has_textures(self) -> dict[str, bool]:
+        """Which maps (gpu.textures MAPS) the chart composes in: those any material has a
+        texture for (the ORM map: metallic-roughness or occlusion; the KHR map: clearcoat, its
+        roughness, sheen roughness or specular)."""
         t = self.textures
-        return (any(m.base_color for m in t), any(m.metallic_roughness or m.occlusion for m in t),
-                any(m.normal for m in t), any(m.emissive for m in t))
+        def any_of(*names):
+            return any(getattr(m, n) for m in t for n in names)
+        return {"base": any_of("base_color"), "orm": any_of("metallic_roughness", "occlusion"),
+                "normal": any_of("normal"), "emissive": any_of("emissive"),
+                "khr": any_of("clearcoat", "clearcoat_roughness", "sheen_roughness", "specular"),
+                "coat_normal": any_of("clearcoat_normal"), "sheen_color": any_of("sheen_color"),
+                "specular_color": any_of("specular_color")}
 
 
 def _load(path: str):
@@ -91,11 +109,16 @@ def _material_name(index: int, m) -> str:
     return m.name if isinstance(m.name, str) and m.name else f"material {index}"
 
 
-def _material(index: int, m) -> tuple[dict, list[str]]:
+def _ignored(index: int, m) -> list[str]:
+    """What of material m the chart leaves out: the extensions it does not chart."""
+    ext = m.extensions if isinstance(m.extensions, dict) else {}
+    return [f"{_material_name(index, m)}: {k}" for k in ext if k not in CHARTED_EXTENSIONS]
+
+
+def _material(index: int, m) -> dict:
     name = _material_name(index, m)
     pbr = m.pbrMetallicRoughness
     ext = m.extensions if isinstance(m.extensions, dict) else {}
-    ignored = []
     values = dict(name=name)
 
     def factor(value, default, key, length=None):
@@ -120,17 +143,14 @@ def _material(index: int, m) -> tuple[dict, list[str]]:
         e = extension("KHR_materials_clearcoat")
         values["clearcoat"] = factor(e.get("clearcoatFactor"), 0.0, "clearcoatFactor")
         values["clearcoat_roughness"] = factor(e.get("clearcoatRoughnessFactor"), 0.0, "clearcoatRoughnessFactor")
-        ignored += [k for k in ("clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture") if k in e]
     if "KHR_materials_sheen" in ext:
         e = extension("KHR_materials_sheen")
         values["sheen_color"] = factor(e.get("sheenColorFactor"), (0.0, 0.0, 0.0), "sheenColorFactor", 3)
         values["sheen_roughness"] = factor(e.get("sheenRoughnessFactor"), 0.0, "sheenRoughnessFactor")
-        ignored += [k for k in ("sheenColorTexture", "sheenRoughnessTexture") if k in e]
     if "KHR_materials_specular" in ext:
         e = extension("KHR_materials_specular")
         values["specular"] = factor(e.get("specularFactor"), 1.0, "specularFactor")
         values["specular_color"] = factor(e.get("specularColorFactor"), (1.0, 1.0, 1.0), "specularColorFactor", 3)
-        ignored += [k for k in ("specularTexture", "specularColorTexture") if k in e]
     if "KHR_materials_ior" in ext:
         ior = factor(extension("KHR_materials_ior").get("ior"), 1.5, "ior")
         values["ior"] = 1e9 if ior == 0.0 else ior   # glTF: 0 means infinite (f0 = 1)
@@ -140,7 +160,7 @@ def _material(index: int, m) -> tuple[dict, list[str]]:
     values["alpha_cutoff"] = factor(m.alphaCutoff, 0.5, "alphaCutoff")
     _check(name, values)
     values["alpha_mode"] = mode.lower()
-    return values, [f"{name}: {k}" for k in ignored]
+    return values
 
 
 def _check(name: str, values: dict) -> None:
@@ -190,8 +210,15 @@ def _image_bytes(doc, base: Path, index, what: str) -> bytes:
 
 
 def _texture_ref(doc, base: Path, info, what: str, amount_key: str | None = None) -> TextureRef | None:
+    """A textureInfo (pygltflib's, or an extension's JSON object) as a TextureRef."""
     if info is None:
         return None
+    if isinstance(info, dict):   # inside an extension pygltflib leaves it JSON
+        from types import SimpleNamespace
+        info = SimpleNamespace(index=info.get("index"), extensions=info.get("extensions"),
+                               **({amount_key: info.get(amount_key)} if amount_key else {}))
+    elif not hasattr(info, "index"):
+        raise SpecError(f"{what} is not a JSON object")
     texture = _entry(doc.textures, info.index, what, "texture")
     if texture.source is None:
         raise SpecError(f"{what}: its texture has no image")
@@ -220,12 +247,25 @@ def _texture_ref(doc, base: Path, info, what: str, amount_key: str | None = None
 def _textures(doc, base: Path, index: int, m) -> MaterialTextures:
     name = quote(_material_name(index, m))
     pbr = m.pbrMetallicRoughness
+    ext = m.extensions if isinstance(m.extensions, dict) else {}
+    def ref(info, key, amount_key=None):
+        return _texture_ref(doc, base, info, f"material {name} {key}", amount_key)
+    def ext_ref(extension, key, amount_key=None):
+        e = ext.get(extension)
+        return ref(e.get(key), key, amount_key) if isinstance(e, dict) else None
     return MaterialTextures(
-        _texture_ref(doc, base, pbr and pbr.baseColorTexture, f"material {name} baseColorTexture"),
-        _texture_ref(doc, base, pbr and pbr.metallicRoughnessTexture, f"material {name} metallicRoughnessTexture"),
-        _texture_ref(doc, base, m.normalTexture, f"material {name} normalTexture", "scale"),
-        _texture_ref(doc, base, m.occlusionTexture, f"material {name} occlusionTexture", "strength"),
-        _texture_ref(doc, base, m.emissiveTexture, f"material {name} emissiveTexture"))
+        ref(pbr and pbr.baseColorTexture, "baseColorTexture"),
+        ref(pbr and pbr.metallicRoughnessTexture, "metallicRoughnessTexture"),
+        ref(m.normalTexture, "normalTexture", "scale"),
+        ref(m.occlusionTexture, "occlusionTexture", "strength"),
+        ref(m.emissiveTexture, "emissiveTexture"),
+        ext_ref("KHR_materials_clearcoat", "clearcoatTexture"),
+        ext_ref("KHR_materials_clearcoat", "clearcoatRoughnessTexture"),
+        ext_ref("KHR_materials_clearcoat", "clearcoatNormalTexture", "scale"),
+        ext_ref("KHR_materials_sheen", "sheenColorTexture"),
+        ext_ref("KHR_materials_sheen", "sheenRoughnessTexture"),
+        ext_ref("KHR_materials_specular", "specularTexture"),
+        ext_ref("KHR_materials_specular", "specularColorTexture"))
 
 
 _memo: dict = {}
@@ -242,7 +282,8 @@ def gltf_materials(path: str, names: tuple[str, ...] = ()) -> GltfMaterials:
     key = (str(p.resolve()), stat.st_mtime_ns, stat.st_size, tuple(names))
     if key not in _memo:
         doc = _load(str(p))
-        read = [(*_material(i, m), _textures(doc, p.parent, i, m)) for i, m in enumerate(doc.materials or [])]
+        read = [(_material(i, m), _ignored(i, m), _textures(doc, p.parent, i, m))
+                for i, m in enumerate(doc.materials or [])]
         if not read:
             raise SpecError(f"gltf {path} has no materials")
         by_name = {m["name"]: (m, ig, tx) for m, ig, tx in read}
