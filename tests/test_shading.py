@@ -6,9 +6,9 @@ import pytest
 
 from sdfpbr.oracle import display, mirror
 from sdfpbr.shading.compose import shader_dir
-from sdfpbr.shading.plan import compose_program as compose, render_plan
+from sdfpbr.shading.plan import compose_program as compose, display_options, render_plan
 from sdfpbr.gpu.programs import set_uniforms
-from sdfpbr.spec.chart_spec import QUALITY_PRESETS
+from sdfpbr.spec.chart_spec import QUALITY_PRESETS, make_spec
 
 BRDF_KERNEL = """
 #include "common.glsl"
@@ -137,7 +137,7 @@ def test_display_program_matches_reference(ctx, session, name):
     hdr[0, :, :3] = values[:, None] * np.array([1.0, 1.0, 1.0])
     hdr[0, 5, :3] = (0.9, 0.3, 0.05)                      # a coloured input too
     hdr[..., 3] = 1
-    src = compose("display_main.glsl", {"TONEMAP": name.replace("-", "_"), "TRANSPARENT": False})
+    src = compose("display_main.glsl", display_options(make_spec(tonemap=name)))
     program = session.programs.fragment(src)
     tex = ctx.texture((len(values), 1), 4, hdr.tobytes(), dtype="f4")
     target = ctx.texture((len(values), 1), 4, dtype="f4")
@@ -160,7 +160,6 @@ def test_display_program_matches_reference(ctx, session, name):
 
 def test_uniform_environment_bakes_to_one_and_irradiance_pi(ctx, session):
     from sdfpbr.gpu.ibl import make_environment
-    from sdfpbr.spec.chart_spec import make_spec
     spec = make_spec(env="uniform", lights="none", quality="draft")
     env = make_environment(session.ctx, spec)
     ibl = render_plan(spec).ibl
