@@ -8,6 +8,9 @@
 // ivec2(-1) (the ground's cell) skips the ground.
 uniform int u_cell_reach;   // k: a sphere reaches into cells up to k away (0 when spacing >= 2R)
 #define SKIP_NONE ivec2(-2)
+#if SHADOW_CATCHER
+bool g_open_floor = false;   // trace as if no sphere stood on the floor (the catcher's open floor)
+#endif
 #define MAX_DDA_STEPS 300   // > 2 * (MAX_GRID + 2 k) + 2 for every reach the Python side allows
 
 // The ground plane, where the ray meets it before t_best (and does not leave it).
@@ -33,6 +36,9 @@ Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
     Hit hit = NO_HIT;
     float t_best = t_max;
     trace_ground(ro, rd, skip, hit, t_best);
+#if SHADOW_CATCHER
+    if (g_open_floor) return hit;
+#endif
     if (skip != g_cell) {   // a ray leaving the (convex) sphere never meets it again
         float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
         if (t > 0.0 && t < t_best)
@@ -51,6 +57,9 @@ Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
     Hit hit = NO_HIT;
     float t_best = t_max;
     trace_ground(ro, rd, skip, hit, t_best);
+#if SHADOW_CATCHER
+    if (g_open_floor) return hit;
+#endif
     // Interval inside the slab of the spheres, |z| <= R.
     float t0 = 0.0, t1 = t_best;
     if (abs(rd.z) > 0.0) {

@@ -34,6 +34,9 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform image2D u_sum;       // rgb: sum of radiance, a: sum of coverage
 layout(rgba32f, binding = 1) uniform image2D u_moments;   // sum (Y-K), sum (Y-K)^2, K, non-finite samples
+#if SHADOW_CATCHER
+layout(rgba32f, binding = 2) uniform image2D u_catcher;   // over floor-first paths: sum L, sum L_open, count
+#endif
 uniform ivec2 u_tile_origin;   // pixel offset of this dispatch (GL convention, y up)
 uniform ivec2 u_tile_size;
 uniform int u_sample_start;
@@ -50,6 +53,9 @@ void main() {
     uvec2 rotation = rng_next_bits(pixel_rng).xy;
     vec4 sum = imageLoad(u_sum, pixel);
     vec4 moments = imageLoad(u_moments, pixel);
+#if SHADOW_CATCHER
+    vec4 catcher = imageLoad(u_catcher, pixel);
+#endif
     vec2 base = vec2(pixel);
 #if STAGE == cells
     base = cell_pixel(base, g_cell);   // the camera then sees this cell's own scene
@@ -61,7 +67,13 @@ void main() {
         vec2 ndc = 2.0 * (base + offset) / u_resolution - 1.0;
         vec3 rd;
         vec3 ro = camera_ray(ndc, rd);
+#if SHADOW_CATCHER
+        g_catcher = vec2(-1.0);
+#endif
         vec4 c = trace_path(ro, rd, rng);
+#if SHADOW_CATCHER
+        if (g_catcher.x >= 0.0 && !any(isnan(g_catcher)) && !any(isinf(g_catcher))) catcher += vec4(g_catcher, 1.0, 0.0);
+#endif
         if (any(isnan(c)) || any(isinf(c))) {   // counted and reported, never silently kept
             moments.w += 1.0;
             c = vec4(0.0);
@@ -74,4 +86,7 @@ void main() {
     }
     imageStore(u_sum, pixel, sum);
     imageStore(u_moments, pixel, moments);
+#if SHADOW_CATCHER
+    imageStore(u_catcher, pixel, catcher);
+#endif
 }

@@ -216,21 +216,8 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
     return sum;
 }
 
-// One path from the camera: rgb radiance and coverage (1 where the camera ray hits a surface).
-vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
-    Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);
-#if SEE_THROUGH
-    // The camera sees past a sphere with probability 1 - alpha (its texel at full resolution);
-    // the light sees every sphere solid, as the chart does.
-    if (hit.t >= 0.0 && hit.cell.x >= 0 && rng_next4(rng).x >= sphere_alpha(hit.cell, hit.normal, 1e-20 * u_radius))
-        hit = trace_scene(ro, rd, 1e30, hit.cell);
-#endif
-    if (hit.t < 0.0) {
-#if TRANSPARENT
-        return vec4(0.0);   // premultiplied, as the chart: misses add no colour, only less coverage
-#endif
-        return vec4(environment_seen(rd, -1.0) + discs_seen(rd, -1.0), 0.0);
-    }
+// The light a path brings back to the camera from `hit`, the first surface its ray met.
+vec3 path_radiance(vec3 ro, vec3 rd, Hit hit, inout Rng rng) {
     vec3 radiance = vec3(0.0), throughput = vec3(1.0);
     for (int bounce = 1; bounce <= u_max_bounces; ++bounce) {
         vec3 p = ro + rd * hit.t;
@@ -260,5 +247,42 @@ vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
         rd = l;
         hit = next;
     }
-    return vec4(radiance, 1.0);
+    return radiance;
+}
+
+#if SHADOW_CATCHER
+// A camera path that meets the floor first: the floor's luminance as the spheres leave it and
+// as if none stood on it (the same random numbers, so the two are correlated and their ratio
+// steady). reference_main.glsl sums both; the pixel's catcher alpha is 1 - sum / sum_open,
+// clamped to [0, 1] as the chart's shadow_catcher (light the sphere adds cannot show on a matte).
+vec2 g_catcher = vec2(-1.0);   // (L, L_open) of this path; x < 0: it did not meet the floor first
+#endif
+
+// One path from the camera: rgb radiance and coverage (1 where the camera ray hits a surface).
+vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
+    Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);
+#if SEE_THROUGH
+    // The camera sees past a sphere with probability 1 - alpha (its texel at full resolution);
+    // the light sees every sphere solid, as the chart does.
+    if (hit.t >= 0.0 && hit.cell.x >= 0 && rng_next4(rng).x >= sphere_alpha(hit.cell, hit.normal, 1e-20 * u_radius))
+        hit = trace_scene(ro, rd, 1e30, hit.cell);
+#endif
+    if (hit.t < 0.0) {
+#if TRANSPARENT
+        return vec4(0.0);   // premultiplied, as the chart: misses add no colour, only less coverage
+#endif
+        return vec4(environment_seen(rd, -1.0) + discs_seen(rd, -1.0), 0.0);
+    }
+#if SHADOW_CATCHER
+    if (hit.cell.x < 0) {
+        Rng twin = rng;
+        float with_spheres = luminance(path_radiance(ro, rd, hit, rng));
+        g_open_floor = true;
+        float open = luminance(path_radiance(ro, rd, hit, twin));
+        g_open_floor = false;
+        g_catcher = vec2(with_spheres, open);
+        return vec4(0.0);   // no colour; its coverage comes from the catcher sums
+    }
+#endif
+    return vec4(path_radiance(ro, rd, hit, rng), 1.0);
 }

@@ -33,15 +33,22 @@ def test_a_transparent_chart_composited_onto_a_colour_is_the_chart_rendered_onto
     assert np.abs(composite(transparent, backdrop) - onto[..., :3]).max() <= 1.5
 
 
-def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session):
+@pytest.mark.parametrize("renderer", ["chart", "reference"])
+def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session, renderer):
     """Sun only (no environment light): the floor keeps no colour and its alpha is 1 minus the
     share of sunlight the sphere lets through, so it is opaque where the ray towards the sun
     passes well inside the sphere and clear where it passes well outside. Which is which comes
     from ray geometry here, not from the shader; the margin is the sun disc's penumbra (its
-    angular radius times the distance to the sphere) and two pixels."""
+    angular radius times the distance to the sphere) and two pixels. The reference traces the
+    floor's light with and without the sphere (direct light only: the share is then its exact
+    visibility, 0 or 1 on every path outside the penumbra)."""
     spec = make_spec(rows=1, cols=1, width=160, height=160, env="black", ibl=False, lights=[SUN],
                      transparent=True)
-    image = session.render(spec).image
+    if renderer == "chart":
+        image = session.render(spec).image
+    else:
+        from sdfpbr.tools.reference import render_reference
+        image = render_reference(spec, samples=16, max_bounces=1, seed=4, session=session).image
     cam = frame(spec)
     r, floor_y = spec.sphere_radius, ground_height(spec)
     sun = np.asarray(SUN["direction"], float) / np.linalg.norm(SUN["direction"])

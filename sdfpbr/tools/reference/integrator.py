@@ -15,7 +15,7 @@ from ...gpu.session import Session, default_session
 from ...progress import Progress
 from ...shading.camera import Camera
 from ...shading.compose import ComposedSource
-from ...shading.plan import ReferencePlan, has_alpha, quality, reference_plan, stage
+from ...shading.plan import ReferencePlan, quality, reference_plan, stage
 from ...spec.chart_spec import ChartSpec
 from .tables import compensation_texture, environment_sampling
 
@@ -81,9 +81,6 @@ def validate_arguments(spec: ChartSpec, samples=None, target_error=None, seed=0,
     max_bounces = _whole(max_bounces, "bounces", 1, MAX_BOUNCES)
     if spec.width > MAX_SIDE or spec.height > MAX_SIDE:
         raise SpecError(f"the reference renders at most {MAX_SIDE}x{MAX_SIDE} pixels, got {spec.width}x{spec.height}")
-    if has_alpha(spec) and spec.ground:
-        raise SpecError("the reference does not trace a shadow catcher (a transparent or backdrop chart's floor); "
-                        "render it without transparent/backdrop, or without the ground")
     if cell_reach(spec) > MAX_CELL_REACH:
         raise SpecError(f"the reference needs spacing >= {spec.sphere_radius / (MAX_CELL_REACH + 0.5):.4g} "
                         f"for sphere_radius {spec.sphere_radius:g} (spheres may overlap at most "
@@ -205,6 +202,11 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         owned += [sum_tex, moments_tex]
         sum_tex.bind_to_image(0, read=True, write=True)
         moments_tex.bind_to_image(1, read=True, write=True)
+        catcher_tex = None
+        if plan.options.get("SHADOW_CATCHER"):   # the floor's light with and without the spheres
+            catcher_tex = ctx.texture((w, h), 4, zeros, dtype="f4")
+            owned.append(catcher_tex)
+            catcher_tex.bind_to_image(2, read=True, write=True)
         # Drivers that compile at first use, per texture state (Mesa), do it on this empty
         # dispatch: counted as compile time, not as sampling time.
         t_warm = time.perf_counter()
@@ -220,6 +222,9 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
 
         t4 = time.perf_counter()
         sums = read_rgba(sum_tex, w, h)
+        if catcher_tex is not None:
+            sums = sums.copy()
+            sums[..., 3] += catcher_coverage(read_rgba(catcher_tex, w, h))
         # The mean, as a texture (GL rows bottom-up), through the chart's display program.
         mean_tex = ctx.texture((w, h), 4, np.ascontiguousarray(sums[::-1] / done, np.float32).tobytes(), dtype="f4")
         owned.append(mean_tex)
@@ -236,6 +241,15 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
                            stderr=stderr, samples=done, error=error, image=image.copy(), aov=aov, camera=scene.camera,
                            source=plan.integrator, seed=seed, max_bounces=max_bounces,
                            non_finite=int(moments[..., 3].sum()), timings=timings)
+
+
+def catcher_coverage(catcher: np.ndarray) -> np.ndarray:
+    """The shadow catcher's summed coverage per pixel from (sum L, sum L_open, floor-first
+    paths): each such path counts 1 - sum L / sum L_open, clamped to [0, 1] as the chart's
+    shadow_catcher does (0 where the open floor is black)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kept = np.where(catcher[..., 1] > 0.0, catcher[..., 0] / catcher[..., 1], 1.0)
+    return catcher[..., 2] * (1.0 - np.clip(kept, 0.0, 1.0))
 
 
 def _accumulate(ctx, program, sum_tex, moments_tex, w, h, samples, target_error, sphere, progress) -> int:
