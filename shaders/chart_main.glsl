@@ -83,8 +83,11 @@ vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
         if (alpha < 1.0) {
             // Single-sided, as glTF's default: the ray crosses the sphere unseen (a chord of
             // 2 R cos) and goes on to what lies behind it; the sphere is laid over that.
-            float t_exit = hit.t + 2.0 * u_radius * max(dot(hit.normal, -rd), 0.0) + 1e-3 * u_radius;
-            Hit behind = intersect_scene(ro + rd * t_exit, rd, footprint);
+            // The search starts a few pixels past the exit (the marcher would otherwise meet the
+            // sphere it leaves within its hit threshold), with the pixel footprint there.
+            float t_exit = hit.t + 2.0 * u_radius * max(dot(hit.normal, -rd), 0.0);
+            t_exit += 4.0 * (footprint.x + footprint.y * t_exit) + 1e-3 * u_radius;
+            Hit behind = intersect_scene(ro + rd * t_exit, rd, vec2(footprint.x + footprint.y * t_exit, footprint.y));
             if (behind.t >= 0.0) behind.t += t_exit;
 #if HAS_GROUND
             // The floor from the camera itself: a ray grazing the sphere's foot leaves it

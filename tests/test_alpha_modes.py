@@ -58,6 +58,24 @@ def test_alpha_on_an_axis_blends_each_cell_by_its_own_value(session):
             assert np.abs(got[sphere] - opaque[sphere]).mean() > 0.01
 
 
+@pytest.mark.parametrize("stage, intersect, precision", [("cells", "analytic", "float32"), ("shared", "march", "float16"),
+                                                     ("shared", "analytic", "float32")])
+@pytest.mark.parametrize("alpha", [1e-6, 0.5, 1 - 1e-6])
+def test_without_a_floor_a_blend_spheres_coverage_is_its_alpha(session, stage, intersect, precision, alpha):
+    """Transparent, no floor: what lies behind a sphere is nothing (coverage 0), so a fully
+    covered sphere pixel's coverage is alpha itself; radiance stays finite and non-negative on
+    both stages, both intersectors and half floats (the half target: rtol 2^-11, and its
+    smallest subnormal step, 2^-24, absolute: drivers may truncate when they convert)."""
+    spec = make_spec(rows=2, cols=2, size="96x96", labels=False, ground=False, transparent=True, alpha=(alpha, alpha),
+                     stage=stage, intersect=intersect, hdr_precision=precision)
+    res = session.render(spec)
+    hdr, coverage = res.hdr.astype(np.float64), res.alpha.astype(np.float64)
+    assert np.isfinite(hdr).all() and (hdr >= 0).all() and (coverage >= 0).all() and (coverage <= 1).all()
+    inside = res.aov["coverage"] == 1
+    assert inside.sum() > 500
+    np.testing.assert_allclose(coverage[inside], alpha, rtol=2.0 ** -11, atol=2.0 ** -24)
+
+
 def test_the_reference_blends_by_the_same_alpha(session):
     """Emission only (no light, black sky, no floor): the opaque sphere is its emission E, so
     the blend sphere is alpha E over black. The reference sees past it with probability
