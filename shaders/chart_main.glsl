@@ -89,11 +89,16 @@ vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
             t_exit += 4.0 * (footprint.x + footprint.y * t_exit) + 1e-3 * u_radius;
             Hit behind = intersect_scene(ro + rd * t_exit, rd, vec2(footprint.x + footprint.y * t_exit, footprint.y));
             if (behind.t >= 0.0) behind.t += t_exit;
+#if INTERSECT == march
+            if (behind.t > u_march_far) behind = NO_HIT;   // as far as the camera's own rays reach
+#endif
 #if HAS_GROUND
-            // The floor from the camera itself: a ray grazing the sphere's foot leaves it
-            // (t_exit) already below the floor.
+            // A ray grazing the sphere's foot leaves it (t_exit) already below the floor: the
+            // floor it crossed, from the camera itself. (Only there: elsewhere the search's own
+            // floor, which a marcher may not reach near the horizon, as beside the sphere.)
             float t_floor = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;
-            if (t_floor > hit.t && (behind.t < 0.0 || t_floor < behind.t)) behind = Hit(t_floor, vec3(0.0, 1.0, 0.0), ivec2(-1));
+            if (behind.t < 0.0 && t_floor > hit.t && t_floor < t_exit)
+                behind = Hit(t_floor, vec3(0.0, 1.0, 0.0), ivec2(-1));
 #endif
             vec4 back = shade_hit(position, ro, rd, behind, footprint);
             return alpha > 0.0 ? mix(back, shade_hit(position, ro, rd, hit, footprint), alpha) : back;
