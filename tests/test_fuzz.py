@@ -71,9 +71,21 @@ def _float_outside(lo, hi):
                      PRINTABLE.filter(_not(float)))
 
 
+def _whole_within(lo, hi):
+    """Whether a text is a whole number in [lo, hi] as the spec reads it: any finite number
+    with an integral value ("2", "2.", "2e0"), not only what int() takes."""
+    def accepted(text):
+        try:
+            v = float(text)
+        except (ValueError, OverflowError):
+            return False
+        return math.isfinite(v) and v == int(v) and lo <= v <= hi
+    return accepted
+
+
 def _int_outside(lo, hi):
     return st.one_of(st.integers().filter(lambda x: not (lo <= x <= hi)).map(str),
-                     PRINTABLE.filter(_not(int)))
+                     PRINTABLE.filter(lambda t: not _whole_within(lo, hi)(t)))
 
 
 def _word_outside(allowed):
