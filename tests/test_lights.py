@@ -22,11 +22,12 @@ MIRROR = dict(rows=1, cols=1, width=SIZE, height=SIZE, env="black", ibl=False, g
 FAR = 50.0    # a point light's distance: its sphere's angle changes by 2 % across the mirror
 
 
-def disc_scene(kind: str, theta: float):
+def disc_scene(kind: str, theta: float, turn_deg: float = 1.0):
     """A light of angular radius theta (seen from the sphere's centre) behind the camera, turned
-    by 1 degree so its image is off-centre; returns (spec, axis, radiance L of the light)."""
+    by turn_deg so its image is off-centre (at half that angle on the sphere); returns (spec,
+    axis, radiance L of the light)."""
     cam = frame(make_spec(**MIRROR))
-    axis = -cam.forward * math.cos(math.radians(1.0)) + cam.right * math.sin(math.radians(1.0))
+    axis = -cam.forward * math.cos(math.radians(turn_deg)) + cam.right * math.sin(math.radians(turn_deg))
     if kind == "directional":
         E = 2.0
         light = {"kind": "directional", "direction": axis.tolist(), "intensity": E,
@@ -56,28 +57,31 @@ def disc_image(spec, axis, theta):
 
 
 @pytest.mark.parametrize("kind", ["directional", "point"])
-@pytest.mark.parametrize("theta_deg", [5.0, 10.0])
-def test_a_mirror_sphere_shows_a_disc_light_as_the_disc(session, kind, theta_deg):
-    """A white metal mirror (F = 1) under only a disc light that sits behind the camera: where the
-    reflected ray points into the disc, the pixel holds the light's radiance L; where it points
-    more than a margin outside, less than half of it. Which pixels are which comes from
-    ray-sphere geometry here, not from the shader.
+@pytest.mark.parametrize("theta_deg, turn_deg", [(5.0, 1.0), (10.0, 1.0), (8.0, 60.0)])
+def test_a_mirror_sphere_shows_a_disc_light_as_the_disc(session, kind, theta_deg, turn_deg):
+    """A white metal mirror (F = 1) under only a disc light behind the camera, or turned 60
+    degrees from it (its image 30 degrees round the sphere, N.V = 0.87): where the reflected
+    ray points into the disc, the pixel holds the light's radiance L; where it points more than
+    a margin outside, less than half of it. Which pixels are which comes from ray-sphere
+    geometry here, not from the shader.
 
-    The disc's radiance in the chart is E / (4 pi alpha'^2 N.V) with alpha'^2 = alpha^2 +
-    sin^2(theta)/4 (brdf.glsl): relative error 4 alpha^2 / sin^2 theta (<= 0.26 % at 5 degrees,
-    alpha = 0.045^2) plus 1/N.V - 1 (<= 0.25 %: the disc's image lies within theta/2 + 1 degree of
-    the view direction); the tolerance is twice their sum. (A point light's E / sin^2 theta is
-    I / R^2 from any distance.) The margin: the reflected ray turns by up to 2 / (sphere radius in
-    pixels) per pixel (two pixels of it, for the edge's anti-aliasing) and the lobe's own width
-    falls to a quarter of its peak within 2 alpha."""
+    Inside the disc's image the mirror's half vector is its normal, so the chart's disc
+    radiance is E / (pi (4 N.V alpha^2 + sin^2 theta)) (brdf.glsl: alpha'^2 = alpha^2 +
+    sin^2(theta) / (4 V.H), V.H = N.V there): relative error 4 alpha^2 / sin^2 theta (<= 0.26 %
+    at 5 degrees, alpha = 0.045^2), and the visibility term's own alpha^2 / N.V^2 (< 0.01 %); the
+    tolerance is twice their sum. (A point light's E / sin^2 theta is I / R^2 from any
+    distance.) The margin: the reflected ray turns by up to 2 / (sphere radius in pixels) per
+    pixel (two pixels of it, for the edge's anti-aliasing) and the lobe's own width falls to a
+    quarter of its peak within 2 alpha."""
     theta = math.radians(theta_deg)
-    spec, axis, L = disc_scene(kind, theta)
+    spec, axis, L = disc_scene(kind, theta, turn_deg)
     hdr = session.render(spec).hdr.astype(np.float64)[..., :3]
     hit, angle, margin = disc_image(spec, axis, theta)
     inside, outside = hit & (angle < theta - margin), hit & (angle > theta + margin)
     assert inside.sum() >= 12 and outside.sum() > 1000     # the disc's image is a disc, many pixels wide
     alpha = mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
-    rtol = 2 * (4 * alpha ** 2 / math.sin(theta) ** 2 + (1 / math.cos(theta / 2 + math.radians(1.0)) - 1))
+    n_dot_v = math.cos(math.radians(turn_deg) / 2 + theta)
+    rtol = 2 * (4 * alpha ** 2 / math.sin(theta) ** 2 + alpha ** 2 / n_dot_v ** 2)
     np.testing.assert_allclose(hdr[inside], L, rtol=rtol)
     assert hdr[outside].max() < 0.5 * L
 

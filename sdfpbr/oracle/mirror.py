@@ -389,10 +389,13 @@ def disc_representative(l, r, angular_radius, dtype=np.float64):
     return np.where(inside[..., None], np.where((c >= np.cos(angular_radius))[..., None], r, l), edge)
 
 
-def alpha_for_disc(alpha, angular_radius):
-    """The lobe width a disc light of angular radius theta spreads alpha to: alpha and
-    sin(theta)/2 added in quadrature (exact for a mirror seen head-on)."""
-    return np.minimum(1.0, np.sqrt(np.square(alpha) + np.square(0.5 * np.sin(angular_radius))))
+def alpha_for_disc(alpha, angular_radius, v_dot_h=1.0):
+    """The lobe width a disc light of angular radius theta spreads alpha to: alpha and the
+    disc's half-vector width sin(theta) / (2 sqrt(V.H)) added in quadrature (the disc's solid
+    angle pi sin^2 theta in light directions is pi sin^2 theta / (4 V.H) in half vectors), so
+    a mirror shows the disc at its own radiance from every view."""
+    return np.minimum(1.0, np.sqrt(np.square(alpha) + np.square(np.sin(angular_radius))
+                                   / (4.0 * np.maximum(v_dot_h, 1e-4))))
 
 
 def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
@@ -430,7 +433,8 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     if disc_angular_radius > 0:
         l_spec = disc_representative(l, reflect(-v, n), disc_angular_radius, dtype)
         n_dot_ls = np.maximum(_dot(n, l_spec), 1e-6)
-        spec_scale = (alpha / alpha_for_disc(alpha, disc_angular_radius)) ** 2 \
+        v_dot_hs = np.abs(_dot(v, normalize(v + l_spec, dtype)))
+        spec_scale = (alpha / alpha_for_disc(alpha, disc_angular_radius, v_dot_hs)) ** 2 \
             * np.maximum(_dot(n, l_spec), 0.0) / np.maximum(n_dot_l, 1e-6)
     h = normalize(v + l_spec, dtype)
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
