@@ -51,8 +51,7 @@ vec3 clearcoat_layer(Material m, vec3 base_cos, vec3 v, vec3 l, float light_angl
         vec3 l_spec = l;
         float scale = 1.0;
         if (light_angle > 0.0) {
-            l_spec = disc_representative(l, reflect(-v, n), light_angle);
-            scale = disc_normalization(m.clearcoat_alpha, light_angle, abs(dot(v, normalize(v + l_spec))));
+            l_spec = disc_direction(l, v, n, m.clearcoat_alpha, light_angle, scale);
         }
         float n_dot_ls = max(dot(n, l_spec), 1e-6);
         coat = d_ggx(n, normalize(v + l_spec), m.clearcoat_alpha)

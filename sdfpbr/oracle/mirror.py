@@ -38,7 +38,7 @@ __all__ = [
     "dfg_table",
     "brdf",
     "disc_representative",
-    "alpha_for_disc",
+    "disc_lobe",
     "furnace_expected",
     "sample_sphere_cosine",
     "reflect",
@@ -384,18 +384,28 @@ def disc_representative(l, r, angular_radius, dtype=np.float64):
     c = _dot(l, r)
     t = r - l * c[..., None]
     length = np.linalg.norm(t, axis=-1)
-    inside = (c >= np.cos(angular_radius)) | (length < 1e-7)
-    edge = l * np.cos(angular_radius) + t * (np.sin(angular_radius) / np.maximum(length, 1e-300))[..., None]
-    return np.where(inside[..., None], np.where((c >= np.cos(angular_radius))[..., None], r, l), edge)
+    cos_t, sin_t = np.cos(np.asarray(angular_radius)), np.sin(np.asarray(angular_radius))
+    inside = (c >= cos_t) | (length < 1e-7)
+    edge = l * cos_t[..., None] + t * (sin_t / np.maximum(length, 1e-300))[..., None]
+    return np.where(inside[..., None], np.where((c >= cos_t)[..., None], r, l), edge)
 
 
-def alpha_for_disc(alpha, angular_radius, v_dot_h=1.0):
-    """The lobe width a disc light of angular radius theta spreads alpha to: alpha and the
-    disc's half-vector width sin(theta) / (2 sqrt(V.H)) added in quadrature (the disc's solid
-    angle pi sin^2 theta in light directions is pi sin^2 theta / (4 V.H) in half vectors), so
-    a mirror shows the disc at its own radiance from every view."""
-    return np.minimum(1.0, np.sqrt(np.square(alpha) + np.square(np.sin(angular_radius))
-                                   / (4.0 * np.maximum(v_dot_h, 1e-4))))
+def disc_lobe(alpha, angular_radius, v_dot_h):
+    """How a lobe of width alpha sees a disc light of angular radius theta (as brdf.glsl's
+    disc_lobe): the angular radius of the disc the representative point is taken on, and the
+    factor D is scaled by. The disc's half-vector radius is w = sin(theta) / (2 sqrt(V.H))
+    (its light-direction solid angle over the reflection's Jacobian 4 V.H); x = w / alpha. The
+    representative-point lobe, a plateau of radius w' with GGX shoulders of width alpha, holds
+    1 + (pi/2) x' + x'^2 times a lone lobe's energy (small angles), the disc itself 1: so the
+    plateau is taken at the height of the disc's (factor 1 / x^2: a mirror shows the disc at its
+    radiance) on a disc shrunk to the x' that makes the energies equal, x'^2 + (pi/2) x' + 1 = x^2;
+    a disc narrower than the lobe (x <= 1) leaves it as it is."""
+    alpha = np.asarray(alpha, np.float64)
+    w = np.sin(angular_radius) / (2.0 * np.sqrt(np.maximum(v_dot_h, 1e-4)))
+    x = w / alpha
+    x_rep = np.where(x > 1.0, 0.5 * (-0.5 * np.pi + np.sqrt(0.25 * np.pi ** 2 + 4.0 * np.maximum(np.square(x) - 1.0, 0.0))), 0.0)
+    theta_rep = np.arcsin(np.minimum(1.0, 2.0 * np.sqrt(np.maximum(v_dot_h, 1e-4)) * x_rep * alpha))
+    return theta_rep, np.where(x > 1.0, 1.0 / np.square(np.maximum(x, 1.0)), 1.0)
 
 
 def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
@@ -412,7 +422,7 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     min_perceptual_roughness is the clamp (MIN_PERCEPTUAL_ROUGHNESS_FP16 is Filament's fp16 one).
     disc_angular_radius > 0 makes l the centre of a disc light as the chart shades one: the
     specular lobe towards disc_representative with its own cosine (returned divided by N.L so
-    that f N.L stays the light's f cos) and D renormalised by (alpha / alpha_for_disc)^2.
+    that f N.L stays the light's f cos) and D scaled as disc_lobe says.
     """
     _check_model(model)
     n = np.asarray(n, dtype=dtype)
@@ -431,11 +441,10 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     n_dot_v = np.clip(_dot(n, v), MIN_N_DOT_V, 1.0)
     l_spec, spec_scale, n_dot_ls = l, 1.0, n_dot_l
     if disc_angular_radius > 0:
-        l_spec = disc_representative(l, reflect(-v, n), disc_angular_radius, dtype)
+        theta_rep, scale = disc_lobe(alpha, disc_angular_radius, np.abs(_dot(v, normalize(v + l, dtype))))
+        l_spec = np.where((theta_rep > 0)[..., None], disc_representative(l, reflect(-v, n), theta_rep, dtype), l)
         n_dot_ls = np.maximum(_dot(n, l_spec), 1e-6)
-        v_dot_hs = np.abs(_dot(v, normalize(v + l_spec, dtype)))
-        spec_scale = (alpha / alpha_for_disc(alpha, disc_angular_radius, v_dot_hs)) ** 2 \
-            * np.maximum(_dot(n, l_spec), 0.0) / np.maximum(n_dot_l, 1e-6)
+        spec_scale = scale * np.maximum(_dot(n, l_spec), 0.0) / np.maximum(n_dot_l, 1e-6)
     h = normalize(v + l_spec, dtype)
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
     v_dot_h = np.abs(_dot(v, h))
