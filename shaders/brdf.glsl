@@ -75,7 +75,7 @@ Material make_material(vec3 base_color_linear, float metallic, float perceptual_
 // and the point is taken on a disc shrunk to the x' that makes the energies equal,
 // x'^2 + (pi/2) x' + 1 = x^2; a disc narrower than the lobe (x <= 1) leaves it alone. (Karis's
 // (alpha / (alpha + w))^2 is 11 % dim at x = 1; widths in quadrature, 78 % bright: measured
-// against float64 integration over the disc, this is within 2 % from r = 0.1 to 1.)
+// against float64 integration over the disc, this is within 3 % from r = 0.18 to 1.)
 // Returns (the shrunk disc's angular radius, 0: none; D's factor); v_dot_h at the disc's centre.
 vec2 disc_lobe(float alpha, float angular_radius, float v_dot_h) {
     float root_vh = sqrt(max(v_dot_h, 1e-4));
