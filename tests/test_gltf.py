@@ -314,7 +314,7 @@ def test_a_clearcoat_normal_map_tilts_the_coat(session, tmp_path):
     t /= np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-9)
     ts = texel / 255.0 * 2 - 1
     coat_n = ts[0] * t + ts[1] * np.cross(n, t) + ts[2] * n
-    coat_n /= np.linalg.norm(coat_n, axis=-1, keepdims=True)
+    coat_n /= np.maximum(np.linalg.norm(coat_n, axis=-1, keepdims=True), 1e-12)   # (background: zero normals)
     v = -np.asarray(frame(spec).forward, np.float64)
     l = np.asarray(light["direction"], np.float64) / np.linalg.norm(light["direction"])
     h = (v + l) / np.linalg.norm(v + l)
