@@ -1,10 +1,9 @@
 """Textures for the textured spheres: a procedural set (riveted panels) or PNGs from the spec.
 
-Conventions (glTF 2.0): base colour and emission are sRGB-encoded and sampled through sRGB
-textures; the
-ORM map (R occlusion, G roughness, B metallic) and the normal map are linear data; the normal
-map is tangent space with +X along increasing u and +Y up (OpenGL), +Z out of the surface.
-The sphere's u runs once around the vertical axis, v from the top pole (0) to the bottom (1)."""
+Conventions (glTF 2.0): colour maps (base colour, emission, sheen and specular colour) are
+sRGB-encoded and sampled through sRGB textures; the ORM map (R occlusion, G roughness, B
+metallic) and the normal maps are linear data; a normal map is tangent space with +X along
+increasing u and +Y up (OpenGL), +Z out of the surface. The sphere's u runs once around the vertical axis, v from the top pole (0) to the bottom (1)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -82,12 +81,10 @@ def _declared_size(source) -> tuple[int, int] | None:
     Pillow cannot tell (the decoder then reports the file)."""
     import io
 
-    import warnings
-
     from PIL import Image
     limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None   # read the header, whatever it says
     try:
-        with warnings.catch_warnings(), Image.open(io.BytesIO(source) if isinstance(source, bytes) else source) as im:
+        with Image.open(io.BytesIO(source) if isinstance(source, bytes) else source) as im:
             return im.size
     except Exception:   # not an image Pillow knows: left to imageio's error
         return None
@@ -124,6 +121,8 @@ def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
 # many materials share the stacked map (GL's texture limit is 16384 texels a side).
 GLTF_LAYER_SIZE = PROCEDURAL_SIZE
 GLTF_LAYER_SIZE_MANY = (512, 256)
+
+
 def _wrap(x: np.ndarray, mode: str) -> np.ndarray:
     if mode == "clamp":
         return np.clip(x, 0.0, 1.0)

@@ -65,7 +65,7 @@ class GltfMaterials:
 
     @property
     def has_textures(self) -> dict[str, bool]:
-        """Which maps (gpu.textures MAPS) the chart composes in: those any material has a
+        """Which maps (sdfpbr.shading.maps) the chart composes in: those any material has a
         texture for (the ORM map: metallic-roughness or occlusion; the KHR map: clearcoat, its
         roughness, sheen roughness or specular)."""
         t = self.textures
