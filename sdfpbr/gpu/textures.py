@@ -3,7 +3,8 @@
 Conventions (glTF 2.0): colour maps (base colour, emission, sheen and specular colour) are
 sRGB-encoded and sampled through sRGB textures; the ORM map (R occlusion, G roughness, B
 metallic) and the normal maps are linear data; a normal map is tangent space with +X along
-increasing u and +Y up (OpenGL), +Z out of the surface. The sphere's u runs once around the vertical axis, v from the top pole (0) to the bottom (1)."""
+increasing u and +Y up (OpenGL), +Z out of the surface. The sphere's u runs once around the
+vertical axis, v from the top pole (0) to the bottom (1)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
