@@ -247,3 +247,25 @@ def test_no_two_labels_collide_for_any_grid_up_to_64x64(size):
             # Both ends of each axis stay labelled, and every drawn label is one of the axis's values.
             for values in (columns, row_values):
                 assert label_text(values[0]) in texts and label_text(values[-1]) in texts, (rows, cols, size)
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+@pytest.mark.parametrize("shape,grid", [((360, 540), (2, 3)), ((128, 1024), (1, 11)), ((1500, 1100), (6, 4))])
+def test_every_label_is_drawn_inside_its_own_box(shape, grid, transparent):
+    """Each label is drawn on its own patch (an 8192² chart holds no chart-sized text layer):
+    every pixel of the margins that is not background lies in some label's ink box (from the
+    font's metrics, not from the drawing, which they bound), and every box has ink."""
+    from sdfpbr.image.layout import label_boxes
+    img, cells = synthetic_render(*shape, *grid)
+    columns, rows = list(np.linspace(0, 1, grid[1])), list(np.linspace(0, 1, grid[0]))
+    chart = compose_chart(img, cells, columns, rows, TITLE, FOOTER, transparent=transparent)
+    x0, y0 = render_area_offset(img.shape, *grid, TITLE, FOOTER, row_values=rows)
+    background = (0, 0, 0, 0) if transparent else (24, 24, 24, 255)
+    marked = ink(chart, background)
+    marked[y0:y0 + shape[0], x0:x0 + shape[1]] = False
+    covered = np.zeros_like(marked)
+    for text, (left, top, right, bottom) in label_boxes(img.shape, cells, columns, rows, TITLE, FOOTER):
+        box = slice(max(int(np.floor(top)), 0), int(np.ceil(bottom))), slice(max(int(np.floor(left)), 0), int(np.ceil(right)))
+        covered[box] = True
+        assert marked[box].any(), f"no ink for {text!r}"
+    assert not (marked & ~covered).any(), "ink outside every label's box"

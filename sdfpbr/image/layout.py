@@ -211,14 +211,13 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
         raise ValueError(f"expected an RGBA uint8 image, got {render.dtype} {render.shape}")
     key = (render.shape, tuple(cells), tuple(column_values), tuple(row_values), title, footer,
            tuple(row_names or ()), transparent, column_axis_title, row_axis_title)
-    canvas, (x0, y0) = _canvases.get(key) or _text_canvas(render.shape, cells, column_values, row_values, title,
-                                                           footer, row_names, transparent, column_axis_title,
-                                                           row_axis_title)
-    if key not in _canvases and canvas.size <= CANVAS_CACHE_PIXELS * 4:
-        _canvases[key] = (canvas, (x0, y0))
-        while len(_canvases) > CANVAS_CACHE_SIZE:
-            _canvases.pop(next(iter(_canvases)))
-    chart = canvas.copy()
+    labels = _labels.get(key) or _draw_labels(render.shape, cells, column_values, row_values, title, footer,
+                                              row_names, transparent, column_axis_title, row_axis_title)
+    _labels[key] = labels
+    while len(_labels) > LABELS_CACHE_SIZE:
+        _labels.pop(next(iter(_labels)))
+    chart = labels.canvas()
+    x0, y0 = labels.origin
     chart[y0:y0 + render.shape[0], x0:x0 + render.shape[1]] = render
     if cell_names:
         chart = _name_cells(chart, cells, cell_names, x0, y0, render.shape[:2])
@@ -251,16 +250,38 @@ def _name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], 
     return np.array(Image.alpha_composite(Image.fromarray(chart), layer))
 
 
-# The text and background around a render depend on the layout alone, not on the pixels: an
-# animation's frames and a build's repeated layouts draw them once (20 ms for a 1024² chart).
-CANVAS_CACHE_SIZE = 4
-CANVAS_CACHE_PIXELS = 1 << 22      # larger canvases are drawn each time rather than kept
-_canvases: dict[tuple, tuple[np.ndarray, tuple[int, int]]] = {}
+# The text around a render depends on the layout alone, not on the pixels: an animation's
+# frames and a build's repeated layouts draw it once (20 ms for a 1024² chart). What is kept is
+# the text's own pixels, so a kept layout costs kilobytes whatever the chart's size.
+LABELS_CACHE_SIZE = 8
+_labels: dict[tuple, "_Labels"] = {}
 
 
 def forget_layouts() -> None:
-    """Drop the kept text canvases (the next chart of each layout draws its labels again)."""
-    _canvases.clear()
+    """Drop the kept label layers (the next chart of each layout draws its labels again)."""
+    _labels.clear()
+
+
+@dataclass(frozen=True)
+class _Labels:
+    """A chart without its render: its size, its background, where the render goes, and each
+    piece of text as a small patch already composited over the background, with its top-left
+    corner. Nothing chart-sized is held: an 8192² chart's labels are a few hundred kilobytes,
+    not the 350 MB layers that drawing them on the whole chart took."""
+    width: int
+    height: int
+    background: tuple[int, int, int, int]
+    origin: tuple[int, int]
+    patches: tuple[tuple[int, int, np.ndarray], ...]
+
+    def canvas(self) -> np.ndarray:
+        """A new (height, width, 4) uint8 chart: the background with every label on it."""
+        # Filled as one 32-bit word per pixel: broadcasting the 4 bytes is 40x slower.
+        pixel = np.array(self.background, np.uint8).view(np.uint32)[0]
+        chart = np.full((self.height, self.width), pixel, np.uint32).view(np.uint8).reshape(self.height, self.width, 4)
+        for x, y, patch in self.patches:   # labels never collide (thinned), so patches do not overlap
+            chart[y:y + patch.shape[0], x:x + patch.shape[1]] = patch
+        return chart
 
 
 @dataclass(frozen=True)
@@ -353,26 +374,35 @@ def label_boxes(render_shape: Sequence[int], cells: Sequence[Cell], column_value
     return [(t.text, t.box) for t in _placements(lay, render_shape, cells, column_values, row_labels)]
 
 
-def _text_canvas(render_shape, cells, column_values, row_values, title, footer, row_names, transparent,
-                 column_axis_title, row_axis_title) -> tuple[np.ndarray, tuple[int, int]]:
-    """The chart without its render: background and every label, and where the render goes."""
+def _draw_labels(render_shape, cells, column_values, row_values, title, footer, row_names, transparent,
+                 column_axis_title, row_axis_title) -> _Labels:
+    """Every label of the layout drawn on its own patch, at the same sub-pixel position as on
+    the whole chart (a patch's corner is a whole pixel: the fraction of the text's origin is kept)."""
     row_labels = _row_labels(row_values, row_names)
     lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
     width, height = lay.width, lay.height
-    layer = Image.new("RGBA", (width, height), _TRANSPARENT)
-    draw = ImageDraw.Draw(layer)
+    background = _TRANSPARENT if transparent else BACKGROUND
+    patches = []
     for t in _placements(lay, render_shape, cells, column_values, row_labels):
         style = lay.styles[t.style]
         stroke = style.stroke if transparent else 0
-        if not t.rotated:
-            draw.text((t.x, t.baseline), t.text, font=style.font, fill=style.color, anchor="ls",
-                      stroke_width=stroke, stroke_fill=_OUTLINE)
-            continue
-        left, _, right, _ = _ink(style, t.text)
-        strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
-        ImageDraw.Draw(strip).text((-left, _baseline(style, 0)), t.text, font=style.font, fill=style.color,
-                                   anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
-        layer.alpha_composite(strip.transpose(Image.Transpose.ROTATE_90), (int(t.x), int(t.baseline)))
-
-    background = Image.new("RGBA", (width, height), _TRANSPARENT if transparent else BACKGROUND)
-    return np.array(Image.alpha_composite(background, layer)), (lay.x0, lay.y0)
+        if t.rotated:
+            left, _, right, _ = _ink(style, t.text)
+            strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
+            ImageDraw.Draw(strip).text((-left, _baseline(style, 0)), t.text, font=style.font, fill=style.color,
+                                       anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
+            x, y, patch = int(t.x), int(t.baseline), np.asarray(strip.transpose(Image.Transpose.ROTATE_90))
+        else:   # the ink box and a pixel of slack each side
+            x, y = math.floor(t.box[0]) - 1, math.floor(t.box[1]) - 1
+            layer = Image.new("RGBA", (math.ceil(t.box[2]) + 1 - x, math.ceil(t.box[3]) + 1 - y), _TRANSPARENT)
+            ImageDraw.Draw(layer).text((t.x - x, t.baseline - y), t.text, font=style.font, fill=style.color,
+                                       anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
+            patch = np.asarray(layer)
+        # Clipped to the chart: a label is placed inside it, its slack may not be.
+        x1, y1 = min(x + patch.shape[1], width), min(y + patch.shape[0], height)
+        patch = patch[max(0, -y):y1 - y, max(0, -x):x1 - x]
+        x, y = max(x, 0), max(y, 0)
+        if patch.size and patch[..., 3].any():
+            under = Image.new("RGBA", (patch.shape[1], patch.shape[0]), background)
+            patches.append((x, y, np.asarray(Image.alpha_composite(under, Image.fromarray(patch)))))
+    return _Labels(width, height, background, (lay.x0, lay.y0), tuple(patches))
