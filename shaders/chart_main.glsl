@@ -12,7 +12,7 @@
 #if ANALYTIC_AA
 #include "edge_coverage.glsl"
 #endif
-#if STAGE == cells && HAS_GROUND && USE_AO
+#if STAGE == cells && HAS_GROUND && USE_AO && !BOUNCE_PLATE
 #include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
 #endif
 
@@ -45,6 +45,18 @@ vec2 sample_offset(int i) {
 uniform sampler2D u_floor_plate;   // the floor's light without its sphere's bounce (stage_floor_main.glsl)
 uniform vec2 u_plate_origin;       // the cell pixel of its texel (0, 0)
 #endif
+#if BOUNCE_PLATE
+uniform sampler2D u_bounce_plate;  // each cell's sphere's light on its floor, every u_bounce_step pixels
+uniform ivec2 u_bounce_tile;       // texels per cell (stage_bounce_main.glsl)
+uniform float u_bounce_step;
+
+// The bounce at a cell-frame position, interpolated between the plate's texels in its cell's
+// tile (clamped to the tile: a neighbour's sphere lights its own floor, not this one).
+vec3 bounce_plate(vec2 position) {
+    vec2 at = clamp((position - u_plate_origin - 0.5) / u_bounce_step, vec2(0.0), vec2(u_bounce_tile - 1));
+    return texture(u_bounce_plate, (vec2(g_cell * u_bounce_tile) + at + 0.5) / vec2(textureSize(u_bounce_plate, 0))).rgb;
+}
+#endif
 
 // Radiance and coverage of what the primary ray through `position` (cell frame on the cells
 // stage) found: a hit's shading, or the background.
@@ -59,7 +71,9 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #else
     vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
 #endif
-#if STAGE == cells && HAS_GROUND && USE_AO
+#if BOUNCE_PLATE
+    if (hit.cell.x < 0) radiance += bounce_plate(position);
+#elif STAGE == cells && HAS_GROUND && USE_AO
     if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
 #endif
 #if SHADOW_CATCHER

@@ -84,6 +84,66 @@ def test_floor_plate_is_the_per_pixel_floor(session, monkeypatch, size):
     np.testing.assert_allclose(plate.hdr[floor], direct.hdr[floor], rtol=1e-5, atol=1e-7)
 
 
+@pytest.fixture(scope="module")
+def bounce_pair(session):
+    """A chart whose spheres are big enough for the bounce plate (every ~6 px), rendered with it
+    and with the bounce shaded per pixel; each cell a different material, so a bounce read from
+    the wrong cell's tile would show."""
+    import dataclasses
+    from sdfpbr.shading.plan import bounce_step, render_plan
+    from sdfpbr.spec.presets import QUALITY_PRESETS
+    spec = make_spec(width=480, height=366, rows=2, cols=3, roughness=(0, 0.6), metallic=(0, 1),
+                     base_color=(0.9, 0.2, 0.05))
+    step = bounce_step(spec)
+    assert step > 2 and render_plan(spec).options["BOUNCE_PLATE"]
+    plate = session.render(spec)
+    default = QUALITY_PRESETS["default"]
+    try:
+        QUALITY_PRESETS["default"] = dataclasses.replace(default, bounce_texels=0)
+        assert not render_plan(spec).options["BOUNCE_PLATE"]
+        direct = session.render(spec)
+        QUALITY_PRESETS["default"] = dataclasses.replace(default, bounce_texels=0, bounce_rays=0)
+        unlit = session.render(spec)                    # the floor without any sphere's bounce
+    finally:
+        QUALITY_PRESETS["default"] = default
+    floor = (plate.aov["row"] < 0) & np.isfinite(plate.aov["depth"]) & (plate.aov["coverage"] == 0)
+    return spec, step, plate, direct, unlit, floor
+
+
+def test_bounce_plate_is_the_per_pixel_bounce_at_its_texels(bounce_pair):
+    """Where a floor pixel's centre is one of the plate's texels (every step-th pixel of the
+    cell's frame, from the plate's origin), the interpolated bounce is that texel's: the same
+    shading at the same point, so the pixel equals the per-pixel render within float rounding."""
+    spec, step, plate, direct, _, floor = bounce_pair
+    g = cell_grid(spec)
+    bottom = spec.height - g.top - g.rows * g.cell_height
+    gl_y, x = np.mgrid[spec.height - 1:-1:-1, :spec.width]          # GL rows, top row first
+    cell_x = (x - g.left) % g.cell_width                             # the cell's frame
+    cell_y = (gl_y - bottom) % g.cell_height
+    texel = floor & ((cell_x + g.left) % step == 0) & ((cell_y + bottom) % step == 0)
+    assert texel.sum() > 0.5 * floor.sum() / step ** 2
+    np.testing.assert_allclose(plate.hdr[texel], direct.hdr[texel], rtol=1e-5, atol=1e-7)
+
+
+def test_bounce_plate_carries_each_cells_own_bounce(bounce_pair):
+    """Between texels the plate interpolates: each cell's total bounce on its floor (the
+    floor's light less the unlit floor's) is the per-pixel total within 2 %. (Bilinear
+    interpolation of a field curving on the sphere's scale R, texels R / 8 apart, is off by
+    ~(1/8)^2 / 8 = 0.2 %; near the contact the bounce curves faster, hence the margin.)"""
+    spec, _, plate, direct, unlit, floor = bounce_pair
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    g = cell_grid(spec)
+    for r in range(spec.rows):
+        for c in range(spec.cols):
+            cell = np.zeros_like(floor)
+            cell[g.top + r * g.cell_height:g.top + (r + 1) * g.cell_height,
+                 g.left + c * g.cell_width:g.left + (c + 1) * g.cell_width] = True
+            on = cell & floor
+            want = ((direct.hdr - unlit.hdr)[on] @ lum).sum()
+            got = ((plate.hdr - unlit.hdr)[on] @ lum).sum()
+            assert want > 0 and abs(got / want - 1) < 0.02, (r, c, got / want)
+
+
 def test_edge_coverage_adds_up_to_the_disc_area(session):
     """Orthographic cells: each sphere projects to a disc of radius R / (world size of a pixel)
     = CELL_FILL x half the cell's height in pixels (square cells). Summed over a cell, the

@@ -5,6 +5,7 @@ targets; the display pass applies exposure, the tone mapper and the sRGB OETF. A
 back top row first."""
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -14,7 +15,7 @@ import numpy as np
 from ..errors import SpecError
 from ..shading import camera as camera_mod
 from ..shading.compose import ComposedSource
-from ..shading.plan import RenderPlan, render_plan
+from ..shading.plan import RenderPlan, bounce_step, render_plan
 from ..spec.chart_spec import ChartSpec
 from .frame import AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings, tiles
 from .programs import set_uniforms
@@ -132,6 +133,8 @@ def bind_frame(session, plan: RenderPlan, scene: SceneBindings, program) -> None
     own, part of what a frame costs), then every binding onto ``program``."""
     if plan.floor_plate is not None:
         scene.replace_texture("u_floor_plate", _floor_plate(session, plan.floor_plate, scene, plan.spec))
+    if plan.bounce_plate is not None:
+        scene.replace_texture("u_bounce_plate", _bounce_plate(session, plan, scene))
     set_uniforms(program, scene.bind())
 
 
@@ -159,6 +162,35 @@ def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> mod
         vao.release()
         fbo.release()
     return plate
+
+
+def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
+    """Each cell's sphere's bounce on its floor (stage_bounce_main.glsl): a tile per cell of
+    texels ``step`` cell pixels apart over the floor plate's extent (its origin is set by
+    _floor_plate), one more texel past its far edge so that every position interpolates.
+    The bounce varies over the sphere's size: with h = R / 8 between texels, bilinear
+    interpolation errs by about (h / R)^2 / 8 of it (0.2 %) where it curves on that scale."""
+    ctx, spec = session.ctx, plan.spec
+    step = bounce_step(spec)
+    grid = camera_mod.cell_grid(spec)
+    plate_w = grid.left + grid.cell_width + (spec.width - grid.left - grid.cols * grid.cell_width)
+    plate_h = grid.top + grid.cell_height + (spec.height - grid.top - grid.rows * grid.cell_height)
+    tile = (math.ceil((plate_w - 0.5) / step) + 1, math.ceil((plate_h - 0.5) / step) + 1)
+    scene.uniforms.update(u_bounce_tile=tile, u_bounce_step=float(step))
+    program = session.programs.fragment(plan.bounce_plate)
+    atlas = ctx.texture((grid.cols * tile[0], grid.rows * tile[1]), 4, dtype="f4")
+    atlas.repeat_x = atlas.repeat_y = False
+    atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    fbo = ctx.framebuffer(color_attachments=[atlas])
+    vao = ctx.vertex_array(program, [])
+    try:
+        fbo.use()
+        set_uniforms(program, scene.bind())
+        vao.render(moderngl.TRIANGLES, vertices=3)
+    finally:
+        vao.release()
+        fbo.release()
+    return atlas
 
 
 def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool):

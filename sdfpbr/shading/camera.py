@@ -97,6 +97,13 @@ def cell_grid(spec: ChartSpec) -> CellGrid:
                     (spec.height - spec.rows * h) // 2)
 
 
+def cell_sphere_radius_px(spec: ChartSpec) -> float:
+    """About how many pixels the cells stage's sphere's radius spans on the image: CELL_FILL of
+    the cell's half side, less as the camera backs off."""
+    grid = cell_grid(spec)
+    return CELL_FILL * min(grid.cell_width, grid.cell_height) / 2 / spec.camera_distance_scale
+
+
 def frame_cell(spec: ChartSpec) -> Camera:
     """The camera of every cell: it looks at its sphere, centred at the origin, from above."""
     grid = cell_grid(spec)

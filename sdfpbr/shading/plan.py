@@ -41,7 +41,7 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE") + MAP_OPTIONS,
+           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE") + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
@@ -83,6 +83,17 @@ def has_alpha(spec: ChartSpec) -> bool:
 def stage(spec: ChartSpec) -> str:
     """The stage a chart renders (one place to ask, as for the other resolved settings)."""
     return spec.stage
+
+
+def bounce_step(spec: ChartSpec) -> int:
+    """Cell pixels between the bounce plate's texels (stage_bounce_main.glsl): the preset's
+    bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no plate), where the
+    sphere is too small for a coarser grid to save anything."""
+    q = quality(spec)
+    if q.bounce_texels <= 0:
+        return 1
+    from .camera import cell_sphere_radius_px   # deferred: camera asks this module for the stage
+    return max(1, int(cell_sphere_radius_px(spec) // q.bounce_texels))
 
 
 def active_bugs(spec: ChartSpec) -> tuple[str, ...]:
@@ -166,6 +177,8 @@ def chart_options(spec: ChartSpec) -> dict:
                            and opts["INTERSECT"] == "analytic")
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
+        # The sphere's bounce on a coarser grid beside the floor plate (stage_bounce_main.glsl).
+        opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(spec) > 1
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
     opts.update(bug_options(spec, "chart"))
@@ -232,6 +245,7 @@ class RenderPlan:
     dfg_samples: int
     ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
     floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
+    bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
 
     @property
     def options(self) -> dict:
@@ -239,7 +253,7 @@ class RenderPlan:
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys and `sdfpbr shader`."""
-        out = [self.vertex, self.chart, self.display, self.dfg] + ([self.floor_plate] if self.floor_plate else [])
+        out = [self.vertex, self.chart, self.display, self.dfg] + [s for s in (self.floor_plate, self.bounce_plate) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
 
@@ -287,6 +301,14 @@ def _floor_plate(chart: dict) -> ComposedSource | None:
     return compose_program("stage_floor_main.glsl", {**chart, "USE_TEXTURES": False})
 
 
+def _bounce_plate(chart: dict) -> ComposedSource | None:
+    """Each cell's sphere's light on its floor, on a grid coarser than the pixels: the chart's
+    shading, the spheres' textures included (a textured sphere bounces its texture's colour)."""
+    if not chart.get("BOUNCE_PLATE"):
+        return None
+    return compose_program("stage_bounce_main.glsl", {**chart, "SHADOW_CATCHER": False})
+
+
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
     """The ground's IBL table bake: the ground material (never a catalogued bug, which are about
     the spheres) under the environment, IBL_PIXEL_SAMPLES filtered samples per texel."""
@@ -323,7 +345,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
-        floor_plate=_floor_plate(chart))
+        floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart))
 
 
 # ---- the reference's plan --------------------------------------------------------------------

@@ -103,6 +103,7 @@ class Quality:
     ibl_two_lobe: bool = True          # split_sum lookup: a narrower core plus a tail read along N
     ibl_pixel_samples: int = 0
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
+    bounce_texels: int = 8           # ... shaded on a grid of this many texels per sphere radius (0: every pixel)
     # The ground's IBL from a table over the view direction, baked once per environment with
     # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
     # on an edge.
