@@ -175,6 +175,7 @@ def chart_options(spec: ChartSpec) -> dict:
     # stage's one sphere per pixel, intersected in closed form.
     opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["STAGE"] == "cells"
                            and opts["INTERSECT"] == "analytic")
+    opts["BOUNCE_PLATE"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
         # The sphere's bounce on a coarser grid beside the floor plate (stage_bounce_main.glsl).
