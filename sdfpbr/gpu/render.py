@@ -138,18 +138,22 @@ def bind_frame(session, plan: RenderPlan, scene: SceneBindings, program) -> None
     set_uniforms(program, scene.bind())
 
 
-def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> moderngl.Texture:
-    """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
-    texture of one cell's size plus the margins, read back by every cell (bilinear filtering
-    between texel centres, for the anti-aliased edges' and extra samples' positions)."""
-    ctx = session.ctx
+def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
+    """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
+    size of one cell plus the image's margins beyond the grid (the outer cells' pixels there
+    see the floor further out)."""
     grid = camera_mod.cell_grid(spec)
-    # The cell plus the image's margins beyond the grid, in the cell's GL frame (y up).
     bottom = spec.height - grid.top - grid.rows * grid.cell_height
     right = spec.width - grid.left - grid.cols * grid.cell_width
-    scene.uniforms["u_plate_origin"] = (-grid.left, -bottom)
+    return (-grid.left, -bottom), (grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top)
+
+
+def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int]) -> moderngl.Texture:
+    """A float texture of ``size`` drawn by ``source`` with the scene's bindings, filtered
+    bilinearly between texel centres and clamped at its edges."""
+    ctx = session.ctx
     program = session.programs.fragment(source)
-    plate = ctx.texture((grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top), 4, dtype="f4")
+    plate = ctx.texture(size, 4, dtype="f4")
     plate.repeat_x = plate.repeat_y = False
     plate.filter = (moderngl.LINEAR, moderngl.LINEAR)
     fbo = ctx.framebuffer(color_attachments=[plate])
@@ -164,33 +168,33 @@ def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> mod
     return plate
 
 
+def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> moderngl.Texture:
+    """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
+    texture of the plate's size, read back by every cell (bilinear filtering between texel
+    centres, for the anti-aliased edges' and extra samples' positions)."""
+    origin, size = plate_frame(spec)
+    scene.uniforms["u_plate_origin"] = origin
+    return _plate_pass(session, source, scene, size)
+
+
 def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
     """Each cell's sphere's bounce on its floor (stage_bounce_main.glsl): a tile per cell of
-    texels ``step`` cell pixels apart over the floor plate's extent (its origin is set by
-    _floor_plate), one more texel past its far edge so that every position interpolates.
-    The bounce varies over the sphere's size: with h = R / 8 between texels, bilinear
-    interpolation errs by about (h / R)^2 / 8 of it (0.2 %) where it curves on that scale."""
-    ctx, spec = session.ctx, plan.spec
-    step = bounce_step(spec)
+    texels ``step`` cell pixels apart over the plate's extent, one more texel past its far
+    edge so that every position interpolates. The bounce varies over the sphere's size (as its
+    form factor, ~ 1/d^2 at distance d): with h = R / 8 between texels, bilinear interpolation
+    errs by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
+    (tests/test_stage.py)."""
+    spec = plan.spec
     grid = camera_mod.cell_grid(spec)
-    plate_w = grid.left + grid.cell_width + (spec.width - grid.left - grid.cols * grid.cell_width)
-    plate_h = grid.top + grid.cell_height + (spec.height - grid.top - grid.rows * grid.cell_height)
-    tile = (math.ceil((plate_w - 0.5) / step) + 1, math.ceil((plate_h - 0.5) / step) + 1)
-    scene.uniforms.update(u_bounce_tile=tile, u_bounce_step=float(step))
-    program = session.programs.fragment(plan.bounce_plate)
-    atlas = ctx.texture((grid.cols * tile[0], grid.rows * tile[1]), 4, dtype="f4")
-    atlas.repeat_x = atlas.repeat_y = False
-    atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)
-    fbo = ctx.framebuffer(color_attachments=[atlas])
-    vao = ctx.vertex_array(program, [])
-    try:
-        fbo.use()
-        set_uniforms(program, scene.bind())
-        vao.render(moderngl.TRIANGLES, vertices=3)
-    finally:
-        vao.release()
-        fbo.release()
-    return atlas
+    origin, (width, height) = plate_frame(spec)
+    step = bounce_step(spec)
+    while True:   # coarser for an image so wide that the tiles would not fit one texture
+        tile = (math.ceil((width - 0.5) / step) + 1, math.ceil((height - 0.5) / step) + 1)
+        if max(grid.cols * tile[0], grid.rows * tile[1]) <= session.max_texture_size:
+            break
+        step *= 2
+    scene.uniforms.update(u_plate_origin=origin, u_bounce_tile=tile, u_bounce_step=float(step))
+    return _plate_pass(session, plan.bounce_plate, scene, (grid.cols * tile[0], grid.rows * tile[1]))
 
 
 def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool):

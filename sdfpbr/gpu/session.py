@@ -39,6 +39,7 @@ class Session:
         # tiles at other offsets changed ~1 % of IBL pixels by an ulp (found by `sdfpbr stress`).
         with self:
             info = self.ctx.info
+            self.max_texture_size = info["GL_MAX_TEXTURE_SIZE"]
             limit = min(tile or TILE, info["GL_MAX_TEXTURE_SIZE"], *info["GL_MAX_VIEWPORT_DIMS"])
         self.tile = max(4, limit // 4 * 4)
 
