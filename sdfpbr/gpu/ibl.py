@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 from pathlib import Path
 
 import moderngl
@@ -123,10 +124,24 @@ def make_environment(ctx: moderngl.Context, spec: ChartSpec) -> Environment:
 
 @dataclass
 class EnvironmentLighting:
-    prefiltered: moderngl.TextureCube
+    """A prefiltered cube and its SH9. Loaded from the disk cache, the cube is uploaded on first
+    use: on the cells stage the environment's own cube is read only to bake the stage probe
+    and the ground table, which are cached too (a warm start never uploads it)."""
+    cube: moderngl.TextureCube | None
     lods: int
     sh: np.ndarray    # (9, 3) irradiance coefficients, cosine lobe applied
     key: str = ""     # the content key it was baked or loaded under
+    load: Callable[[], moderngl.TextureCube] | None = None   # makes the cube when it is None
+
+    @property
+    def prefiltered(self) -> moderngl.TextureCube:
+        if self.cube is None:
+            self.cube, self.load = self.load(), None
+        return self.cube
+
+    def release(self) -> None:
+        if self.cube is not None:
+            self.cube.release()
 
     def uniforms(self) -> dict:
         return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh]}
@@ -205,7 +220,7 @@ class IBLBaker:
     def lighting(self, env: Environment, plan: IBLPlan) -> EnvironmentLighting:
         """The environment's prefiltered cube and SH9, baked once per content, cached on disk."""
         textures = [("u_env_map", env.texture)] if env.texture is not None else []
-        return self._baked(plan, plan.env_bake, env.content, env.uniforms, textures)
+        return self._baked(plan, plan.env_bake, env.content, env.uniforms, lambda: textures)
 
     def ground_table(self, plan: RenderPlan, environment: EnvironmentLighting, dfg: moderngl.Texture,
                      scene_uniforms: dict) -> GroundTable:
@@ -246,16 +261,19 @@ class IBLBaker:
         ground table, environment map), which the probe program reads; ``depends_on``: the
         keys of baked inputs among them."""
         uniforms = {**scene_uniforms, **environment.uniforms()}
-        textures = [*scene_textures, ("u_prefiltered", environment.prefiltered)]
         program = self.programs.compute(probe)
-        textures = [(name, tex) for name, tex in textures if name in program]
+        samplers = {name for name, _ in scene_textures} | {"u_prefiltered"}
+
+        def textures() -> list:   # only for a bake: the environment's cube may stay on disk
+            every = [*scene_textures, ("u_prefiltered", environment.prefiltered)]
+            return [(name, tex) for name, tex in every if name in program]
         # What the probe's radiance depends on: the uniforms its program reads and the lighting.
-        read = {k: v for k, v in uniforms.items() if k in program and k not in dict(textures)}
+        read = {k: v for k, v in uniforms.items() if k in program and k not in samplers}
         return self._baked(plan, probe, content_key(read, environment.key, env.content, list(depends_on)),
                            uniforms, textures)
 
     def _baked(self, plan: IBLPlan, program: ComposedSource, content: str, uniforms: dict,
-               textures: list) -> EnvironmentLighting:
+               textures: Callable[[], list]) -> EnvironmentLighting:
         size = plan.size
         levels = plan.levels or max(1, int(math.log2(size)) - 1)      # down to 4 x 4 unless the plan says
         key = content_key(program.text, plan.prefilter.text, plan.irradiance.text, content,
@@ -266,16 +284,17 @@ class IBLBaker:
             return kept
         cached = self.cache.get("ibl", key)
         if cached is not None:
-            cube = self._cube_from_levels(plan.copy_to_cube, [cached[f"level{k}"] for k in range(levels)])
-            result = EnvironmentLighting(cube, levels - 1, cached["sh"], key)
+            arrays = [cached[f"level{k}"] for k in range(levels)]
+            result = EnvironmentLighting(None, levels - 1, cached["sh"], key,
+                                         load=lambda: self._cube_from_levels(plan.copy_to_cube, arrays))
         else:
-            result = self._bake(plan, levels, program, uniforms, textures)
+            result = self._bake(plan, levels, program, uniforms, textures())
             result.key = key
             arrays = {f"level{k}": self._read_cube_level(plan.copy_from_cube, result.prefiltered, k, size >> k)
                       for k in range(levels)}
             arrays["sh"] = result.sh
             self.cache.put("ibl", key, arrays)
-        _remember(self._lighting, key, result, lambda lighting: lighting.prefiltered.release())
+        _remember(self._lighting, key, result, EnvironmentLighting.release)
         return result
 
     def read_level(self, plan: IBLPlan, lighting: EnvironmentLighting, level: int) -> np.ndarray:

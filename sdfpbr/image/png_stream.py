@@ -22,7 +22,9 @@ from typing import BinaryIO
 import numpy as np
 
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
-BLOCK_BYTES = 4 << 20      # raw bytes a block deflates at once: big enough that the sync flushes cost nothing
+# Raw bytes a block deflates at once: small enough that a 1024² chart's blocks share the cores
+# (4 MB blocks: 47 ms; 1 MB: 25 ms, on 2 cores), big enough that the flushes cost no size.
+BLOCK_BYTES = 1 << 20
 LEVEL = 3                  # zlib level: ~3x faster than the default 6 for ~10% more bytes on a chart
 FILTER_UP = 2
 
