@@ -106,12 +106,12 @@ def _dashed(arg: str) -> str:
 
 def add_animation_options(p: Parser, frames_help: str) -> None:
     """--frames, --orbit, --fps and --lossless, for every command that animates."""
-    from ..spec.presets import DEFAULT_FPS, ORBITS
+    from ..spec.presets import DEFAULT_FPS, ORBITS, WEBP_QUALITY
     p.add_argument("--frames", type=int, metavar="N", help=frames_help)
     p.add_argument("--orbit", choices=ORBITS, default=ORBITS[0], help=f"what turns in the animation (default {ORBITS[0]})")
     p.add_argument("--fps", type=float, default=DEFAULT_FPS, help=f"animation frames per second (default {DEFAULT_FPS:g})")
     p.add_argument("--lossless", action="store_true",
-                   help="WebP animation frames stored exactly (about 4x larger than the default quality 92)")
+                   help=f"WebP animation frames stored exactly (about 4x larger than the default quality {WEBP_QUALITY})")
 
 
 def add_chart_options(p: Parser) -> None:

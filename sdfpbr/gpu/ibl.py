@@ -4,9 +4,9 @@ on disk, keyed by the composed bake sources, their parameters and the environmen
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import moderngl
 import numpy as np
@@ -172,6 +172,65 @@ def _recall(store: dict, key: str):
     return value
 
 
+def turned_sh(sh: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """SH9 irradiance coefficients (ibl.glsl's polynomial in n) of the same light turned by
+    ``rotation`` (3 x 3): e'(n) = e(R^T n). The polynomial is a constant, a linear and a
+    quadratic form on the unit sphere; the forms turn (b' = R b, M' = R M R^T) and M' is put
+    back in the basis's shape with x^2 + y^2 + z^2 = 1 (its xx and yy parts opposite)."""
+    u = np.asarray(sh, np.float64)
+    R = np.asarray(rotation, np.float64)
+    M = np.zeros((3, 3) + u.shape[1:])
+    M[0, 0], M[1, 1], M[2, 2] = u[8], -u[8], 3.0 * u[6]
+    M[0, 1] = M[1, 0] = u[4] / 2
+    M[1, 2] = M[2, 1] = u[5] / 2
+    M[0, 2] = M[2, 0] = u[7] / 2
+    b = np.stack([u[3], u[1], u[2]])                     # x, y, z
+    M = np.einsum("ia,ab...,jb->ij...", R, M, R)
+    b = np.einsum("ia,a...->i...", R, b)
+    t = (M[0, 0] + M[1, 1]) / 2                           # x^2 + y^2 + z^2 = 1 takes t I away
+    out = np.empty_like(u)
+    out[8], out[6] = M[0, 0] - t, (M[2, 2] - t) / 3
+    out[4], out[5], out[7] = 2 * M[0, 1], 2 * M[1, 2], 2 * M[0, 2]
+    out[3], out[1], out[2] = b
+    out[0] = u[0] - u[6] + t + out[6]
+    return out.astype(np.asarray(sh).dtype)
+
+
+def turn_about_vertical(start, end) -> np.ndarray | None:
+    """The turn about the vertical (y) axis that takes direction ``start`` to ``end``, as the
+    3 x 3 matrix (c, 0, s; 0, 1, 0; -s, 0, c) that animate.orbit_specs applies; None when
+    no such turn does (another height, or a vertical light)."""
+    x0, y0, z0 = start
+    x1, y1, z1 = end
+    r0, r1 = math.hypot(x0, z0), math.hypot(x1, z1)
+    if abs(y0 - y1) > 1e-6 or r0 < 1e-6 or abs(r0 - r1) > 1e-6 * max(r0, 1.0):
+        return None
+    c, s = (x0 * x1 + z0 * z1) / (r0 * r1), (x1 * z0 - z1 * x0) / (r0 * r1)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+@dataclass
+class _Orbit:
+    """A light orbit's first frame, per scene (IBLBaker.turning_light): the key light's direction
+    then, the probe baked with every light and with the key light off, and the cube each later
+    frame's probe is composed into."""
+    direction: tuple
+    full: EnvironmentLighting
+    rest: EnvironmentLighting
+    frame: moderngl.TextureCube | None = None
+
+    def release(self) -> None:
+        for texture in (self.full, self.rest, self.frame):
+            if texture is not None:
+                texture.release()
+
+
+@dataclass
+class _Turning:
+    light: int                                      # index among the directional lights
+    orbits: dict = field(default_factory=dict)      # scene key (all but the key's direction) -> _Orbit
+
+
 class IBLBaker:
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache):
         self.ctx = ctx
@@ -180,6 +239,21 @@ class IBLBaker:
         self._dfg: dict[str, moderngl.Texture] = {}
         self._lighting: dict[str, EnvironmentLighting] = {}   # least recently used first
         self._ground: dict[str, GroundTable] = {}
+        self._turning: _Turning | None = None
+
+    def begin_orbit(self, light: int = 0) -> None:
+        """From now until end_orbit, directional light ``light`` turns about the vertical between
+        renders (a light orbit): each cells-stage probe after a scene's first is composed from
+        that first frame's two bakes (turn_probe_main.glsl), not baked again. Session.turning_light
+        holds the session around both calls."""
+        self.end_orbit()
+        self._turning = _Turning(light)
+
+    def end_orbit(self) -> None:
+        """Release what the orbit kept (the context current)."""
+        turning, self._turning = self._turning, None
+        for orbit in (turning.orbits.values() if turning else ()):
+            orbit.release()
 
     # ---- DFG LUT -------------------------------------------------------------------------
     @staticmethod
@@ -269,8 +343,63 @@ class IBLBaker:
             return [(name, tex) for name, tex in every if name in program]
         # What the probe's radiance depends on: the uniforms its program reads and the lighting.
         read = {k: v for k, v in uniforms.items() if k in program and k not in samplers}
-        return self._baked(plan, probe, content_key(read, environment.key, env.content, list(depends_on)),
-                           uniforms, textures)
+        inputs = (environment.key, env.content, list(depends_on))
+        if self._turning is not None and plan.turn_probe is not None:
+            turned = self._orbit_probe(plan, probe, read, uniforms, textures, inputs)
+            if turned is not None:
+                return turned
+        return self._baked(plan, probe, content_key(read, *inputs), uniforms, textures)
+
+    def _orbit_probe(self, plan: IBLPlan, probe: ComposedSource, read: dict, uniforms: dict,
+                     textures: Callable[[], list], inputs: tuple) -> EnvironmentLighting | None:
+        """A light orbit's probe (see turning_light), or None where it must be baked (no such
+        light, or the light moved otherwise than about the vertical)."""
+        light = self._turning.light
+        directions = list(read.get("u_dir_light_direction", ()))
+        if light >= len(directions):
+            return None
+        scene = content_key({k: v for k, v in read.items() if k != "u_dir_light_direction"},
+                            directions[:light] + directions[light + 1:], *inputs)
+        orbit = self._turning.orbits.get(scene)
+        if orbit is None:   # the first frame: the probe as always, and with the key light off
+            full = self._baked(plan, probe, content_key(read, *inputs), uniforms, textures)
+            dark = [tuple(c) for c in uniforms["u_dir_light_illuminance"]]
+            dark[light] = (0.0, 0.0, 0.0)
+            rest_read = {**read, "u_dir_light_illuminance": dark}
+            with self.cache.reading_only():   # an orbit adds at most its first frame to the cache
+                rest = self._baked(plan, probe, content_key(rest_read, *inputs),
+                                   {**uniforms, "u_dir_light_illuminance": dark}, textures)
+            for key in (full.key, rest.key):   # the orbit keeps them now (released with it)
+                self._lighting.pop(key, None)
+            self._turning.orbits[scene] = _Orbit(tuple(directions[light]), full, rest)
+            return full
+        turn = turn_about_vertical(orbit.direction, directions[light])
+        if turn is None:
+            return None
+        return self._turned(plan, orbit, turn)
+
+    def _turned(self, plan: IBLPlan, orbit: _Orbit, turn: np.ndarray) -> EnvironmentLighting:
+        """rest + the key light's share turned (turn_probe_main.glsl per level; SH9 turned exactly)."""
+        full, rest = orbit.full, orbit.rest
+        size, levels = plan.size, full.lods + 1
+        if orbit.frame is None:
+            orbit.frame = self.ctx.texture_cube((size, size), 4, dtype="f4")
+            orbit.frame.build_mipmaps(0, levels - 1)   # allocates the chain written below
+            orbit.frame.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        program = self.programs.compute(plan.turn_probe)
+        full.prefiltered.use(1)
+        rest.prefiltered.use(2)
+        # GLSL reads the 9 numbers column by column: R's rows become T = R^T's columns, the turn back.
+        set_uniforms(program, {"u_full": 1, "u_rest": 2, "u_turn_back": tuple(turn.ravel())})
+        for k in range(levels):
+            s = size >> k
+            set_uniforms(program, {"u_size": s, "u_lod": float(k)})
+            orbit.frame.bind_to_image(0, read=False, write=True, level=k)
+            program.run(_groups(s), _groups(s), 6)
+        self.ctx.memory_barrier()
+        sh = rest.sh + turned_sh(full.sh - rest.sh, turn)
+        return EnvironmentLighting(orbit.frame, full.lods, sh.astype(np.float32),
+                                   content_key(full.key, rest.key, turn.tolist()))
 
     def _baked(self, plan: IBLPlan, program: ComposedSource, content: str, uniforms: dict,
                textures: Callable[[], list]) -> EnvironmentLighting:

@@ -8,6 +8,7 @@ use; it is the only module-level GL state in sdfpbr."""
 from __future__ import annotations
 
 import threading
+from contextlib import contextmanager
 
 import moderngl
 
@@ -68,8 +69,22 @@ class Session:
         with self:
             return render_chart(self, spec, aovs, hdr=hdr)
 
+    @contextmanager
+    def turning_light(self, light: int = 0):
+        """A block of renders in which directional light ``light`` turns about the vertical and
+        nothing else changes in the cells stage's probe (a light orbit): the probes after the
+        first are composed from the first's bakes instead of baked (IBLBaker.begin_orbit)."""
+        with self:
+            self.ibl.begin_orbit(light)
+        try:
+            yield self
+        finally:
+            with self:
+                self.ibl.end_orbit()
+
     def release(self) -> None:
         with self:
+            self.ibl.end_orbit()
             self.targets.release()
         with self.lock:
             self.ctx.release()

@@ -17,14 +17,14 @@ import numpy as np
 from PIL import Image
 
 from ..files import atomic_path
+from ..spec.presets import WEBP_METHOD, WEBP_QUALITY
 from .sheet import flatten
 
 GIF_MIN_DELAY_MS = 20   # viewers slow delays under 20 ms down to 100 ms
 
 
-# WebP frames: lossy at quality 92 (mean error 0.5 of 255, 62 kB for the default 1024² chart
-# in 23 ms) unless lossless is asked (exact, ~250 kB in ~50 ms at method 0 / effort 50).
-WEBP_QUALITY = 92
+# Lossless WebP frames (on request; lossy: spec.presets.WEBP_QUALITY): exact, ~250 kB in ~50 ms
+# for the default chart at method 0 / effort 50.
 WEBP_LOSSLESS_EFFORT = 50
 
 
@@ -129,7 +129,7 @@ class AnimationWriter:
         if self.lossless:   # exact: colour under alpha 0 kept
             image.save(buf, format="WEBP", lossless=True, exact=True, method=0, quality=WEBP_LOSSLESS_EFFORT)
         else:
-            image.save(buf, format="WEBP", quality=WEBP_QUALITY, method=0, alpha_quality=100)
+            image.save(buf, format="WEBP", quality=WEBP_QUALITY, method=WEBP_METHOD, alpha_quality=100)
         data = b"".join(_riff_chunk(kind, body) for kind, body in _webp_chunks(buf.getvalue())
                         if kind in (b"ALPH", b"VP8 ", b"VP8L"))
         w, h = self.size

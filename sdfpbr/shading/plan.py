@@ -225,10 +225,11 @@ class IBLPlan:
     levels: int = 0               # prefiltered levels, lod = r (levels - 1); 0: down to 4 x 4
     ground_table: ComposedSource | None = None  # the ground's IBL per view direction (GROUND_IBL)
     ground_table_size: int = 0    # its edge in texels
+    turn_probe: ComposedSource | None = None    # cells stage: a light orbit's probe from the first frame's
 
     def sources(self) -> list[ComposedSource]:
         out = [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
-        return out + [s for s in (self.stage_probe, self.ground_table) if s is not None]
+        return out + [s for s in (self.stage_probe, self.ground_table, self.turn_probe) if s is not None]
 
 
 @dataclass(frozen=True)
@@ -260,13 +261,15 @@ class RenderPlan:
 
 def _ibl_plan(spec: ChartSpec, q: Quality, chart: dict) -> IBLPlan:
     bake = {"ENV": chart["ENV"], "BRDF_MODEL": chart["BRDF_MODEL"]}
+    probe = _stage_probe(chart)
     return IBLPlan(env_bake=compose_program("bake_env_main.glsl", bake),
                    prefilter=compose_program("prefilter_main.glsl", {**bake, "PREFILTER_KERNEL": prefilter_kernel(q)}),
                    irradiance=compose_program("sh_main.glsl"),
                    copy_to_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "to_cube"}),
                    copy_from_cube=compose_program("copy_cube_main.glsl", {"COPY_DIRECTION": "from_cube"}),
                    env_bake_size=q.env_bake_size, size=q.ibl_size, samples=q.ibl_samples, sh_size=q.sh_size,
-                   stage_probe=_stage_probe(chart), levels=prefilter_levels(q),
+                   stage_probe=probe, levels=prefilter_levels(q),
+                   turn_probe=compose_program("turn_probe_main.glsl") if probe else None,
                    ground_table=_ground_table(q, chart), ground_table_size=q.ground_ibl_size)
 
 

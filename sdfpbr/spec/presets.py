@@ -35,6 +35,11 @@ MAX_GRID = 64
 MAX_LIGHTS = 16
 ORBITS = ("light", "camera")                    # what turns in an animation
 DEFAULT_FPS = 15.0
+# WebP animation frames: lossy at this quality and method unless lossless is asked. The default
+# chart's 24-frame light orbit: 1.32 MB, mean error 0.81 of 255, 170 ms a frame (quality 92 at
+# method 0: 1.98 MB, 0.75 of 255, 90 ms).
+WEBP_QUALITY = 88
+WEBP_METHOD = 4
 MAX_SIZE = 16384 * 4
 
 

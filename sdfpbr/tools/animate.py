@@ -108,15 +108,17 @@ def orbit_specs(spec: ChartSpec, frames: int, orbit: str = "light") -> list[Char
 # ---------------------------------------------------------------------------------------------
 # Rendering.
 
-def _frames(specs: list, desc: str, enabled: bool | None):
-    """``specs`` one by one, reporting progress; None: only on a terminal. Bakes made after
-    the first frame are not written to the disk cache (a moving light re-bakes the cells
-    stage's probe every frame: 2 MB a frame that no later render reads)."""
+def _frames(specs: list, desc: str, enabled: bool | None, orbit: str):
+    """``specs`` one by one, reporting progress; None: only on a terminal. A light orbit turns
+    the key light (the first directional one) about the vertical: the cells stage's probe of
+    each frame after the first is composed from the first's (Session.turning_light). Bakes made
+    after the first frame are not written to the disk cache (2 MB a frame no later render reads)."""
     first = specs[0][0] if isinstance(specs[0], tuple) else specs[0]
-    cache = default_session(first.backend, first.device_index).cache
-    with Progress(len(specs), desc, "frames", enabled=sys.stderr.isatty() if enabled is None else enabled) as bar:
+    session = default_session(first.backend, first.device_index)
+    with Progress(len(specs), desc, "frames", enabled=sys.stderr.isatty() if enabled is None else enabled) as bar, \
+            session.turning_light(0) if orbit == "light" else nullcontext():
         for i, spec in enumerate(specs):
-            with cache.reading_only() if i else nullcontext():
+            with session.cache.reading_only() if i else nullcontext():
                 yield spec
             bar.update(1)
 
@@ -150,13 +152,13 @@ def animate(spec: ChartSpec | str | Path | None = None, frames: int = 36, orbit:
     """Render ``frames`` charts of one orbit (see orbit_specs). With ``output`` (.gif, .webp or
     .mp4, checked before the first frame is rendered) each frame goes to the file as it is
     rendered and is not kept unless ``keep_frames``; without, the frames are returned.
-    ``lossless``: WebP frames stored exactly (about 4x larger than the default quality 92)."""
+    ``lossless``: WebP frames stored exactly (about 4x larger than the default lossy frames)."""
     spec = as_spec(spec, "spec")
     specs = orbit_specs(spec, frames, orbit)
     if output is not None:
         check_animation_output(output, fps)
     _check_fps(fps)
-    images = (_chart_frame(s) for s in _frames(specs, f"orbit {orbit}", progress))
+    images = (_chart_frame(s) for s in _frames(specs, f"orbit {orbit}", progress, orbit))
     return _stream(images, output, fps, keep_frames, specs, lossless)
 
 
@@ -176,7 +178,7 @@ def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: 
     text_size = sheet_text_size(correct.height)
 
     def images():
-        for c, b in _frames(pairs, f"{bug.name} orbit {orbit}", progress):
+        for c, b in _frames(pairs, f"{bug.name} orbit {orbit}", progress, orbit):
             panels = [chart_panel("correct", render_chart(c), axes, text_size),
                       chart_panel(f"buggy: {bug.name}", render_chart(b), axes, text_size)]
             yield np.array(assemble([panels], title=f"{bug.name}: {bug.summary}", caption=bug.caption,
