@@ -111,14 +111,14 @@ def test_a_cached_environment_is_uploaded_only_when_read_and_then_the_same(sessi
     cube, so that cube is made on first use: a session whose first chart is the cells stage
     (the environment cube left on disk) then renders the shared stage, which reads it, exactly
     as the session that had it uploaded from the start."""
-    from conftest import backend_context
+    from sdfpbr.gpu.gl import create_context
     from sdfpbr.gpu.session import Session
     from sdfpbr.spec.chart_spec import make_spec
     cells = make_spec(width=96, height=64, rows=1, cols=2, labels=False)
     shared = make_spec(cells, stage="shared")
     session.render(cells)
     want = session.render(shared).hdr                 # every bake now on disk
-    fresh = Session(backend_context("egl")[0], ArrayCache(cache_dir))
+    fresh = Session(create_context("egl"), ArrayCache(cache_dir))   # its own context: released below
     try:
         fresh.render(cells)
         np.testing.assert_array_equal(fresh.render(shared).hdr, want)
