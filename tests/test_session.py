@@ -36,8 +36,9 @@ def test_the_plan_names_every_program_a_render_compiles(cache_dir):
         assert compiled <= planned
         plan = render_plan(spec)
         # The vertex stage is linked into every fragment program, not compiled alone; a fresh
-        # bake copies levels to the disk cache but never back.
-        assert planned - compiled == {plan.vertex.digest, plan.ibl.copy_to_cube.digest}
+        # bake copies levels to the disk cache but never back; the probe's turn runs only in
+        # a light orbit (Session.turning_light).
+        assert planned - compiled == {plan.vertex.digest, plan.ibl.copy_to_cube.digest, plan.ibl.turn_probe.digest}
     finally:
         session.release()
 
