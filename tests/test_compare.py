@@ -284,3 +284,22 @@ def test_compare_and_sweep_commands_write_sheets(tmp_path):
         assert json.loads(im.text["sdfpbr:panels"]) == ["exposure -2 EV", "exposure +0 EV", "exposure +2 EV"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.toml", "ab.png", "b.toml",
                                                         "compare-double-gamma.png", "sweep.png"]
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_sheets_keep_their_renders_read_only_and_frames_are_not_kept():
+    """The sheets render a spec once per process (the catalog's correct chart, a gallery's
+    per-bug pages): a kept render is the same object, its arrays read-only; a render with AOVs
+    serves one without; an animation frame (keep=False) is rendered and not kept."""
+    from sdfpbr.spec.chart_spec import make_spec
+    from sdfpbr.tools import compare
+    spec = make_spec(width=48, height=48, quality="draft", rows=2, cols=2)
+    compare._kept.clear()
+    with_aov = compare.render_chart(spec, aovs=True, keep=True)
+    assert compare.render_chart(spec, keep=True) is with_aov
+    assert not with_aov.result.image.flags.writeable and not with_aov.result.aov["row"].flags.writeable
+    frame = compare.render_chart(spec)
+    assert frame is not with_aov and frame.result.image.flags.writeable and len(compare._kept) == 1
+    np.testing.assert_array_equal(frame.result.image, with_aov.result.image)
+    sheet = compare.compare_bug(spec, "unsquared-roughness")
+    assert (spec, True) in compare._kept and sheet.image.shape[0] > 0

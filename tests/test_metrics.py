@@ -218,3 +218,29 @@ def test_apply_colormap_ends_and_monotone_luminance():
     assert tuple(c[0]) == (0, 0, 4) and tuple(c[-1]) == (252, 253, 191)
     lum = c @ [0.2126, 0.7152, 0.0722]
     assert np.all(np.diff(lum) >= -1.0)
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
+    """A pair measured again (a gallery's per-bug page and its catalog card) is not evaluated
+    again: the same figure and map; writing into a returned map changes no later result; another
+    test image, or a mask, is another measurement."""
+    rng = np.random.default_rng(7)
+    ref = rng.integers(0, 256, (48, 64, 3), np.uint8)
+    test = np.clip(ref.astype(int) + rng.integers(-40, 40, ref.shape), 0, 255).astype(np.uint8)
+    other = 255 - test
+    M._kept_flips.clear()
+    mean, first = M.flip_ldr(test, ref)
+    assert len(M._kept_flips) == 1
+    first[:] = 5.0
+    again_mean, again = M.flip_ldr(test.copy(), ref.copy())            # equal content: kept
+    assert len(M._kept_flips) == 1 and again_mean == mean and again.max() <= 1.0
+    other_mean, _ = M.flip_ldr(other, ref)
+    assert len(M._kept_flips) == 2 and other_mean > mean
+    M._kept_flips.clear()
+    fresh_mean, fresh = M.flip_ldr(test, ref)                          # evaluated anew: the same
+    assert fresh_mean == mean
+    np.testing.assert_array_equal(fresh, again)
+    mask = np.zeros(ref.shape[:2], bool)
+    mask[:, :32] = True
+    assert M.flip_ldr(test, ref, mask=mask)[0] == pytest.approx(fresh[mask].mean(), rel=1e-6)

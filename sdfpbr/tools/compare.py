@@ -106,12 +106,34 @@ class RenderedChart:
         return flatten(self.result.image)
 
 
-def render_chart(spec: ChartSpec, aovs: bool = False) -> RenderedChart:
-    """Render on the process's renderer (the one place this module reaches GL); AOVs (sphere
-    row / col) only where cells are measured."""
+# Renders a process keeps by spec for the sheets: the catalog's cards and a gallery's per-bug
+# pages render the same correct chart again and again (renders are deterministic). Kept arrays
+# are read-only; the oldest go first past the budget.
+KEPT_RENDER_BYTES = 96 << 20
+_kept: dict[tuple[ChartSpec, bool], RenderedChart] = {}
+
+
+def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> RenderedChart:
+    """Render on the process's renderer (the one place this module reaches GL): the display
+    image, and the AOVs (sphere row / col) only where cells are measured. ``keep``: take a kept
+    render of the same spec, and keep this one (sheets; not animation frames, which never
+    repeat and would hold memory)."""
     from ..gpu.session import default_session
+    for key in ((spec, True), (spec, aovs)) if keep else ():
+        if key in _kept:
+            _kept[key] = _kept.pop(key)          # most recently used last
+            return _kept[key]
     session = default_session(spec.backend, spec.device_index)
-    return RenderedChart(spec, session.render(spec, aovs=aovs), session.renderer)
+    rendered = RenderedChart(spec, session.render(spec, aovs=aovs, hdr=False), session.renderer)
+    if keep:
+        arrays = [rendered.result.image, *rendered.result.aov.values()]
+        for array in arrays:
+            array.setflags(write=False)
+        _kept[(spec, aovs)] = rendered
+        total = lambda: sum(a.nbytes for r in _kept.values() for a in [r.result.image, *r.result.aov.values()])
+        while len(_kept) > 1 and total() > KEPT_RENDER_BYTES:
+            _kept.pop(next(iter(_kept)))
+    return rendered
 
 
 def at_panel_size(spec: ChartSpec, panel_size: int | None) -> ChartSpec:
@@ -264,7 +286,7 @@ def compare_specs(a: ChartSpec | str | Path, b: ChartSpec | str | Path, labels: 
         diffs = spec_differences(a, b)
         caption = (f"{labels[1]} differs from {labels[0]} in: {'; '.join(diffs)}." if diffs
                    else f"{labels[0]} and {labels[1]} are the same spec.")
-    ra, rb = render_chart(a, aovs=True), render_chart(b)
+    ra, rb = render_chart(a, aovs=True, keep=True), render_chart(b, keep=True)
     return _comparison(ra, rb, (labels[0], labels[1]), title=title or f"{labels[0]} vs {labels[1]}",
                        caption=caption, axes=axes, kind="compare")
 
@@ -287,7 +309,7 @@ def compare_bug(spec: ChartSpec | str | Path | None, bug_name: str, *, axes: boo
     edge is this many pixels (default: the spec's size)."""
     spec = at_panel_size(as_spec(spec, "spec"), panel_size)
     bug, correct, buggy = bug_pair(spec, bug_name)
-    rc, rb = render_chart(correct, aovs=True), render_chart(buggy)
+    rc, rb = render_chart(correct, aovs=True, keep=True), render_chart(buggy, keep=True)
     return _comparison(rc, rb, ("correct", f"buggy: {bug.name}"), title=f"{bug.name}: {bug.summary}",
                        caption=bug.caption, axes=axes, kind="bug")
 
@@ -335,7 +357,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
 
     def render(s: ChartSpec, aovs: bool) -> tuple[RenderedChart, int]:
         if s not in rendered:
-            rendered[s] = render_chart(s, aovs)
+            rendered[s] = render_chart(s, aovs, keep=True)
             specs.append(s)
         return rendered[s], specs.index(s)
 
