@@ -35,9 +35,11 @@ class RenderResult:
     timings: dict = field(default_factory=dict)
 
 
-# Host bytes a pixel of a render holds: image 4, the labelled copy 4 and the PNG encoder's
-# working copy 4; hdr adds 12 and alpha 4, the AOVs 32 (tests/test_tiling.py measures the arrays).
-HOST_BYTES_PER_PIXEL = 12
+# Host bytes a pixel of a render holds: image 4 and the labelled chart 4 x ~1.4 (its margins
+# grow with the render: 9735 x 9362 around 8192²); the PNG is encoded a block of rows at a
+# time, from the chart itself. hdr adds 12 and alpha 4, the AOVs 32 (tests/test_tiling.py
+# measures the arrays; an 8192² chart peaks at 0.92 GB, 0.3 GB of it GL and the interpreter).
+HOST_BYTES_PER_PIXEL = 10
 HDR_BYTES_PER_PIXEL = 16
 AOV_BYTES_PER_PIXEL = 32
 
