@@ -319,6 +319,7 @@ def test_an_exr_without_openexr_is_refused_before_anything_is_written(tmp_path):
     (("chart", "--size", "65536x65536"), None, 2, "GiB of memory"),
     (("chart", "--backend", "osmesa", "--size", "32x32"), {"SDFPBR_LIBOSMESA": "libc.so.6"}, 3, "not an OSMesa library"),
     (("chart", "--device-index", "7", "--size", "32x32"), None, 3, "device index 7"),
+    (("chart", "--size", "2x2048"), None, 2, "fewer pixels than its 5x5 cells"),   # was a GL traceback
 ])
 def test_hostile_arguments_get_one_line(tmp_path, args, env, status, message):
     """Issue 12's tracebacks (RecursionError, a negative seed, a GIF delay overflow, a 48 GiB

@@ -29,6 +29,11 @@ class _ChartSpecMethods:
         for f in STORED_FIELDS:   # each field's check, from the table; stored normalised
             object.__setattr__(self, f.attr, f.check(getattr(self, f.attr)))
         check_axes(self)
+        if self.stage == "cells" and (self.width < self.cols or self.height < self.rows):
+            # (Each cell is whole pixels: with fewer pixels than cells a cell would have none.)
+            raise SpecError(f"a {self.width}x{self.height} chart has fewer pixels than its {self.rows}x{self.cols} "
+                            f"cells on the cells stage; make it at least {self.cols} px wide and {self.rows} px "
+                            f"high, or use fewer rows or cols")
 
     @property
     def materials(self) -> tuple[str, ...]:
