@@ -403,3 +403,14 @@ def test_a_spec_files_relative_files_are_found_beside_it(tmp_path, monkeypatch):
     assert load_spec("sub/spec.toml").gltf == str(Path("sub") / "m.glb")
     with pytest.raises(SpecError, match="m.glb"):
         make_spec(gltf="m.glb")
+
+
+def test_huge_lists_are_refused_before_they_are_read_and_quoted_short():
+    """Issue 12: a million lights were read (53 s, 950 MB) before the refusal; a million-value
+    roughness gave a 5 MB error line. The count is checked first, and a bad value is quoted
+    as a short excerpt."""
+    with pytest.raises(SpecError, match="at most 16 lights, got 1000000"):
+        make_spec(lights=[{"kind": "directional", "direction": "bad"}] * 10**6)
+    with pytest.raises(SpecError) as refused:
+        make_spec(roughness=[0.5] * 10**6)
+    assert len(str(refused.value)) < 200, len(str(refused.value))
