@@ -1,6 +1,10 @@
 """A render reads back only what is asked: the display image always, linear radiance and the
 AOVs on request (or, through the API, on first use), from targets the session keeps."""
+import importlib.util
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 import sdfpbr
 from sdfpbr.gpu.frame import TargetPool
@@ -65,3 +69,24 @@ def test_reused_targets_do_not_leak_one_render_into_the_next(session):
     np.testing.assert_array_equal(b.image, fresh.image)
     np.testing.assert_array_equal(b.hdr, fresh.hdr)
     assert not np.array_equal(a.image, b.image)
+
+
+def test_the_api_draws_the_render_into_its_labelled_chart(session, tmp_path):
+    """sdfpbr.chart() draws the render straight into the labelled chart's render area (an
+    8192² chart holds one image, not two): the result is the chart that labelling a separate
+    render composes, pixel for pixel, and the render is the chart's render area; glTF names are
+    drawn over it, a chart without labels is the render."""
+    from sdfpbr.image.chart_labels import label
+    cases = [dict(SMALL), dict(SMALL, transparent=True), dict(SMALL, labels=False)]
+    if importlib.util.find_spec("pygltflib"):   # the gltf extra
+        cases.append(dict(width=96, height=64, gltf=str(Path(__file__).parent / "data" / "materials.glb")))
+    for options in cases:
+        spec = make_spec(**options)
+        chart = sdfpbr.chart(spec, session=session)
+        separate = session.render(spec, aovs=False, hdr=False)
+        np.testing.assert_array_equal(chart.image, label(spec, separate))
+        np.testing.assert_array_equal(chart.result.image, separate.image)
+        if spec.labels and not spec.gltf:
+            assert np.shares_memory(chart.result.image, chart.image)
+    with pytest.raises(ValueError, match="to draw into"):
+        session.render(make_spec(**SMALL), image=np.zeros((48, 63, 4), np.uint8))

@@ -79,11 +79,15 @@ def check_memory(spec: ChartSpec, aovs: bool, hdr: bool = True) -> None:
 
 
 def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan | None = None,
-                 hdr: bool = True) -> RenderResult:
+                 hdr: bool = True, image: np.ndarray | None = None) -> RenderResult:
     """``spec`` on ``session`` (entered by the caller). Only what is asked is read back: the
     display image always; linear radiance and coverage with ``hdr`` (result.hdr, .alpha: None
     otherwise); the AOVs with ``aovs`` (result.aov: {} otherwise, and their targets are not
-    even attached)."""
+    even attached). ``image``: a (height, width, 4) uint8 array (a view, e.g. the render area
+    of a labelled chart) the display image is drawn into, tile by tile, instead of a new one."""
+    if image is not None and (image.shape != (spec.height, spec.width, 4) or image.dtype != np.uint8):
+        raise ValueError(f"the image to draw into must be ({spec.height}, {spec.width}, 4) uint8, "
+                         f"not {image.dtype} {image.shape}")
     check_memory(spec, aovs, hdr)
     t0 = time.perf_counter()
     timings = {}
@@ -98,7 +102,7 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
         timings["setup_s"] = time.perf_counter() - t1
         t2 = time.perf_counter()
         bind_frame(session, plan, scene, program)
-        radiance, alpha, image, aov = _draw(session, program, display, spec, aovs, hdr)
+        radiance, alpha, image, aov = _draw(session, program, display, spec, aovs, hdr, image)
         timings["render_s"] = time.perf_counter() - t2
     finally:
         scene.release()
@@ -199,13 +203,13 @@ def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
     return _plate_pass(session, plan.bounce_plate, scene, (grid.cols * tile[0], grid.rows * tile[1]))
 
 
-def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool):
+def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool, image: np.ndarray | None):
     ctx, pool = session.ctx, session.targets
     W, H = spec.width, spec.height
     # Tiles are read straight into the final arrays: no full-size 4-channel staging copies.
     hdr = np.empty((H, W, 3), np.float32) if read_hdr else None
     alpha = np.empty((H, W), np.float32) if read_hdr else None
-    image = np.empty((H, W, 4), np.uint8)
+    image = np.empty((H, W, 4), np.uint8) if image is None else image
     aov = AOVBuffers(spec, H, W) if aovs else None
     half = spec.hdr_precision == "float16"
     # Radiance, then (normal, depth) and (col, row, NdotV, coverage) when the AOVs are read:

@@ -63,11 +63,11 @@ class Session:
         finally:
             self.lock.release()
 
-    def render(self, spec, aovs: bool = True, hdr: bool = True) -> RenderResult:
-        """Render ``spec``, reading back the display image and what else is asked (see
-        gpu.render.render_chart)."""
+    def render(self, spec, aovs: bool = True, hdr: bool = True, image=None) -> RenderResult:
+        """Render ``spec``, reading back the display image (into ``image`` when given) and what
+        else is asked (see gpu.render.render_chart)."""
         with self:
-            return render_chart(self, spec, aovs, hdr=hdr)
+            return render_chart(self, spec, aovs, hdr=hdr, image=image)
 
     @contextmanager
     def turning_light(self, light: int = 0):

@@ -11,7 +11,7 @@ from ..shading.camera import cell_grid, sphere_centers
 from ..shading.plan import brdf_model, stage
 from ..spec.chart_spec import ChartSpec
 from ..spec.material import axis_param, exposure_axis
-from .layout import Cell, compose_chart
+from .layout import Cell, chart_canvas, compose_chart, name_cells
 
 
 def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
@@ -73,15 +73,37 @@ def label(spec: ChartSpec, result, title: str | None = None, footer: str | None 
     """The labeled layout around a render (anything with .image and .camera)."""
     if not spec.labels:
         return result.image
+    layout = _layout(spec, result.camera, title, footer)
+    return compose_chart(result.image, cell_names=cell_names(spec), **layout)
+
+
+def labelled_canvas(spec: ChartSpec, camera, title: str | None = None,
+                    footer: str | None = None) -> tuple[np.ndarray, tuple[int, int]] | None:
+    """The labelled chart before its render, for a renderer to draw into: (chart, (x, y) of the
+    render area), or None for a spec without labels. finish_labels completes it."""
+    if not spec.labels:
+        return None
+    layout = _layout(spec, camera, title, footer)
+    return chart_canvas((spec.height, spec.width), **layout)
+
+
+def finish_labels(spec: ChartSpec, chart: np.ndarray, camera, origin: tuple[int, int]) -> np.ndarray:
+    """A labelled_canvas chart with its render drawn in: the glTF cells' names over it."""
+    names = cell_names(spec)
+    return name_cells(chart, chart_cells(spec, camera), names, origin, (spec.height, spec.width)) if names else chart
+
+
+def _layout(spec: ChartSpec, camera, title: str | None, footer: str | None) -> dict:
+    """compose_chart's layout arguments for ``spec`` (everything but the render)."""
     title = spec.title or title or default_title(spec)
     footer = footer if footer is not None else footer_text(spec)
-    cells = chart_cells(spec, result.camera)
+    cells = chart_cells(spec, camera)
     if spec.gltf:   # named cells, no axes
-        return compose_chart(result.image, cells, [], [], title, footer, transparent=spec.transparent,
-                             column_axis_title="", row_axis_title="", cell_names=cell_names(spec))
-    return compose_chart(result.image, cells, spec.axis_values("x"), spec.axis_values("y"), title, footer,
-                         row_names=row_names(spec), transparent=spec.transparent,
-                         column_axis_title=axis_title(spec, "x"), row_axis_title=axis_title(spec, "y"))
+        return dict(cells=cells, column_values=[], row_values=[], title=title, footer=footer,
+                    transparent=spec.transparent, column_axis_title="", row_axis_title="")
+    return dict(cells=cells, column_values=spec.axis_values("x"), row_values=spec.axis_values("y"), title=title,
+                footer=footer, row_names=row_names(spec), transparent=spec.transparent,
+                column_axis_title=axis_title(spec, "x"), row_axis_title=axis_title(spec, "y"))
 
 
 def axis_title(spec: ChartSpec, axis: str) -> str:

@@ -26,7 +26,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from .text import drawable_text, load_font
 
-__all__ = ["Cell", "compose_chart", "render_area_offset", "label_text", "label_boxes"]
+__all__ = ["Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset", "label_text", "label_boxes"]
 
 DEFAULT_COLUMN_AXIS_TITLE = "roughness r (α = r²)"
 DEFAULT_ROW_AXIS_TITLE = "metallic"
@@ -209,19 +209,29 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
     render = np.asarray(render_rgba)
     if render.dtype != np.uint8 or render.ndim != 3 or render.shape[2] != 4:
         raise ValueError(f"expected an RGBA uint8 image, got {render.dtype} {render.shape}")
-    key = (render.shape, tuple(cells), tuple(column_values), tuple(row_values), title, footer,
+    chart, (x0, y0) = chart_canvas(render.shape, cells, column_values, row_values, title, footer, row_names,
+                                   transparent, column_axis_title, row_axis_title)
+    chart[y0:y0 + render.shape[0], x0:x0 + render.shape[1]] = render
+    if cell_names:
+        chart = name_cells(chart, cells, cell_names, (x0, y0), render.shape[:2])
+    return chart
+
+
+def chart_canvas(render_shape: Sequence[int], cells: Sequence[Cell], column_values: Sequence[float],
+                 row_values: Sequence[float], title: str, footer: str,
+                 row_names: Sequence[str] | None = None, transparent: bool = False,
+                 column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
+                 row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> tuple[np.ndarray, tuple[int, int]]:
+    """A new RGBA uint8 chart without its render: the background and every label, and the
+    (x, y) where a render of ``render_shape`` goes (a renderer may draw straight into it)."""
+    key = (tuple(render_shape[:2]), tuple(cells), tuple(column_values), tuple(row_values), title, footer,
            tuple(row_names or ()), transparent, column_axis_title, row_axis_title)
-    labels = _labels.get(key) or _draw_labels(render.shape, cells, column_values, row_values, title, footer,
+    labels = _labels.get(key) or _draw_labels(render_shape, cells, column_values, row_values, title, footer,
                                               row_names, transparent, column_axis_title, row_axis_title)
     _labels[key] = labels
     while len(_labels) > LABELS_CACHE_SIZE:
         _labels.pop(next(iter(_labels)))
-    chart = labels.canvas()
-    x0, y0 = labels.origin
-    chart[y0:y0 + render.shape[0], x0:x0 + render.shape[1]] = render
-    if cell_names:
-        chart = _name_cells(chart, cells, cell_names, x0, y0, render.shape[:2])
-    return chart
+    return labels.canvas(), labels.origin
 
 
 def _fitted(style: _Style, text: str, room: float) -> str:
@@ -231,10 +241,12 @@ def _fitted(style: _Style, text: str, room: float) -> str:
     return text
 
 
-def _name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], x0: int, y0: int,
-                render_shape: Sequence[int]) -> np.ndarray:
+def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], origin: tuple[int, int],
+               render_shape: Sequence[int]) -> np.ndarray:
     """Each cell's name centred under its sphere, outlined so it reads over any floor, and cut
-    to its column's width so that neighbours' names never run into each other."""
+    to its column's width so that neighbours' names never run into each other. ``origin``: the
+    render's (x, y) in the chart."""
+    x0, y0 = origin
     style = _styles(max(render_shape[:2]))["label"]
     layer = Image.new("RGBA", (chart.shape[1], chart.shape[0]), _TRANSPARENT)
     draw = ImageDraw.Draw(layer)
