@@ -303,6 +303,10 @@ def specs(draw):
                 values[field.name] = values[field.name][0]   # one value off an axis
     if "exposure" in axes:
         values["stage"] = "cells"   # the only stage an exposure axis is drawn on
+    default = ChartSpec()
+    if values.get("stage", default.stage) == "cells":   # a pixel per cell at least
+        values["width"] = max(values.get("width", default.width), values.get("cols", default.cols))
+        values["height"] = max(values.get("height", default.height), rows)
     return make_spec(**values)
 
 
