@@ -16,12 +16,20 @@
 #include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
 #endif
 
-// Chart program: one fullscreen triangle per tile; each pixel integrates its box, with SPP
-// stratified rays or (ANALYTIC_AA) the silhouette's exact coverage. Outputs linear HDR
-// radiance + coverage, and the AOVs of the pixel-centre ray.
+// Chart program: one fullscreen triangle per tile (CHART_STAGE fragment), or one invocation
+// per pixel of the tile (compute: where a GPU runs few fragment units, session.py picks it);
+// each pixel integrates its box, with SPP stratified rays or (ANALYTIC_AA) the silhouette's
+// exact coverage. Outputs linear HDR radiance + coverage, and the AOVs of the pixel-centre ray.
+#if CHART_STAGE == compute
+layout(local_size_x = 8, local_size_y = 8) in;
+vec4 out_radiance;      // stored to the images by main() below
+vec4 out_normal_depth;
+vec4 out_cell;
+#else
 layout(location = 0) out vec4 out_radiance;      // rgb radiance, a coverage
 layout(location = 1) out vec4 out_normal_depth;  // world normal, distance along the ray
 layout(location = 2) out vec4 out_cell;          // col, row, NdotV (-1 for background), sphere coverage
+#endif
 uniform vec2 u_tile_origin;                      // pixel offset of this tile in the image
 uniform int u_spp;
 
@@ -122,8 +130,9 @@ vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
     return shade_hit(position, ro, rd, hit, footprint);
 }
 
-void main() {
-    vec2 pixel = gl_FragCoord.xy - 0.5 + u_tile_origin;
+// The pixel whose centre is frag_coord in the tile (GL window coordinates).
+void chart_pixel(vec2 frag_coord) {
+    vec2 pixel = frag_coord - 0.5 + u_tile_origin;
 #if STAGE == cells
     pixel = cell_pixel(pixel, g_cell);   // the camera then sees this cell's own scene
 #endif
@@ -167,3 +176,30 @@ void main() {
     out_radiance = min(out_radiance, vec4(65504.0));
 #endif
 }
+
+#if CHART_STAGE == compute
+#if HALF_RADIANCE
+layout(rgba16f, binding = 0) uniform writeonly image2D u_radiance_out;
+#else
+layout(rgba32f, binding = 0) uniform writeonly image2D u_radiance_out;
+#endif
+layout(rgba32f, binding = 1) uniform writeonly image2D u_normal_depth_out;
+layout(rgba32f, binding = 2) uniform writeonly image2D u_cell_out;
+uniform ivec2 u_tile_size;
+uniform bool u_write_aovs;   // the AOV images are bound only when the AOVs are read
+
+void main() {
+    ivec2 id = ivec2(gl_GlobalInvocationID.xy);
+    if (id.x >= u_tile_size.x || id.y >= u_tile_size.y) return;
+    chart_pixel(vec2(id) + 0.5);
+    imageStore(u_radiance_out, id, out_radiance);
+    if (u_write_aovs) {
+        imageStore(u_normal_depth_out, id, out_normal_depth);
+        imageStore(u_cell_out, id, out_cell);
+    }
+}
+#else
+void main() {
+    chart_pixel(gl_FragCoord.xy);
+}
+#endif

@@ -92,7 +92,8 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
     t0 = time.perf_counter()
     timings = {}
     plan = plan or render_plan(spec)
-    program = session.programs.fragment(plan.chart)
+    compute = session.chart_stage == "compute"
+    program = session.programs.compute(plan.chart_compute) if compute else session.programs.fragment(plan.chart)
     display = session.programs.fragment(plan.display)
     timings["compile_s"] = time.perf_counter() - t0
 
@@ -102,7 +103,7 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
         timings["setup_s"] = time.perf_counter() - t1
         t2 = time.perf_counter()
         bind_frame(session, plan, scene, program)
-        radiance, alpha, image, aov = _draw(session, program, display, spec, aovs, hdr, image)
+        radiance, alpha, image, aov = _draw(session, program, display, spec, aovs, hdr, image, compute)
         timings["render_s"] = time.perf_counter() - t2
     finally:
         scene.release()
@@ -203,7 +204,8 @@ def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
     return _plate_pass(session, plan.bounce_plate, scene, (grid.cols * tile[0], grid.rows * tile[1]))
 
 
-def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool, image: np.ndarray | None):
+def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool, image: np.ndarray | None,
+          compute: bool = False):
     ctx, pool = session.ctx, session.targets
     W, H = spec.width, spec.height
     # Tiles are read straight into the final arrays: no full-size 4-channel staging copies.
@@ -215,15 +217,22 @@ def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool
     # Radiance, then (normal, depth) and (col, row, NdotV, coverage) when the AOVs are read:
     # without their targets the program's writes to those outputs go nowhere.
     dtypes = ("f2" if half else "f4",) + (("f4", "f4") if aovs else ())
-    vao = ctx.vertex_array(program, [])
+    vao = None if compute else ctx.vertex_array(program, [])
     try:
         for x0, y0, tw, th in tiles(W, H, session.tile):
             targets = [pool.take(tw, th, dtype) for dtype in dtypes]
-            fbo = ctx.framebuffer(color_attachments=targets)
+            fbo = None if compute else ctx.framebuffer(color_attachments=targets)
             try:
-                fbo.use()
                 program["u_tile_origin"].value = (x0, y0)
-                vao.render(moderngl.TRIANGLES, vertices=3)
+                if compute:   # the targets as images 0..2; the AOV stores only when they are bound
+                    for unit, target in enumerate(targets):
+                        target.bind_to_image(unit, read=False, write=True)
+                    set_uniforms(program, {"u_tile_size": (tw, th), "u_write_aovs": bool(aovs)})
+                    program.run((tw + 7) // 8, (th + 7) // 8, 1)
+                    ctx.memory_barrier()
+                else:
+                    fbo.use()
+                    vao.render(moderngl.TRIANGLES, vertices=3)
                 where = image_slices(H, x0, y0, tw, th)
                 image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool, origin=(x0, y0))
                 if read_hdr:
@@ -233,9 +242,11 @@ def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool
                 if aov is not None:
                     aov.write(where, read_rgba(targets[1], tw, th), read_rgba(targets[2], tw, th))
             finally:
-                fbo.release()
+                if fbo is not None:
+                    fbo.release()
                 for tex in targets:
                     pool.give(tex)
     finally:
-        vao.release()
+        if vao is not None:
+            vao.release()
     return hdr, alpha, image, (aov.finish() if aov is not None else {})

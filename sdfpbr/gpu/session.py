@@ -7,12 +7,14 @@ their own. ``default_session`` gives the process one per (backend, device), crea
 use; it is the only module-level GL state in sdfpbr."""
 from __future__ import annotations
 
+import os
 import threading
 from contextlib import contextmanager
 
 import moderngl
 
 from ..cache import ArrayCache
+from ..errors import SpecError
 from .gl import create_context, renderer_string
 from .ibl import IBLBaker
 from .programs import ProgramCache
@@ -20,9 +22,28 @@ from .frame import TargetPool
 from .render import TILE, RenderResult, render_chart
 
 
+CHART_STAGES = ("fragment", "compute")
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swiftshader")
+
+
+def chart_stage_for(renderer: str) -> str:
+    """Which program draws the chart on a renderer: the compute shader on a hardware GPU (on
+    an H100 the same raymarch loop ran 30.7x faster as a compute shader than as a fragment
+    shader: few of its units run fragments), the fragment shader on a software rasterizer
+    (llvmpipe: the fragment path is 1.1-1.2x faster, BENCHMARKS.md). $SDFPBR_CHART_STAGE
+    (fragment or compute) overrides the rule."""
+    forced = os.environ.get("SDFPBR_CHART_STAGE", "")
+    if forced:
+        if forced not in CHART_STAGES:
+            raise SpecError(f"SDFPBR_CHART_STAGE must be one of {', '.join(CHART_STAGES)}, got {forced!r}")
+        return forced
+    return "fragment" if any(name in renderer.lower() for name in SOFTWARE_RENDERERS) else "compute"
+
+
 class Session:
     def __init__(self, ctx: moderngl.Context | None = None, cache: ArrayCache | None = None, *,
-                 tile: int | None = None, backend: str = "auto", device_index: int = 0):
+                 tile: int | None = None, backend: str = "auto", device_index: int = 0,
+                 chart_stage: str | None = None):
         self.ctx = ctx if ctx is not None else create_context(backend, device_index)
         self.backend = getattr(self.ctx, "extra", None) and self.ctx.extra.get("backend") or backend
         self.device_index = device_index
@@ -33,6 +54,9 @@ class Session:
         self.ibl = IBLBaker(self.ctx, self.programs, self.cache)
         self.tables: dict = {}   # GPU tables other integrators keep per session (the reference's)
         self.renderer = renderer_string(self.ctx)
+        if chart_stage is not None and chart_stage not in CHART_STAGES:
+            raise SpecError(f"chart_stage must be one of {', '.join(CHART_STAGES)}, got {chart_stage!r}")
+        self.chart_stage = chart_stage or chart_stage_for(self.renderer)   # see chart_stage_for
         self.targets = TargetPool(self.ctx)   # render targets kept between renders
         # Tiles never exceed what the context can render into; images larger than that are tiled.
         # Tile edges are whole multiples of 4, so every tile starts on the 4x4 pixel blocks of the

@@ -37,6 +37,7 @@ SCHEMA = OptionSchema(
         "IBL_DOMINANT_DIR": ("none", "frostbite", "moments"),
         "PREFILTER_KERNEL": ("cosine", "brdf"),
         "STAGE": ("shared", "cells"),
+        "CHART_STAGE": ("fragment", "compute"),
         "EXPOSURE_AXIS": ("none", "x", "y"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
@@ -161,6 +162,7 @@ def chart_options(spec: ChartSpec) -> dict:
         "SEE_THROUGH": spec_see_through(spec),
         "SCENE_SDF": q.scene_sdf,
         "STAGE": stage(spec),
+        "CHART_STAGE": "fragment",   # RenderPlan.chart_compute is the compute variant
     }
     for lobe in sorted(spec_lobes(spec)):   # only the lobes some cell uses
         opts[LOBE_OPTIONS[lobe]] = True
@@ -246,6 +248,7 @@ class RenderPlan:
     dfg_size: int
     dfg_samples: int
     ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
+    chart_compute: ComposedSource | None = None  # the chart program as a compute shader (session.py picks)
     floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
 
@@ -255,7 +258,8 @@ class RenderPlan:
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys and `sdfpbr shader`."""
-        out = [self.vertex, self.chart, self.display, self.dfg] + [s for s in (self.floor_plate, self.bounce_plate) if s]
+        out = [self.vertex, self.chart, self.display, self.dfg]
+        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
 
@@ -344,7 +348,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
     return RenderPlan(
         spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
         vertex=compose_program("fullscreen_vert.glsl"),
-        chart=chart_source,
+        chart=chart_source, chart_compute=compose_program("chart_main.glsl", {**chart, "CHART_STAGE": "compute"}),
         display=compose_program("display_main.glsl", display_options(spec)),
         dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
