@@ -30,8 +30,8 @@ def chart_stage_for(renderer: str) -> str:
     """Which program draws the chart on a renderer: the compute shader on a hardware GPU (on
     an H100 the same raymarch loop ran 30.7x faster as a compute shader than as a fragment
     shader: few of its units run fragments), the fragment shader on a software rasterizer
-    (llvmpipe: the fragment path is 1.1-1.2x faster, BENCHMARKS.md). $SDFPBR_CHART_STAGE
-    (fragment or compute) overrides the rule."""
+    (llvmpipe: compute takes 0.95-1.08x the fragment path's time, so nothing is gained there;
+    BENCHMARKS.md). $SDFPBR_CHART_STAGE (fragment or compute) overrides the rule."""
     forced = os.environ.get("SDFPBR_CHART_STAGE", "")
     if forced:
         if forced not in CHART_STAGES:
