@@ -220,9 +220,9 @@ class _Orbit:
     frame: moderngl.TextureCube | None = None
 
     def release(self) -> None:
-        for texture in (self.full, self.rest, self.frame):
-            if texture is not None:
-                texture.release()
+        kept = (self.full, self.rest, self.frame)   # full is rest when the key light is dark
+        for texture in {id(t): t for t in kept if t is not None}.values():
+            texture.release()
 
 
 @dataclass
