@@ -6,7 +6,7 @@ import pytest
 
 from sdfpbr.errors import SpecError
 from sdfpbr.gpu.session import Session
-from sdfpbr.shading.camera import cell_grid
+from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import make_spec
 
 KW = dict(rows=2, cols=3, size="192x128", labels=False, roughness=(0.4, 0.4), y_axis="metallic")

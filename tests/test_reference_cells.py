@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import mirror
-from sdfpbr.shading.camera import cell_grid, frame_cell
+from sdfpbr.shading.camera import frame_cell
+from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import Light, make_spec
 from sdfpbr.tools.reference import render_reference
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from sdfpbr.image.chart_labels import chart_cells
-from sdfpbr.shading.camera import CELL_ELEVATION_DEG, FOV_Y_DEG, cell_grid, frame_cell
+from sdfpbr.shading.camera import CELL_ELEVATION_DEG, FOV_Y_DEG, frame_cell
+from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import make_spec
 
 SAME = dict(stage="cells", roughness=(0.3, 0.3), metallic=(1.0, 1.0), labels=False)
@@ -149,7 +150,7 @@ def bounce_interpolation_bound(spec, step):
     f''/f ~ 6/d^2, most where the visible floor comes nearest, d ~ R; interpolating over h
     misses h^2 f''/8, i.e. 0.75 (h/R)^2 of it. Plus 0.5 % for the per-pixel estimate's own
     steps (its ray count and ring change with the floor point), which the plate smooths."""
-    from sdfpbr.shading.camera import cell_sphere_radius_px
+    from sdfpbr.shading.cells import cell_sphere_radius_px
     return 0.75 * (step / cell_sphere_radius_px(spec)) ** 2 + 0.005
 
 
@@ -182,7 +183,7 @@ def test_edge_coverage_adds_up_to_the_disc_area(session):
     coverage AOV is that disc's area. Bound: the coverage treats the silhouette as straight
     across a pixel; a circle of radius r pixels bulges past its chord by at most 1/(8 r) of a
     pixel, so over its ~2 pi r edge pixels the total errs by < pi/4 px^2 (measured far less)."""
-    from sdfpbr.shading.camera import CELL_FILL
+    from sdfpbr.shading.cells import CELL_FILL
     spec = make_spec(stage="cells", camera="orthographic", rows=2, cols=2, width=160, height=160,
                      ground=False, labels=False)
     coverage = session.render(spec).aov["coverage"]

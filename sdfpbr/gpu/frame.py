@@ -10,6 +10,7 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
+from ..shading.cells import cell_grid
 from ..shading import plan
 from ..shading.material_table import upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
@@ -113,7 +114,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_env_intensity": spec.env_intensity,
     }
     if plan.stage(spec) == "cells":
-        u.update(camera_mod.cell_grid(spec).uniforms(spec.height))
+        u.update(cell_grid(spec).uniforms(spec.height))
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]
         u["u_dir_light_illuminance"] = [tuple(c * light.intensity for c in light.color) for light in directional]
@@ -192,7 +193,7 @@ def display_uniforms(spec: ChartSpec, origin: tuple[int, int] = (0, 0)) -> dict:
     axis = exposure_axis(spec)
     if axis:   # each column's (row's) EV relative to the spec's, and where the cells lie
         ev = [v - spec.exposure for v in spec.axis_values(axis)]
-        out.update(camera_mod.cell_grid(spec).uniforms(spec.height), u_grid=(spec.cols, spec.rows),
+        out.update(cell_grid(spec).uniforms(spec.height), u_grid=(spec.cols, spec.rows),
                    u_display_origin=origin, u_axis_ev=ev + [0.0] * (MAX_GRID - len(ev)))   # the array is MAX_GRID long
     return out
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import SpecError
 from ..shading import camera as camera_mod
+from ..shading.cells import cell_grid
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
 from ..spec.chart_spec import ChartSpec
@@ -149,7 +150,7 @@ def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
     """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
     size of one cell plus the image's margins beyond the grid (the outer cells' pixels there
     see the floor further out)."""
-    grid = camera_mod.cell_grid(spec)
+    grid = cell_grid(spec)
     bottom = spec.height - grid.top - grid.rows * grid.cell_height
     right = spec.width - grid.left - grid.cols * grid.cell_width
     return (-grid.left, -bottom), (grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top)
@@ -192,7 +193,7 @@ def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
     errs by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
     (tests/test_stage.py)."""
     spec = plan.spec
-    grid = camera_mod.cell_grid(spec)
+    grid = cell_grid(spec)
     origin, (width, height) = plate_frame(spec)
     step = bounce_step(spec)
     while True:   # coarser for an image so wide that the tiles would not fit one texture

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..shading.camera import cell_grid, sphere_centers
+from ..shading.camera import sphere_centers
+from ..shading.cells import cell_grid
 from ..shading.plan import brdf_model, stage
 from ..spec.chart_spec import ChartSpec
 from ..spec.material import axis_param, exposure_axis

@@ -16,6 +16,7 @@ from typing import Mapping
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
+from .cells import cell_sphere_radius_px
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 
@@ -93,7 +94,6 @@ def bounce_step(spec: ChartSpec) -> int:
     q = quality(spec)
     if q.bounce_texels <= 0:
         return 1
-    from .camera import cell_sphere_radius_px   # deferred: camera asks this module for the stage
     return max(1, int(cell_sphere_radius_px(spec) // q.bounce_texels))
 
 
