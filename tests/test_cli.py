@@ -93,3 +93,4 @@ def test_doctor_reports_both_backends():
     r = run("doctor")
     assert r.returncode == 0
     assert "egl     ok" in r.stdout and "osmesa  ok" in r.stdout
+    assert "chart: fragment shader" in r.stdout or "chart: compute shader" in r.stdout

@@ -197,10 +197,12 @@ def cmd_shader(args) -> int:
 
 def cmd_doctor(args) -> int:
     from ..gpu.gl import INSTALL_HINT, doctor
+    from ..gpu.session import chart_stage_for
     reports = doctor(args.device_index or 0)
     for r in reports:
-        if r.ok:
-            print(f"{r.backend:7s} ok    {r.vendor} | {r.renderer} | {r.version}")
+        if r.ok:   # and which program draws the chart there (session.chart_stage_for)
+            print(f"{r.backend:7s} ok    {r.vendor} | {r.renderer} | {r.version} | chart: "
+                  f"{chart_stage_for(r.renderer)} shader")
         else:
             print(f"{r.backend:7s} FAIL  {r.error}")
     if not any(r.ok for r in reports):
