@@ -37,9 +37,10 @@ class RenderResult:
 
 
 # Host bytes a pixel of a render holds: image 4 and the labelled chart 4 x ~1.4 (its margins
-# grow with the render: 9735 x 9362 around 8192²); the PNG is encoded a block of rows at a
-# time, from the chart itself. hdr adds 12 and alpha 4, the AOVs 32 (tests/test_tiling.py
-# measures the arrays; an 8192² chart peaks at 0.92 GB, 0.3 GB of it GL and the interpreter).
+# grow with the render: 9735 x 9362 around 8192²; the API draws the image into the chart, other
+# callers label a copy); the PNG is encoded a block of rows at a time, from the chart itself.
+# hdr adds 12 and alpha 4, the AOVs 32 (tests/test_tiling.py measures the arrays; an 8192²
+# chart through the CLI peaks at 0.66 GB, 0.3 GB of it GL and the interpreter).
 HOST_BYTES_PER_PIXEL = 10
 HDR_BYTES_PER_PIXEL = 16
 AOV_BYTES_PER_PIXEL = 32

@@ -226,9 +226,9 @@ def chart_canvas(render_shape: Sequence[int], cells: Sequence[Cell], column_valu
     (x, y) where a render of ``render_shape`` goes (a renderer may draw straight into it)."""
     key = (tuple(render_shape[:2]), tuple(cells), tuple(column_values), tuple(row_values), title, footer,
            tuple(row_names or ()), transparent, column_axis_title, row_axis_title)
-    labels = _labels.get(key) or _draw_labels(render_shape, cells, column_values, row_values, title, footer,
+    labels = _labels.pop(key, None) or _draw_labels(render_shape, cells, column_values, row_values, title, footer,
                                               row_names, transparent, column_axis_title, row_axis_title)
-    _labels[key] = labels
+    _labels[key] = labels   # the most recently used last
     while len(_labels) > LABELS_CACHE_SIZE:
         _labels.pop(next(iter(_labels)))
     return labels.canvas(), labels.origin

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SdfpbrError, SpecError
+from ..kept import Kept
 
 DEFAULT_EPS = 1e-2          # relMSE's guard against division by ~0 (Rousselle et al. use 0.01)
 DEFAULT_PPD = 67.0          # FLIP's default: 0.7 m from a 0.7 m wide 3840-pixel monitor
@@ -176,7 +177,7 @@ def _ppd(pixels_per_degree) -> float:
 # FLIP results a process keeps by content: a gallery's per-bug pages and its catalog measure the
 # same pairs (0.2 s each at 512² on two cores); hashing a pair costs ~1 % of that.
 KEPT_FLIP_BYTES = 64 << 20
-_kept_flips: dict[str, tuple[float, np.ndarray]] = {}
+_kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mean, error map)
 
 
 def _flip(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict, mask) -> tuple[float, np.ndarray]:
@@ -186,15 +187,13 @@ def _flip(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict, mask) 
         digest.update(repr((array.shape, array.dtype.str)).encode())
         digest.update(np.ascontiguousarray(array).data)
     key = f"{digest.hexdigest()} {mode} {sorted(parameters.items())}"
-    if key in _kept_flips:
-        mean, error_map = _kept_flips[key] = _kept_flips.pop(key)   # most recently used last
-    else:
+    kept = _kept_flips.get(key)
+    if kept is None:
         error_map, mean, _ = _flip_module().evaluate(ref, test, mode, inputsRGB=(mode == "LDR"), applyMagma=False,
                                                      computeMeanError=True, parameters=parameters)
-        error_map = np.asarray(error_map, np.float32).reshape(ref.shape[:2])
-        _kept_flips[key] = (mean, error_map)
-        while len(_kept_flips) > 1 and sum(e.nbytes for _, e in _kept_flips.values()) > KEPT_FLIP_BYTES:
-            _kept_flips.pop(next(iter(_kept_flips)))
+        kept = (mean, np.asarray(error_map, np.float32).reshape(ref.shape[:2]))
+        _kept_flips.put(key, kept)
+    mean, error_map = kept
     error_map = error_map.copy()   # the kept one stays as measured
     if m is not None:
         mean = error_map[m].mean(dtype=np.float64)

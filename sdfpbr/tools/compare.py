@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SpecError
+from ..kept import Kept
 from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import Cell
 from ..image.sheet import (Axes, Box, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
@@ -110,7 +111,7 @@ class RenderedChart:
 # pages render the same correct chart again and again (renders are deterministic). Kept arrays
 # are read-only; the oldest go first past the budget.
 KEPT_RENDER_BYTES = 96 << 20
-_kept: dict[tuple[ChartSpec, bool], RenderedChart] = {}
+_kept = Kept(KEPT_RENDER_BYTES, lambda r: sum(a.nbytes for a in [r.result.image, *r.result.aov.values()]))
 
 
 def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> RenderedChart:
@@ -120,19 +121,15 @@ def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> Ren
     repeat and would hold memory)."""
     from ..gpu.session import default_session
     for key in ((spec, True), (spec, aovs)) if keep else ():
-        if key in _kept:
-            _kept[key] = _kept.pop(key)          # most recently used last
-            return _kept[key]
+        kept = _kept.get(key)
+        if kept is not None:
+            return kept
     session = default_session(spec.backend, spec.device_index)
     rendered = RenderedChart(spec, session.render(spec, aovs=aovs, hdr=False), session.renderer)
     if keep:
-        arrays = [rendered.result.image, *rendered.result.aov.values()]
-        for array in arrays:
+        for array in [rendered.result.image, *rendered.result.aov.values()]:
             array.setflags(write=False)
-        _kept[(spec, aovs)] = rendered
-        total = lambda: sum(a.nbytes for r in _kept.values() for a in [r.result.image, *r.result.aov.values()])
-        while len(_kept) > 1 and total() > KEPT_RENDER_BYTES:
-            _kept.pop(next(iter(_kept)))
+        _kept.put((spec, aovs), rendered)
     return rendered
 
 
