@@ -173,14 +173,11 @@ vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float ligh
     float v_dot_h = abs(dot(v, h));
     float n_dot_ls = max(dot(n, l_spec), 1e-6);
 #if BUG_UNCLAMPED_NDOTV
-    // The textbook D G F / (4 N.V N.L) with Schlick-GGX's G1(x) = x / (x (1 - k) + k), k = alpha / 2,
-    // N.V unclamped: where a normal map tilts the shading normal away from the camera,
-    // G_v / N.V = 1 / (N.V (1 - k) + k) has a pole at N.V = -k / (1 - k) (white specks) and
-    // turns negative beyond it (black).
-    float k = 0.5 * alpha_light;
-    float g_v = n_dot_v / (n_dot_v * (1.0 - k) + k);
-    float g_l = n_dot_ls / (n_dot_ls * (1.0 - k) + k);
-    float f_spec = d_ggx(n_dot_h, alpha_light) * g_v * g_l / (4.0 * n_dot_v * n_dot_ls) * spec_scale;
+    // The textbook D G F / (4 N.L N.V) with G symmetric in N.V (Smith's Lambda reads tan^2) and
+    // N.V unclamped: equal to the visibility form wherever N.V > 0, and negative where a normal
+    // map tilts the shading normal away from the camera (black specks; 0/0 at N.V = 0).
+    float f_spec = d_ggx(n, h, alpha_light) * spec_scale * sign(n_dot_v)
+                 * visibility_direct(n_dot_ls, abs(n_dot_v), m.perceptual_roughness, alpha_light);
 #else
     float f_spec = d_ggx(n, h, alpha_light) * visibility_direct(n_dot_ls, n_dot_v, m.perceptual_roughness, alpha_light)
                  * spec_scale;

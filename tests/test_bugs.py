@@ -125,6 +125,11 @@ def test_bugs_leave_unaffected_spheres_alone(session):
     bug = BUGS["ao-on-direct"]
     change = _cell_hdr_change(session, bug.correct(lone), bug.apply(lone))
     assert change.max() < 1e-5   # ao = 1: only float rounding of (c - ibl) * 1 + ibl
+    # N.V unclamped: with no normal map every shaded point faces its viewer (N.V > 0), where
+    # the textbook division equals the visibility form: nothing but rounding may change.
+    unclamped = make_spec(BASE, bugs=("unclamped-ndotv",))
+    assert unclamped.textures == "none"
+    assert _cell_hdr_change(session, BASE, unclamped, relative=True).max() <= PROGRAM_RTOL
 
 
 def test_unknown_bug_is_one_line():

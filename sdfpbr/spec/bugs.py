@@ -120,9 +120,11 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "rendering equation was left out. Fix: radiance = f * E * N.L.",
          "BUG_NO_COSINE"),
     _bug("unclamped-ndotv", "N.V not clamped at the silhouette",
-         "Black or NaN specks on the rims: where a normal map tilts the shading normal away from "
-         "the camera N.V reaches zero or below, and the textbook D G F / (4 N.V N.L) divides by "
-         "it. Fix: N.V = max(N.V, 1e-4), or the visibility form that never divides.",
+         "Black specks on the rims: where a normal map tilts the shading normal away from the "
+         "camera, N.V reaches zero or below and the textbook D G F / (4 N.L N.V) divides by it, "
+         "turning the highlight negative (0/0 at N.V = 0). Only a few pixels at chart size: the "
+         "rivets tilt few normals that far. Fix: N.V = max(N.V, 1e-4), or the visibility form "
+         "that never divides.",
          "BUG_UNCLAMPED_NDOTV", **_TEXTURED),
     _bug("fewtap-ibl", "a few-tap blur instead of the split sum",
          "Rough reflections are blotchy and too sharp, diffuse ignores the hemisphere: five taps "
