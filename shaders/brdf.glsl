@@ -76,26 +76,29 @@ Material make_material(vec3 base_color_linear, float metallic, float perceptual_
 // x'^2 + (pi/2) x' + 1 = x^2; a disc narrower than the lobe (x <= 1) leaves it alone. (Karis's
 // (alpha / (alpha + w))^2 is 11 % dim at x = 1; widths in quadrature, 78 % bright: measured
 // against float64 integration over the disc, this is within 3 % from r = 0.18 to 1.)
-// Returns (the shrunk disc's angular radius, 0: none; D's factor); v_dot_h at the disc's centre.
-vec2 disc_lobe(float alpha, float angular_radius, float v_dot_h) {
+// Returns (the sine of the shrunk disc's angular radius, 0: none; D's factor), from the sine of
+// the light's; v_dot_h at the disc's centre. (Sines, not angles: no asin, sin or cos a pixel.)
+vec2 disc_lobe(float alpha, float sin_angular_radius, float v_dot_h) {
     float root_vh = sqrt(max(v_dot_h, 1e-4));
-    float x = sin(angular_radius) / (2.0 * root_vh * alpha);
+    float x = sin_angular_radius / (2.0 * root_vh * alpha);
     if (x <= 1.0) return vec2(0.0, 1.0);
     float x_rep = 0.5 * (sqrt(0.25 * PI * PI + 4.0 * (x * x - 1.0)) - 0.5 * PI);
-    return vec2(asin(min(1.0, 2.0 * root_vh * x_rep * alpha)), 1.0 / (x * x));
+    return vec2(min(1.0, 2.0 * root_vh * x_rep * alpha), 1.0 / (x * x));
 }
 
-vec3 disc_representative(vec3 l, vec3 r, float angular_radius) {
+// sin_radius: the sine of the disc's angular radius (at most a quarter turn).
+vec3 disc_representative(vec3 l, vec3 r, float sin_radius) {
+    float cos_radius = sqrt(max(1.0 - sin_radius * sin_radius, 0.0));
     float c = dot(l, r);
     vec3 t = r - l * c;
     float len = length(t);
-    if (c >= cos(angular_radius) || len < 1e-7) return c >= cos(angular_radius) ? r : l;
-    return l * cos(angular_radius) + t * (sin(angular_radius) / len);
+    if (c >= cos_radius || len < 1e-7) return c >= cos_radius ? r : l;
+    return l * cos_radius + t * (sin_radius / len);
 }
 
 // The direction a disc light's lobe is evaluated towards, and D's factor (disc_lobe).
 vec3 disc_direction(vec3 l, vec3 v, vec3 n, float alpha, float angular_radius, out float scale) {
-    vec2 lobe = disc_lobe(alpha, angular_radius, abs(dot(v, normalize(v + l))));
+    vec2 lobe = disc_lobe(alpha, sin(angular_radius), abs(dot(v, normalize(v + l))));
     scale = lobe.y;
     return lobe.x > 0.0 ? disc_representative(l, reflect(-v, n), lobe.x) : l;
 }
