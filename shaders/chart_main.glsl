@@ -66,6 +66,36 @@ vec3 bounce_plate(vec2 position) {
 }
 #endif
 
+#if SPHERE_PLATE
+uniform sampler2D u_sphere_plate;  // each slot's sphere per cell pixel, as a dielectric and as a metal
+uniform sampler2D u_sphere_slots;  // each cell's slot (texel (col, row))
+uniform ivec2 u_sphere_origin;     // the cell pixel of a tile's texel (0, 0) (stage_sphere_main.glsl)
+uniform ivec2 u_sphere_tile;       // texels of a tile: the cell's pixels and the image's margins
+uniform int u_sphere_tiles_x;
+ivec2 g_plate_texel = ivec2(0);    // the pixel being drawn, in a tile
+
+vec3 sphere_plate_tile(int index) {
+    ivec2 tile = ivec2(index % u_sphere_tiles_x, index / u_sphere_tiles_x);
+    return texelFetch(u_sphere_plate, tile * u_sphere_tile + g_plate_texel, 0).rgb;
+}
+#endif
+
+// The light a sphere point sends to the camera: shaded here, or (SPHERE_PLATE) the cell's
+// slot from the plate as a dielectric and as a metal, mixed by the cell's metallic (the
+// shading is linear in it). The plate leaves the sphere's shading out of this program: a
+// software rasterizer runs both sides of a branch.
+vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
+#if SPHERE_PLATE
+    int slot = int(texelFetch(u_sphere_slots, cell, 0).r);
+    float metallic = cell_texel(cell, 0).a;
+    vec3 dielectric = sphere_plate_tile(2 * slot), metal = sphere_plate_tile(2 * slot + 1);
+    // The ends exactly (a NaN at one end stays out of the other).
+    return metallic <= 0.0 ? dielectric : metallic >= 1.0 ? metal : mix(dielectric, metal, metallic);
+#else
+    return shade_sphere(p, n_geo, v, cell, pixel_size);
+#endif
+}
+
 // Radiance and coverage of what the primary ray through `position` (cell frame on the cells
 // stage) found: a hit's shading, or the background.
 vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
@@ -75,9 +105,9 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #if FLOOR_PLATE
     vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
                                 : vec4(0.0);
-    vec3 radiance = hit.cell.x < 0 ? plate.rgb : shade_sphere(p, hit.normal, -rd, hit.cell, pixel_size);
+    vec3 radiance = hit.cell.x < 0 ? plate.rgb : sphere_radiance(p, hit.normal, -rd, hit.cell, pixel_size);
 #else
-    vec3 radiance = shade_surface(p, hit.normal, -rd, hit.cell, pixel_size);
+    vec3 radiance = hit.cell.x < 0 ? shade_ground(p, -rd, pixel_size) : sphere_radiance(p, hit.normal, -rd, hit.cell, pixel_size);
 #endif
 #if BOUNCE_PLATE
     if (hit.cell.x < 0) radiance += bounce_plate(position);
@@ -135,6 +165,9 @@ void chart_pixel(vec2 frag_coord) {
     vec2 pixel = frag_coord - 0.5 + u_tile_origin;
 #if STAGE == cells
     pixel = cell_pixel(pixel, g_cell);   // the camera then sees this cell's own scene
+#endif
+#if SPHERE_PLATE
+    g_plate_texel = ivec2(pixel) - u_sphere_origin;   // whole pixels: cells are whole pixels apart
 #endif
     vec2 footprint = pixel_footprint();
     Hit centre;            // the pixel-centre ray's hit, for the AOVs

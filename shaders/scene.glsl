@@ -44,7 +44,7 @@ float sdf_spheres(vec3 p, out ivec2 cell) {
 // The stage probe (stage_probe_main.glsl) sees the stage from the sphere's centre; a ray from
 // a surface point that meets the floor meets it elsewhere. Reading the probe towards that
 // floor point instead corrects the parallax (exact for the floor's own position).
-vec3 g_shading_point = vec3(0.0);   // set by shade_surface
+vec3 g_shading_point = vec3(0.0);   // set by shade_point
 
 vec3 stage_parallax(vec3 dir) {
     if (dir.y >= 0.0) return dir;   // the environment, at infinity

@@ -28,12 +28,19 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
 // `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
 // false gives the open floor a shadow catcher divides by.
+#if SPHERE_PLATE_PASS
+float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at metallic 0 and 1
+#endif
+
 vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
                  float light_specular, bool blocked) {
 #if STAGE == cells
     g_shading_point = p;   // for the probe's parallax correction
 #endif
     Material m = ground ? ground_material() : cell_material(cell, n_geo);
+#if SPHERE_PLATE_PASS
+    if (!ground) m.metallic = g_plate_metallic;
+#endif
     vec3 n = n_geo;
 #if USE_TEXTURES
     float occlusion = 1.0;
@@ -156,8 +163,3 @@ vec4 shadow_catcher(vec3 radiance, float open_luminance) {
     return vec4(0.0, 0.0, 0.0, 1.0 - clamp(kept, 0.0, 1.0));
 }
 #endif
-
-// A hit of either kind (cell.x < 0: the ground).
-vec3 shade_surface(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
-    return cell.x < 0 ? shade_ground(p, v, pixel_size) : shade_sphere(p, n_geo, v, cell, pixel_size);
-}

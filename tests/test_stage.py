@@ -194,3 +194,52 @@ def test_edge_coverage_adds_up_to_the_disc_area(session):
         edge = (cell > 0) & (cell < 1)
         assert edge.sum() > 2 * np.pi * r_px * 0.8            # the silhouette is blended, not stepped
         assert abs(cell.sum() - want) < np.pi / 4, (cell.sum(), want)
+
+
+def _without_sphere_plate(monkeypatch, quality="default"):
+    import dataclasses
+    from sdfpbr.spec.presets import QUALITY_PRESETS
+    monkeypatch.setitem(QUALITY_PRESETS, quality, dataclasses.replace(QUALITY_PRESETS[quality], sphere_plate=False))
+
+
+@pytest.mark.parametrize("extra", [
+    dict(),                                                          # roughness across, metallic down
+    dict(size="163x127", rows=3, cols=2, metallic=(0.2, 0.7), base_color=(0.9, 0.2, 0.05)),  # margins; mixes
+    dict(x_axis="metallic", y_axis="roughness", camera="orthographic"),   # slots are rows
+    dict(camera_azimuth=40.0, transparent=True),
+    dict(quality="high", size="96x120", rows=3, cols=1),
+])
+def test_sphere_plate_is_the_per_pixel_sphere(session, monkeypatch, extra):
+    """The sphere shaded once per slot as a dielectric and as a metal and mixed by each cell's
+    metallic equals the sphere shaded in every cell: the shading is linear in metallic (glTF's
+    mix), the plate's texel is the same ray's point, so within float rounding; every sphere
+    pixel lies in the plate's drawn box (a pixel outside it would read 0)."""
+    from sdfpbr.shading.plan import render_plan
+    spec = make_spec(**{"size": "240x200", "rows": 4, "cols": 3, "labels": False, **extra})
+    assert render_plan(spec).options["SPHERE_PLATE"]
+    plate = session.render(spec)
+    _without_sphere_plate(monkeypatch, spec.quality)
+    assert not render_plan(spec).options["SPHERE_PLATE"]
+    direct = session.render(spec)
+    sphere = plate.aov["coverage"] > 0
+    assert sphere.sum() > 0.1 * sphere.size
+    np.testing.assert_allclose(plate.hdr, direct.hdr, rtol=1e-5, atol=1e-7)
+    np.testing.assert_array_equal(plate.alpha, direct.alpha)
+
+
+def test_sphere_plate_only_where_it_saves_shading():
+    """Slots are the cells' materials with metallic set aside; the plate is used where two
+    shadings per slot are fewer than one per cell, and for opaque untextured spheres on the
+    cells stage's one-ray-per-pixel path."""
+    from sdfpbr.shading.cells import sphere_plate
+    from sdfpbr.shading.plan import render_plan
+    layout = sphere_plate(make_spec(rows=3, cols=4))
+    assert layout.slots.tolist() == [[0, 1, 2, 3]] * 3 and layout.slot_cells == ((0, 0), (1, 0), (2, 0), (3, 0))
+    assert sphere_plate(make_spec(rows=4, cols=3, x_axis="metallic", y_axis="roughness")).slots.tolist() \
+        == [[0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]]
+    assert sphere_plate(make_spec(rows=2, cols=4)) is None                     # 8 shadings for 8 cells
+    assert sphere_plate(make_spec(rows=3, cols=3, y_axis="clearcoat")) is None  # nothing shared
+    assert sphere_plate(make_spec(size="8192x8192")) is None                   # over the plate's memory cap
+    for extra in (dict(textures="procedural"), dict(spp=4), dict(stage="shared"), dict(quality="seed002")):
+        assert not render_plan(make_spec(**extra)).options["SPHERE_PLATE"], extra
+    assert render_plan(make_spec()).options["SPHERE_PLATE"]

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..errors import SpecError
 from ..shading import camera as camera_mod
-from ..shading.cells import cell_grid
+from ..shading.camera import cell_sphere_box
+from ..shading.cells import cell_grid, plate_frame, sphere_plate
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
 from ..spec.chart_spec import ChartSpec
@@ -144,22 +145,16 @@ def bind_frame(session, plan: RenderPlan, scene: SceneBindings, program) -> None
         scene.replace_texture("u_floor_plate", _floor_plate(session, plan.floor_plate, scene, plan.spec))
     if plan.bounce_plate is not None:
         scene.replace_texture("u_bounce_plate", _bounce_plate(session, plan, scene))
+    if plan.sphere_plate is not None:
+        _sphere_plate(session, plan, scene)
     set_uniforms(program, scene.bind())
 
 
-def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
-    """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
-    size of one cell plus the image's margins beyond the grid (the outer cells' pixels there
-    see the floor further out)."""
-    grid = cell_grid(spec)
-    bottom = spec.height - grid.top - grid.rows * grid.cell_height
-    right = spec.width - grid.left - grid.cols * grid.cell_width
-    return (-grid.left, -bottom), (grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top)
-
-
-def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int]) -> moderngl.Texture:
+def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int],
+                boxes: list | None = None) -> moderngl.Texture:
     """A float texture of ``size`` drawn by ``source`` with the scene's bindings, filtered
-    bilinearly between texel centres and clamped at its edges."""
+    bilinearly between texel centres and clamped at its edges. ``boxes``: only these
+    (x, y, width, height) texel boxes are drawn, the rest is 0."""
     ctx = session.ctx
     program = session.programs.fragment(source)
     plate = ctx.texture(size, 4, dtype="f4")
@@ -170,7 +165,14 @@ def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int]) -
     try:
         fbo.use()
         set_uniforms(program, scene.bind())
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        if boxes is None:
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        else:
+            fbo.clear()
+            for box in boxes:
+                fbo.scissor = box
+                vao.render(moderngl.TRIANGLES, vertices=3)
+            fbo.scissor = None
     finally:
         vao.release()
         fbo.release()
@@ -204,6 +206,36 @@ def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
         step *= 2
     scene.uniforms.update(u_plate_origin=origin, u_bounce_tile=tile, u_bounce_step=float(step))
     return _plate_pass(session, plan.bounce_plate, scene, (grid.cols * tile[0], grid.rows * tile[1]))
+
+
+def _int_texture(ctx, array: np.ndarray) -> moderngl.Texture:
+    """A small table of whole numbers (rows, cols, channels) as a float texture read with
+    texelFetch (texel (col, row))."""
+    data = np.ascontiguousarray(array, np.float32)
+    texture = ctx.texture((data.shape[1], data.shape[0]), data.shape[2], data.tobytes(), dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture
+
+
+def _sphere_plate(session, plan: RenderPlan, scene) -> None:
+    """Each slot's sphere at metallic 0 and 1 once per cell pixel (stage_sphere_main.glsl), and
+    the table of each cell's slot the chart mixes them by (shading/cells.py)."""
+    layout = sphere_plate(plan.spec)
+    ctx = session.ctx
+    scene.uniforms.update(u_sphere_origin=layout.origin, u_sphere_tile=layout.tile, u_sphere_tiles_x=layout.tiles_x)
+    scene.replace_texture("u_slot_cells", _int_texture(ctx, np.array([layout.slot_cells])))
+    scene.replace_texture("u_sphere_slots", _int_texture(ctx, layout.slots[..., None]))
+    # Each tile only where its sphere can be: a software rasterizer would shade the sphere
+    # for the floor's texels too (it runs both sides of a branch).
+    x0, y0, x1, y1 = cell_sphere_box(plan.spec)
+    ox, oy = layout.origin
+    tw, th = layout.tile
+    x0, y0, x1, y1 = max(x0 - ox, 0), max(y0 - oy, 0), min(x1 - ox, tw), min(y1 - oy, th)
+    boxes = [((i % layout.tiles_x) * tw + x0, (i // layout.tiles_x) * th + y0, x1 - x0, y1 - y0)
+             for i in range(2 * len(layout.slot_cells))]
+    plate = _plate_pass(session, plan.sphere_plate, scene, layout.size, boxes)
+    plate.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    scene.replace_texture("u_sphere_plate", plate)
 
 
 def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool, image: np.ndarray | None,

@@ -84,6 +84,30 @@ def frame_cell(spec: ChartSpec) -> Camera:
     return Camera(-forward * distance, right, up, forward, tan_half, False, grid.cell_width, grid.cell_height)
 
 
+def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, int]:
+    """The pixels of a cell (GL frame: x right, y up from the cell's lower-left) whose box
+    comes within ``pad`` px of its sphere's silhouette: (x0, y0, x1, y1), x1 and y1 past the
+    end. The silhouette is the circle where the rays from the eye touch the sphere (the great
+    circle facing the view, for an orthographic camera), projected from 256 of its points."""
+    cam = frame_cell(spec)
+    radius = spec.sphere_radius
+    if cam.orthographic:
+        centre, ring, axis = np.zeros(3), radius, cam.forward
+    else:
+        d = float(np.linalg.norm(cam.position))
+        axis = cam.position / d
+        centre, ring = axis * (radius * radius / d), radius * math.sqrt(max(1.0 - (radius / d) ** 2, 0.0))
+    u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(axis, u)
+    # The polygon's edges pass within ring (1 - cos(pi / 256)) of the circle: far under pad.
+    angle = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)[:, None]
+    px, _ = cam.project(centre + ring * (np.cos(angle) * u + np.sin(angle) * w))
+    x0, x1 = px[:, 0].min() - pad, px[:, 0].max() + pad
+    y0, y1 = cam.height - px[:, 1].max() - pad, cam.height - px[:, 1].min() + pad   # y up
+    return math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1)
+
+
 def frame(spec: ChartSpec) -> Camera:
     """The camera a render of ``spec`` uses: the grid's, or each cell's."""
     return frame_cell(spec) if plan.stage(spec) == "cells" else frame_grid(spec)

@@ -45,3 +45,67 @@ def cell_sphere_radius_px(spec: ChartSpec) -> float:
     the cell's half side, less as the camera backs off."""
     grid = cell_grid(spec)
     return CELL_FILL * min(grid.cell_width, grid.cell_height) / 2 / spec.camera_distance_scale
+
+
+def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
+    """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
+    size of one cell plus the image's margins beyond the grid (the outer cells' pixels there
+    see the floor further out)."""
+    grid = cell_grid(spec)
+    bottom = spec.height - grid.top - grid.rows * grid.cell_height
+    right = spec.width - grid.left - grid.cols * grid.cell_width
+    return (-grid.left, -bottom), (grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top)
+
+
+# ---- the sphere plate ------------------------------------------------------------------------
+# Every cell shows the same sphere under the same camera, and a sphere's light is linear in its
+# metallic (glTF's mix(dielectric, metal, metallic), lobes and layers alike). Cells whose
+# materials differ only in metallic (a roughness x metallic chart's columns) share one "slot":
+# the plate shades each slot's sphere once per cell pixel as a dielectric and as a metal
+# (stage_sphere_main.glsl) and each cell mixes the two by its own metallic (chart_main.glsl).
+# Used where it saves shading (2 x slots < cells) and the plate is small enough.
+SPHERE_PLATE_MAX_BYTES = 128 << 20   # RGBA float texels
+GL_MIN_MAX_TEXTURE_SIZE = 16384      # the largest texture side every GL 4.5 driver allows
+
+
+@dataclass(frozen=True)
+class SpherePlate:
+    """Which slot each cell reads and how the plate's tiles (one per slot and end, each over
+    plate_frame: a cell's pixels and the image's margins) are laid out: tile 2 k + e (e = 0
+    dielectric, 1 metal) of slot k sits at (tile % tiles_x, tile // tiles_x)."""
+    slots: np.ndarray                       # (rows, cols) int: each cell's slot
+    slot_cells: tuple[tuple[int, int], ...]  # a (col, row) of each slot: whose material it shades
+    origin: tuple[int, int]                 # the cell pixel of a tile's texel (0, 0)
+    tile: tuple[int, int]                   # texels (width, height) of a tile
+    tiles_x: int
+    tiles_y: int
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.tiles_x * self.tile[0], self.tiles_y * self.tile[1]
+
+
+def sphere_plate(spec: ChartSpec) -> SpherePlate | None:
+    """The sphere plate's slots and layout for ``spec``'s cells, or None where it would not
+    save shading or would not fit (then every sphere pixel is shaded where it is drawn)."""
+    from .material_table import material_table
+    table = material_table(spec.cell_materials())          # (cells, texels, 4) as the GPU reads it
+    table[:, 0, 3] = 0.0                                   # metallic aside: the rest picks the slot
+    first: dict[bytes, int] = {}     # a slot's material -> the index of its first cell
+    for index, row in enumerate(table):
+        first.setdefault(row.tobytes(), index)
+    order = {key: slot for slot, key in enumerate(first)}
+    slots = np.array([order[row.tobytes()] for row in table]).reshape(spec.rows, spec.cols)
+    if 2 * len(first) >= spec.rows * spec.cols:
+        return None
+    origin, tile = plate_frame(spec)
+    tiles = 2 * len(first)
+    if tiles * tile[0] * tile[1] * 16 > SPHERE_PLATE_MAX_BYTES:
+        return None
+    # Tiles in a near-square block (the longest side bounded by the texture limit).
+    tiles_x = max(1, min(tiles, round(np.sqrt(tiles * tile[1] / tile[0]))))
+    tiles_y = -(-tiles // tiles_x)
+    if max(tiles_x * tile[0], tiles_y * tile[1]) > GL_MIN_MAX_TEXTURE_SIZE:
+        return None
+    slot_cells = tuple((index % spec.cols, index // spec.cols) for index in first.values())
+    return SpherePlate(slots, slot_cells, origin, tile, tiles_x, tiles_y)

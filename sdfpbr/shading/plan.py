@@ -16,7 +16,7 @@ from typing import Mapping
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
-from .cells import cell_sphere_radius_px
+from .cells import cell_sphere_radius_px, sphere_plate
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 
@@ -43,12 +43,13 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE") + MAP_OPTIONS,
+           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE") + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
-    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH"),
+    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
+       "SPHERE_PLATE_PASS"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -182,6 +183,11 @@ def chart_options(spec: ChartSpec) -> dict:
         opts["BOUNCE_RAYS"] = q.bounce_rays
         # The sphere's bounce on a coarser grid beside the floor plate (stage_bounce_main.glsl).
         opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(spec) > 1
+    # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
+    # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
+    # edge's), opaque, untextured, where cells share all but their metallic (cells.py).
+    opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
+                            and not opts["USE_TEXTURES"] and sphere_plate(spec) is not None)
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
     opts.update(bug_options(spec, "chart"))
@@ -250,6 +256,7 @@ class RenderPlan:
     ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
     floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
+    sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
 
     @property
     def options(self) -> dict:
@@ -264,7 +271,7 @@ class RenderPlan:
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys and `sdfpbr shader`."""
         out = [self.vertex, self.chart, self.display, self.dfg]
-        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate) if s]
+        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate, self.sphere_plate) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
 
@@ -322,6 +329,13 @@ def _bounce_plate(chart: dict) -> ComposedSource | None:
     return compose_program("stage_bounce_main.glsl", {**chart, "SHADOW_CATCHER": False})
 
 
+def _sphere_plate(chart: dict) -> ComposedSource | None:
+    """Each slot's sphere at metallic 0 and 1, once per cell pixel: the chart's shading of it."""
+    if not chart.get("SPHERE_PLATE"):
+        return None
+    return compose_program("stage_sphere_main.glsl", {**chart, "SPHERE_PLATE": False, "SPHERE_PLATE_PASS": True})
+
+
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
     """The ground's IBL table bake: the ground material (never a catalogued bug, which are about
     the spheres) under the environment, IBL_PIXEL_SAMPLES filtered samples per texel."""
@@ -358,7 +372,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
-        floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart))
+        floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart))
 
 
 # ---- the reference's plan --------------------------------------------------------------------

@@ -114,6 +114,7 @@ class Quality:
     # on an edge.
     ground_ibl_samples: int = 1024
     floor_plate: bool = True         # cells stage: the floor's static light shaded once per cell pixel
+    sphere_plate: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
     ground_ibl_size: int = 128       # ~64 texels from horizon to zenith, as the DFG LUT's NdotV
     scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
     hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint

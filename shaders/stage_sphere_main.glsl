@@ -1,0 +1,43 @@
+#include "common.glsl"
+#include "hit.glsl"
+#include "scene.glsl"
+#include "camera.glsl"
+#include "surface_shading.glsl"
+#include "intersect.glsl"
+#include "edge_coverage.glsl"
+
+// The cells stage's sphere plate (SPHERE_PLATE, sdfpbr/shading/cells.py): each slot's sphere
+// shaded once per cell pixel at metallic 0 (tile 2 k) and 1 (tile 2 k + 1), at the point the
+// chart's own ray of that pixel meets it (the centre, or the inside sample at the silhouette,
+// as chart_main.glsl's chart_pixel traces), with the material of a cell of the slot.
+layout(location = 0) out vec4 out_radiance;
+uniform ivec2 u_sphere_origin;     // the cell pixel of a tile's texel (0, 0)
+uniform ivec2 u_sphere_tile;       // texels of a tile: a cell's pixels and the image's margins
+uniform int u_sphere_tiles_x;
+uniform sampler2D u_slot_cells;    // texel k: (col, row) of a cell of slot k
+
+void main() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    ivec2 tile = texel / u_sphere_tile;
+    int index = tile.y * u_sphere_tiles_x + tile.x;
+    vec2 pixel = vec2(texel - tile * u_sphere_tile + u_sphere_origin);   // as chart_pixel's
+    g_cell = ivec2(texelFetch(u_slot_cells, ivec2(index / 2, 0), 0).rg);
+    g_plate_metallic = float(index % 2);
+    out_radiance = vec4(0.0);
+    vec2 footprint = pixel_footprint();
+    EdgeSplit split = edge_split(pixel + 0.5);
+    bool edge = split.coverage > 0.0 && split.coverage < 1.0;
+    vec2 position = edge ? split.inside : pixel + 0.5;
+    vec3 rd;
+    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
+    Hit hit = intersect_scene(ro, rd, footprint);
+    if (hit.t < 0.0 || hit.cell.x < 0) {
+        // The chart's ray of a pixel the silhouette crosses might meet the sphere where this
+        // one, rounded otherwise, passes it by: shade the sphere's point nearest the ray.
+        if (split.coverage <= 0.0) return;
+        vec3 n = normalize(ro + rd * max(dot(-ro, rd), 0.0));
+        hit = Hit(dot(n * u_radius - ro, rd), n, g_cell);
+    }
+    vec3 p = ro + rd * hit.t;
+    out_radiance = vec4(shade_sphere(p, hit.normal, -rd, g_cell, footprint.x + footprint.y * hit.t), 1.0);
+}
