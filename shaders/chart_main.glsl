@@ -3,6 +3,7 @@
 #include "scene.glsl"
 #include "camera.glsl"
 #include "surface_shading.glsl"
+#include "background.glsl"
 #if INTERSECT == analytic
 #include "intersect.glsl"
 #else
@@ -32,17 +33,6 @@ layout(location = 2) out vec4 out_cell;          // col, row, NdotV (-1 for back
 #endif
 uniform vec2 u_tile_origin;                      // pixel offset of this tile in the image
 uniform int u_spp;
-
-vec3 background(vec3 rd) {
-#if TRANSPARENT
-    return vec3(0.0);   // premultiplied: misses add no colour, only less coverage
-#endif
-    vec3 c = env_radiance(rd);
-#if NUM_DIR_LIGHTS > 0
-    c += light_discs(rd);
-#endif
-    return c;
-}
 
 // R2 low-discrepancy offsets (Roberts 2018); sample 0 is the pixel centre.
 vec2 sample_offset(int i) {
@@ -99,12 +89,17 @@ vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 // Radiance and coverage of what the primary ray through `position` (cell frame on the cells
 // stage) found: a hit's shading, or the background.
 vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
+#if FLOOR_PLATE
+    // The plate holds what a miss sees too: the background is the same in every cell.
+    vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
+                                : vec4(0.0);
+    if (hit.t < 0.0) return vec4(plate.rgb, 0.0);
+#else
     if (hit.t < 0.0) return vec4(background(rd), 0.0);
+#endif
     vec3 p = ro + rd * hit.t;
     float pixel_size = footprint.x + footprint.y * hit.t;
 #if FLOOR_PLATE
-    vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
-                                : vec4(0.0);
     vec3 radiance = hit.cell.x < 0 ? plate.rgb : sphere_radiance(p, hit.normal, -rd, hit.cell, pixel_size);
 #else
     vec3 radiance = hit.cell.x < 0 ? shade_ground(p, -rd, pixel_size) : sphere_radiance(p, hit.normal, -rd, hit.cell, pixel_size);

@@ -3,12 +3,14 @@
 #include "scene.glsl"
 #include "camera.glsl"
 #include "surface_shading.glsl"
+#include "background.glsl"
 
 // The cells stage's floor plate (FLOOR_PLATE): every cell shows the same floor under the same
 // camera, so the part of its light that does not depend on the cell's material (environment,
 // lights, the sphere's occlusion and shadows) is shaded once per cell pixel here, and the chart
 // reads it back (chart_main.glsl), adding only the light its own sphere bounces onto it.
-// One texel per cell pixel: the floor point the pixel-centre ray meets, sphere or not.
+// One texel per cell pixel: the floor point the pixel-centre ray meets, sphere or not, or
+// where it meets no floor the background (the same in every cell, too).
 // The plate spans the cell and the image's margins beyond the grid (the outer cells' pixels
 // there see the floor further out): texel (0, 0) is cell pixel u_plate_origin.
 layout(location = 0) out vec4 out_radiance;
@@ -19,7 +21,7 @@ void main() {
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     float t = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;
-    if (t <= 0.0) { out_radiance = vec4(0.0); return; }   // the chart shades what is not floor
+    if (t <= 0.0) { out_radiance = vec4(background(rd), 0.0); return; }   // no floor: the background
     vec2 footprint = pixel_footprint();
     vec3 p = ro + rd * t;
     float pixel_size = footprint.x + footprint.y * t;

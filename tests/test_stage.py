@@ -85,6 +85,21 @@ def test_floor_plate_is_the_per_pixel_floor(session, monkeypatch, size):
     np.testing.assert_allclose(plate.hdr[floor], direct.hdr[floor], rtol=1e-5, atol=1e-7)
 
 
+def test_floor_plate_holds_the_background_where_no_floor_is_seen(session, monkeypatch):
+    """Where a cell's pixel-centre ray meets no floor (the sky above the horizon: here the top
+    margin of a chart of 64 thin rows), the plate holds the background the chart would draw."""
+    import dataclasses
+    from sdfpbr.spec.presets import QUALITY_PRESETS
+    spec = make_spec(width=96, height=700, rows=64, cols=1, labels=False)
+    plate = session.render(spec)
+    monkeypatch.setitem(QUALITY_PRESETS, "default", dataclasses.replace(QUALITY_PRESETS["default"], floor_plate=False))
+    direct = session.render(spec)
+    sky = ~np.isfinite(plate.aov["depth"])
+    assert sky.sum() > 1000
+    np.testing.assert_allclose(plate.hdr[sky], direct.hdr[sky], rtol=1e-5, atol=1e-7)
+    np.testing.assert_array_equal(plate.alpha[sky], direct.alpha[sky])
+
+
 @pytest.fixture(scope="module")
 def bounce_pair(session):
     """A chart whose spheres are big enough for the bounce plate (every ~6 px), rendered with it
