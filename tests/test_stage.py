@@ -258,3 +258,22 @@ def test_sphere_plate_only_where_it_saves_shading():
     for extra in (dict(textures="procedural"), dict(spp=4), dict(stage="shared"), dict(quality="seed002")):
         assert not render_plan(make_spec(**extra)).options["SPHERE_PLATE"], extra
     assert render_plan(make_spec()).options["SPHERE_PLATE"]
+
+
+@pytest.mark.parametrize("bug", sorted(__import__("sdfpbr.spec.bugs", fromlist=["BUGS"]).BUGS))
+def test_sphere_plate_is_the_per_pixel_sphere_under_every_bug(session, monkeypatch, bug):
+    """Every catalogued bug keeps the sphere's light linear in metallic, or the plan leaves the
+    plate out (the few-tap bug; the texture bugs' textured spheres)."""
+    from sdfpbr.shading.plan import render_plan
+    from sdfpbr.spec.bugs import BUGS
+    spec = BUGS[bug].apply(make_spec(size="120x120", rows=3, cols=3, labels=False))
+    if spec.y_axis != "metallic":   # a lobe down the rows: hold it at its strongest, metallic there
+        lobe = spec.y_axis
+        spec = make_spec(spec, **{lobe: (getattr(spec, lobe)[1],) * 2}, y_axis="metallic", metallic=(0.0, 1.0))
+    if not render_plan(spec).options["SPHERE_PLATE"]:
+        assert bug == "fewtap-ibl" or spec.uses_textures()
+        return
+    plate = session.render(spec)
+    _without_sphere_plate(monkeypatch, spec.quality)
+    direct = session.render(spec)
+    np.testing.assert_allclose(plate.hdr, direct.hdr, rtol=1e-5, atol=1e-7)

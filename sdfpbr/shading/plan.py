@@ -183,14 +183,16 @@ def chart_options(spec: ChartSpec) -> dict:
         opts["BOUNCE_RAYS"] = q.bounce_rays
         # The sphere's bounce on a coarser grid beside the floor plate (stage_bounce_main.glsl).
         opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(spec) > 1
-    # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
-    # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
-    # edge's), opaque, untextured, where cells share all but their metallic (cells.py).
-    opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
-                            and not opts["USE_TEXTURES"] and sphere_plate(spec) is not None)
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
     opts.update(bug_options(spec, "chart"))
+    # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
+    # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
+    # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The
+    # few-tap bug's shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
+    opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
+                            and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False)
+                            and sphere_plate(spec) is not None)
     if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
         opts["IBL_METHOD"] = q.ibl_method
         opts["IBL_DOMINANT_DIR"] = q.ibl_dominant_dir
