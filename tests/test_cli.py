@@ -5,6 +5,7 @@ import sys
 import numpy as np
 import pytest
 
+from sdfpbr.cli.main import main
 from sdfpbr.shading.plan import compose_program as compose
 from sdfpbr.shading.plan import render_plan
 from sdfpbr.spec.chart_spec import DEFAULT_LIGHTS, make_spec
@@ -65,6 +66,18 @@ def test_furnace_chart_with_hdr_and_aov_from_the_cli(tmp_path):
 def test_shader_command_from_another_directory(tmp_path):
     r = run("shader", "--no-ground", "--no-ao", "--lights", "none", cwd=tmp_path)
     assert r.returncode == 0 and r.stdout.startswith("#version 450")
+
+
+def test_shader_command_prints_each_program_of_the_frame(capsys):
+    """The default chart's sphere is shaded by the sphere plate's program: `--program` shows it;
+    a program the chart does not run is one line naming those it does, exit 2."""
+    assert main(["shader", "--program", "sphere-plate"]) == 0
+    assert "// composed by sdfpbr from stage_sphere_main.glsl" in capsys.readouterr().out
+    assert main(["shader", "--display"]) == 0
+    assert "// composed by sdfpbr from display_main.glsl" in capsys.readouterr().out
+    assert main(["shader", "--program", "sphere-plate", "--textures", "procedural"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "runs no sphere-plate program; it runs: floor-plate, bounce-plate, chart" in err
 
 
 def test_features_left_out_are_absent_from_the_source():

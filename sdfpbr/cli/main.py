@@ -190,8 +190,11 @@ def cmd_chart(args) -> int:
 
 def cmd_shader(args) -> int:
     from ..shading.plan import render_plan
-    plan = render_plan(spec_from_args(args))
-    sys.stdout.write((plan.display if args.display else plan.chart).text)
+    programs = render_plan(spec_from_args(args)).frame_programs()
+    name = "display" if args.display else args.program
+    if name not in programs:
+        raise SpecError(f"this chart runs no {name} program; it runs: {', '.join(programs)}")
+    sys.stdout.write(programs[name].text)
     return 0
 
 
@@ -226,8 +229,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_chart_options(p)
     p.set_defaults(run=cmd_chart)
 
-    p = sub.add_parser("shader", help="print the composed fragment shader for a spec")
-    p.add_argument("--display", action="store_true", help="the tone-mapping program instead of the chart program")
+    p = sub.add_parser("shader", help="print the composed source of a program a chart runs")
+    p.add_argument("--program", default="chart", metavar="NAME",
+                   help="chart (default), display, or one of the cells stage's plates the chart uses: "
+                        "floor-plate, bounce-plate, sphere-plate (the sphere's shading when the chart has it)")
+    p.add_argument("--display", action="store_true", help="the tone-mapping program (--program display)")
     add_chart_options(p)
     p.set_defaults(run=cmd_shader)
 

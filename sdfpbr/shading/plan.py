@@ -270,8 +270,15 @@ class RenderPlan:
         on first use: a software rasterizer never runs it (7 ms of a cold start saved)."""
         return compose_program("chart_main.glsl", {**self.options, "CHART_STAGE": "compute"})
 
+    def frame_programs(self) -> dict[str, ComposedSource]:
+        """The programs each frame runs, by the names `sdfpbr shader --program` takes: the
+        cells stage's plates where the plan has them, the chart, the display pass."""
+        plates = {"floor-plate": self.floor_plate, "bounce-plate": self.bounce_plate,
+                  "sphere-plate": self.sphere_plate}
+        return {**{k: v for k, v in plates.items() if v is not None}, "chart": self.chart, "display": self.display}
+
     def sources(self) -> list[ComposedSource]:
-        """Every composed program, for cache keys and `sdfpbr shader`."""
+        """Every composed program, for cache keys."""
         out = [self.vertex, self.chart, self.display, self.dfg]
         out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate, self.sphere_plate) if s]
         return out + (self.ibl.sources() if self.ibl else [])
