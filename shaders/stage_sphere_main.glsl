@@ -16,6 +16,12 @@ uniform ivec2 u_sphere_tile;       // texels of a tile: a cell's pixels and the 
 uniform int u_sphere_tiles_x;
 uniform sampler2D u_slot_cells;    // texel k: (col, row) of a cell of slot k
 
+// The sphere's point nearest a ray that passes it by (the sphere is at the origin).
+Hit nearest_on_sphere(vec3 ro, vec3 rd) {
+    vec3 n = normalize(ro + rd * max(dot(-ro, rd), 0.0));
+    return Hit(dot(n * u_radius - ro, rd), n, g_cell);
+}
+
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     ivec2 tile = texel / u_sphere_tile;
@@ -35,9 +41,27 @@ void main() {
         // The chart's ray of a pixel the silhouette crosses might meet the sphere where this
         // one, rounded otherwise, passes it by: shade the sphere's point nearest the ray.
         if (split.coverage <= 0.0) return;
-        vec3 n = normalize(ro + rd * max(dot(-ro, rd), 0.0));
-        hit = Hit(dot(n * u_radius - ro, rd), n, g_cell);
+        hit = nearest_on_sphere(ro, rd);
     }
+#if SPHERE_SAMPLES > 1
+    // A sphere only a few pixels wide: its pixels average n x n points of their box (the box
+    // the reference integrates), so a highlight smaller than a pixel is a small disc, not one
+    // bright pixel or none. Edge pixels keep their one inside point (their coverage blends).
+    if (!edge) {
+        vec3 sum = vec3(0.0);
+        for (int j = 0; j < SPHERE_SAMPLES; ++j)
+            for (int i = 0; i < SPHERE_SAMPLES; ++i) {
+                vec2 q = pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES);
+                ro = camera_ray(2.0 * q / u_resolution - 1.0, rd);
+                Hit h = intersect_scene(ro, rd, footprint);
+                if (h.t < 0.0 || h.cell.x < 0) h = nearest_on_sphere(ro, rd);
+                sum += shade_sphere(ro + rd * h.t, h.normal, -rd, g_cell,
+                                    (footprint.x + footprint.y * h.t) / float(SPHERE_SAMPLES));
+            }
+        out_radiance = vec4(sum / float(SPHERE_SAMPLES * SPHERE_SAMPLES), 1.0);
+        return;
+    }
+#endif
     vec3 p = ro + rd * hit.t;
     out_radiance = vec4(shade_sphere(p, hit.normal, -rd, g_cell, footprint.x + footprint.y * hit.t), 1.0);
 }

@@ -211,10 +211,14 @@ def test_edge_coverage_adds_up_to_the_disc_area(session):
         assert abs(cell.sum() - want) < np.pi / 4, (cell.sum(), want)
 
 
-def _without_sphere_plate(monkeypatch, quality="default"):
+def _with_quality(monkeypatch, quality="default", **changes):
     import dataclasses
     from sdfpbr.spec.presets import QUALITY_PRESETS
-    monkeypatch.setitem(QUALITY_PRESETS, quality, dataclasses.replace(QUALITY_PRESETS[quality], sphere_plate=False))
+    monkeypatch.setitem(QUALITY_PRESETS, quality, dataclasses.replace(QUALITY_PRESETS[quality], **changes))
+
+
+def _without_sphere_plate(monkeypatch, quality="default"):
+    _with_quality(monkeypatch, quality, sphere_plate=False)
 
 
 @pytest.mark.parametrize("extra", [
@@ -231,6 +235,7 @@ def test_sphere_plate_is_the_per_pixel_sphere(session, monkeypatch, extra):
     pixel lies in the plate's drawn box (a pixel outside it would read 0)."""
     from sdfpbr.shading.plan import render_plan
     spec = make_spec(**{"size": "240x200", "rows": 4, "cols": 3, "labels": False, **extra})
+    _with_quality(monkeypatch, spec.quality, sphere_samples_radius=0)   # one point a pixel, as shaded in place
     assert render_plan(spec).options["SPHERE_PLATE"]
     plate = session.render(spec)
     _without_sphere_plate(monkeypatch, spec.quality)
@@ -270,6 +275,7 @@ def test_sphere_plate_is_the_per_pixel_sphere_under_every_bug(session, monkeypat
     if spec.y_axis != "metallic":   # a lobe down the rows: hold it at its strongest, metallic there
         lobe = spec.y_axis
         spec = make_spec(spec, **{lobe: (getattr(spec, lobe)[1],) * 2}, y_axis="metallic", metallic=(0.0, 1.0))
+    _with_quality(monkeypatch, spec.quality, sphere_samples_radius=0)
     if not render_plan(spec).options["SPHERE_PLATE"]:
         assert bug == "fewtap-ibl" or spec.uses_textures()
         return
@@ -277,3 +283,21 @@ def test_sphere_plate_is_the_per_pixel_sphere_under_every_bug(session, monkeypat
     _without_sphere_plate(monkeypatch, spec.quality)
     direct = session.render(spec)
     np.testing.assert_allclose(plate.hdr, direct.hdr, rtol=1e-5, atol=1e-7)
+
+
+def test_sphere_plate_averages_a_small_sphere_over_the_pixel_box(session, monkeypatch):
+    """On 16-px spheres the plate averages 3 x 3 points of each inside pixel's box: nearer the
+    box's integral (64 stratified points a pixel, shaded in place) than the centre alone. The
+    midpoint rule's error falls as 1/n^2 where the light is smooth (1/9 here); highlights
+    smaller than the points' spacing keep some: asked, half the one-point error."""
+    from sdfpbr.shading.plan import render_plan
+    spec = make_spec(size="256x256", labels=False)
+    assert render_plan(spec).options["SPHERE_SAMPLES"] == 3
+    averaged = session.render(spec)
+    box = session.render(make_spec(spec, spp=64))
+    _with_quality(monkeypatch, "default", sphere_samples_radius=0)
+    centre = session.render(spec)
+    inside = averaged.aov["coverage"] == 1
+    assert inside.sum() > 0.2 * inside.size
+    error = lambda r: np.abs(r.hdr - box.hdr)[inside].mean()
+    assert error(averaged) < 0.5 * error(centre)

@@ -44,7 +44,7 @@ SCHEMA = OptionSchema(
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE") + MAP_OPTIONS,
-    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS"),
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "SPHERE_SAMPLES"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
@@ -96,6 +96,15 @@ def bounce_step(spec: ChartSpec) -> int:
     if q.bounce_texels <= 0:
         return 1
     return max(1, int(cell_sphere_radius_px(spec) // q.bounce_texels))
+
+
+def sphere_samples(spec: ChartSpec) -> int:
+    """Points per pixel edge the sphere plate averages inside the silhouette (stage_sphere_main.glsl):
+    more where the sphere is small, as the preset's sphere_samples_radius says."""
+    q = quality(spec)
+    if q.sphere_samples_radius <= 0:
+        return 1
+    return max(1, min(4, round(q.sphere_samples_radius / max(cell_sphere_radius_px(spec), 1e-6))))
 
 
 def active_bugs(spec: ChartSpec) -> tuple[str, ...]:
@@ -193,6 +202,8 @@ def chart_options(spec: ChartSpec) -> dict:
     opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
                             and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False)
                             and sphere_plate(spec) is not None)
+    if opts["SPHERE_PLATE"]:
+        opts["SPHERE_SAMPLES"] = sphere_samples(spec)
     if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
         opts["IBL_METHOD"] = q.ibl_method
         opts["IBL_DOMINANT_DIR"] = q.ibl_dominant_dir
