@@ -178,6 +178,17 @@ void chart_pixel(vec2 frag_coord) {
     // or the inside one's at an edge.
     vec4 radiance = trace_pixel(edge ? split.inside : pixel + 0.5, footprint, centre, centre_rd);
     float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
+#if SPHERE_SAMPLES > 1 && !SPHERE_PLATE
+    // A small sphere's inside pixels average n x n points of their box, as the sphere plate's
+    // do (stage_sphere_main.glsl), so both paths draw the same sphere.
+    if (!edge && sphere_share > 0.0) {
+        vec4 sum = vec4(0.0);
+        for (int j = 0; j < SPHERE_SAMPLES; ++j)
+            for (int i = 0; i < SPHERE_SAMPLES; ++i)
+                sum += trace_pixel(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, other, other_rd);
+        radiance = sum / float(SPHERE_SAMPLES * SPHERE_SAMPLES);
+    }
+#endif
     if (edge) {
         radiance = mix(trace_pixel(split.outside, footprint, other, other_rd), radiance, split.coverage);
         sphere_share = split.coverage;

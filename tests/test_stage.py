@@ -231,11 +231,11 @@ def _without_sphere_plate(monkeypatch, quality="default"):
 def test_sphere_plate_is_the_per_pixel_sphere(session, monkeypatch, extra):
     """The sphere shaded once per slot as a dielectric and as a metal and mixed by each cell's
     metallic equals the sphere shaded in every cell: the shading is linear in metallic (glTF's
-    mix), the plate's texel is the same ray's point, so within float rounding; every sphere
-    pixel lies in the plate's drawn box (a pixel outside it would read 0)."""
+    mix), the plate's texel holds the same rays' points (n x n of them on small spheres, as the
+    chart takes them), so within float rounding; every sphere pixel lies in the plate's drawn
+    box (a pixel outside it would read 0)."""
     from sdfpbr.shading.plan import render_plan
     spec = make_spec(**{"size": "240x200", "rows": 4, "cols": 3, "labels": False, **extra})
-    _with_quality(monkeypatch, spec.quality, sphere_samples_radius=0)   # one point a pixel, as shaded in place
     assert render_plan(spec).options["SPHERE_PLATE"]
     plate = session.render(spec)
     _without_sphere_plate(monkeypatch, spec.quality)
@@ -275,7 +275,6 @@ def test_sphere_plate_is_the_per_pixel_sphere_under_every_bug(session, monkeypat
     if spec.y_axis != "metallic":   # a lobe down the rows: hold it at its strongest, metallic there
         lobe = spec.y_axis
         spec = make_spec(spec, **{lobe: (getattr(spec, lobe)[1],) * 2}, y_axis="metallic", metallic=(0.0, 1.0))
-    _with_quality(monkeypatch, spec.quality, sphere_samples_radius=0)
     if not render_plan(spec).options["SPHERE_PLATE"]:
         assert bug == "fewtap-ibl" or spec.uses_textures()
         return

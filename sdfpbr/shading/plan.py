@@ -99,8 +99,9 @@ def bounce_step(spec: ChartSpec) -> int:
 
 
 def sphere_samples(spec: ChartSpec) -> int:
-    """Points per pixel edge the sphere plate averages inside the silhouette (stage_sphere_main.glsl):
-    more where the sphere is small, as the preset's sphere_samples_radius says."""
+    """Points per pixel edge the cells stage averages inside the sphere's silhouette (the sphere
+    plate, or the chart where it shades the sphere): more where the sphere is small, as the
+    preset's sphere_samples_radius says."""
     q = quality(spec)
     if q.sphere_samples_radius <= 0:
         return 1
@@ -202,7 +203,7 @@ def chart_options(spec: ChartSpec) -> dict:
     opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
                             and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False)
                             and sphere_plate(spec) is not None)
-    if opts["SPHERE_PLATE"]:
+    if opts["ANALYTIC_AA"]:   # the plate's, or the chart's own where it shades the sphere
         opts["SPHERE_SAMPLES"] = sphere_samples(spec)
     if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
         opts["IBL_METHOD"] = q.ibl_method
