@@ -181,12 +181,16 @@ void chart_pixel(vec2 frag_coord) {
 #if SPHERE_SAMPLES > 1 && !SPHERE_PLATE
     // A small sphere's inside pixels average n x n points of their box, as the sphere plate's
     // do (stage_sphere_main.glsl), so both paths draw the same sphere.
+    // The points whose rays meet the sphere (all but a few by the silhouette).
     if (!edge && sphere_share > 0.0) {
         vec4 sum = vec4(0.0);
+        float count = 0.0;
         for (int j = 0; j < SPHERE_SAMPLES; ++j)
-            for (int i = 0; i < SPHERE_SAMPLES; ++i)
-                sum += trace_pixel(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, other, other_rd);
-        radiance = sum / float(SPHERE_SAMPLES * SPHERE_SAMPLES);
+            for (int i = 0; i < SPHERE_SAMPLES; ++i) {
+                vec4 c = trace_pixel(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, other, other_rd);
+                if (other.t >= 0.0 && other.cell.x >= 0) { sum += c; count += 1.0; }
+            }
+        if (count > 0.0) radiance = sum / count;
     }
 #endif
     if (edge) {

@@ -47,19 +47,26 @@ void main() {
     // A sphere only a few pixels wide: its pixels average n x n points of their box (the box
     // the reference integrates), so a highlight smaller than a pixel is a small disc, not one
     // bright pixel or none. Edge pixels keep their one inside point (their coverage blends).
+    // The points whose rays meet the sphere (all but a few by the silhouette), as the chart
+    // takes them where it shades the sphere itself.
     if (!edge) {
         vec3 sum = vec3(0.0);
+        float count = 0.0;
         for (int j = 0; j < SPHERE_SAMPLES; ++j)
             for (int i = 0; i < SPHERE_SAMPLES; ++i) {
                 vec2 q = pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES);
-                ro = camera_ray(2.0 * q / u_resolution - 1.0, rd);
-                Hit h = intersect_scene(ro, rd, footprint);
-                if (h.t < 0.0 || h.cell.x < 0) h = nearest_on_sphere(ro, rd);
-                sum += shade_sphere(ro + rd * h.t, h.normal, -rd, g_cell,
-                                    (footprint.x + footprint.y * h.t) / float(SPHERE_SAMPLES));
+                vec3 d;
+                vec3 o = camera_ray(2.0 * q / u_resolution - 1.0, d);
+                Hit h = intersect_scene(o, d, footprint);
+                if (h.t >= 0.0 && h.cell.x >= 0) {
+                    sum += shade_sphere(o + d * h.t, h.normal, -d, g_cell, footprint.x + footprint.y * h.t);
+                    count += 1.0;
+                }
             }
-        out_radiance = vec4(sum / float(SPHERE_SAMPLES * SPHERE_SAMPLES), 1.0);
-        return;
+        if (count > 0.0) {
+            out_radiance = vec4(sum / count, 1.0);
+            return;
+        }
     }
 #endif
     vec3 p = ro + rd * hit.t;

@@ -5,8 +5,10 @@ import pytest
 from sdfpbr.oracle import mirror
 from sdfpbr.spec.chart_spec import Light, make_spec
 
+# Point-sampled (no anti-aliasing): each pixel is its centre's shading, which the oracles
+# evaluate at the pixel's AOVs (anti-aliased, a small sphere's pixel averages its box).
 FURNACE = dict(env="uniform", lights="none", shadows=False, ao=False, ground=False, base_color=(1.0, 1.0, 1.0),
-               width=256, height=256)
+               width=256, height=256, antialias=False)
 
 
 def _interior(res, min_ndotv=0.15):
@@ -41,7 +43,7 @@ def test_direct_light_matches_mirror_per_pixel(session):
     light = Light("directional", direction=(0.6, 0.5, 0.62), intensity=2.0)
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
                      multiscatter=False, camera="orthographic", width=192, height=192, rows=3, cols=4,
-                     base_color=(0.8, 0.5, 0.2))
+                     base_color=(0.8, 0.5, 0.2), antialias=False)
     res = session.render(spec)
     m = _interior(res, 0.05)
     n = res.aov["normal"][m].astype(float)

@@ -203,8 +203,10 @@ def chart_options(spec: ChartSpec) -> dict:
     opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
                             and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False)
                             and sphere_plate(spec) is not None)
-    if opts["ANALYTIC_AA"]:   # the plate's, or the chart's own where it shades the sphere
-        opts["SPHERE_SAMPLES"] = sphere_samples(spec)
+    # Small spheres average points of the pixel box (the plate's, or the chart's own where it
+    # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
+    if opts["ANALYTIC_AA"]:
+        opts["SPHERE_SAMPLES"] = 1 if opts["USE_TEXTURES"] else sphere_samples(spec)
     if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
         opts["IBL_METHOD"] = q.ibl_method
         opts["IBL_DOMINANT_DIR"] = q.ibl_dominant_dir
