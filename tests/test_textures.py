@@ -103,11 +103,13 @@ def test_a_base_color_texture_alone_adds_no_other_map(session, tmp_path):
     normal map is composed in, so the spheres equal untextured ones whose base colour is the
     decoded texel times the factor (the texture is one flat colour)."""
     from sdfpbr.shading.plan import render_plan
-    spec = make_spec(FURNACE, base_color_texture=_png(tmp_path / "c.png", (200, 100, 50)))
+    # Point-sampled both: a textured small sphere takes one point a pixel, an untextured one
+    # averages points of the pixel's box (plan.sphere_samples).
+    spec = make_spec(FURNACE, base_color_texture=_png(tmp_path / "c.png", (200, 100, 50)), antialias=False)
     text = render_plan(spec).chart.text
     assert "u_base_color_map" in text and "u_orm_map" not in text and "u_normal_map" not in text
     decoded = tuple(float(srgb_eotf(np.array(c / 255))) for c in (200, 100, 50))
-    a, b = session.render(spec), session.render(make_spec(FURNACE, base_color=decoded))
+    a, b = session.render(spec), session.render(make_spec(FURNACE, base_color=decoded, antialias=False))
     m = _interior(a)
     np.testing.assert_allclose(a.hdr[m], b.hdr[m], rtol=SRGB_DECODE_RTOL, atol=1e-4)
 
