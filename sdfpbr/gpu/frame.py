@@ -38,6 +38,16 @@ def read_rgba(tex, width: int, height: int, dtype=np.float32) -> np.ndarray:
     return np.frombuffer(tex.read(), dtype).reshape(height, width, 4)[::-1]
 
 
+def table_texture(ctx: moderngl.Context, array: np.ndarray) -> moderngl.Texture:
+    """A small float table, (rows, cols) or (rows, cols, channels), as a texture read texel by
+    texel (nearest; texel (col, row))."""
+    data = np.ascontiguousarray(array, np.float32)
+    channels = data.shape[2] if data.ndim == 3 else 1
+    texture = ctx.texture((data.shape[1], data.shape[0]), channels, data.tobytes(), dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture
+
+
 class TargetPool:
     """Render targets a session keeps from one render to the next, by (width, height, dtype):
     allocating a 1024² chart's float targets cost ~20 ms a render on llvmpipe, a tenth of its

@@ -19,7 +19,8 @@ from ..shading.cells import cell_grid, plate_frame, sphere_plate
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
 from ..spec.chart_spec import ChartSpec
-from .frame import AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings, tiles
+from .frame import (AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings,
+                    table_texture, tiles)
 from .programs import set_uniforms
 
 TILE = 2048   # largest tile edge; also bounds the float targets' memory
@@ -208,23 +209,14 @@ def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
     return _plate_pass(session, plan.bounce_plate, scene, (grid.cols * tile[0], grid.rows * tile[1]))
 
 
-def _int_texture(ctx, array: np.ndarray) -> moderngl.Texture:
-    """A small table of whole numbers (rows, cols, channels) as a float texture read with
-    texelFetch (texel (col, row))."""
-    data = np.ascontiguousarray(array, np.float32)
-    texture = ctx.texture((data.shape[1], data.shape[0]), data.shape[2], data.tobytes(), dtype="f4")
-    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    return texture
-
-
 def _sphere_plate(session, plan: RenderPlan, scene) -> None:
     """Each slot's sphere at metallic 0 and 1 once per cell pixel (stage_sphere_main.glsl), and
     the table of each cell's slot the chart mixes them by (shading/cells.py)."""
     layout = sphere_plate(plan.spec)
     ctx = session.ctx
     scene.uniforms.update(u_sphere_origin=layout.origin, u_sphere_tile=layout.tile, u_sphere_tiles_x=layout.tiles_x)
-    scene.replace_texture("u_slot_cells", _int_texture(ctx, np.array([layout.slot_cells])))
-    scene.replace_texture("u_sphere_slots", _int_texture(ctx, layout.slots[..., None]))
+    scene.replace_texture("u_slot_cells", table_texture(ctx, np.array([layout.slot_cells])))
+    scene.replace_texture("u_sphere_slots", table_texture(ctx, layout.slots))
     # Each tile only where its sphere can be: a software rasterizer would shade the sphere
     # for the floor's texels too (it runs both sides of a branch).
     x0, y0, x1, y1 = cell_sphere_box(plan.spec)

@@ -10,6 +10,7 @@ import moderngl
 import numpy as np
 
 from ...cache import content_key
+from ...gpu.frame import table_texture
 from ...gpu.programs import set_uniforms
 from ...oracle import lobes, mirror
 
@@ -101,10 +102,7 @@ def environment_sampling(session, program_source, env) -> dict | None:
         textures = {}
         for key, uniform in (("marginal", "u_env_marginal_cdf"), ("conditional", "u_env_conditional_cdf"),
                              ("probability", "u_env_texel_probability")):
-            data = np.ascontiguousarray(tables[key], np.float32)
-            tex = ctx.texture((data.shape[1], data.shape[0]), 1, data.tobytes(), dtype="f4")
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            textures[uniform] = tex
+            textures[uniform] = table_texture(ctx, tables[key])
         textures["size"] = (tables["probability"].shape[1], tables["probability"].shape[0])
     session.tables[name] = textures
     return textures
