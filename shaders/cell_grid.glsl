@@ -6,8 +6,10 @@ uniform ivec2 u_cell_size;     // pixels per cell
 uniform ivec2 u_grid_origin;   // lower-left pixel of the grid
 
 // The (col, row) a pixel (GL coordinates, y up) lies in, row 0 on top; pixels in the margins
-// belong to the nearest cell.
+// belong to the nearest cell. Integer division: a float one may be a multiply by the reciprocal
+// (NVIDIA's is), which puts a pixel on a cell's first row (33 / 33 = 0.99999994) in the cell below.
 ivec2 grid_cell(vec2 pixel, out ivec2 index) {
-    index = clamp(ivec2(floor(floor(pixel - vec2(u_grid_origin)) / vec2(u_cell_size))), ivec2(0), u_grid - 1);
+    ivec2 from_origin = max(ivec2(floor(pixel)) - u_grid_origin, ivec2(0));   // margins: the nearest cell
+    index = min(from_origin / u_cell_size, u_grid - 1);
     return ivec2(index.x, u_grid.y - 1 - index.y);   // GL rows run up
 }
