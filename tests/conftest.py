@@ -33,6 +33,10 @@ EXTRAS = {
     "sphinx": "sphinx (pip install 'sdfpbr[docs]')",
 }
 
+# What must import for the extra to work, where that is more than its top module: an image with
+# a stray 'sphinx' folder on its path imports "sphinx" but has no builder to run.
+PROBE = {"sphinx": "sphinx.cmd.build"}
+
 
 @functools.cache
 def backend_context(name: str):
@@ -54,7 +58,7 @@ def missing_extra(module: str) -> str | None:
     if module not in EXTRAS:
         raise ValueError(f"requires_extra({module!r}): not an extra of sdfpbr; known: {', '.join(EXTRAS)}")
     try:
-        mod = importlib.import_module(module)
+        mod = importlib.import_module(PROBE.get(module, module))
         if module == "imageio_ffmpeg":
             mod.get_ffmpeg_exe()   # the package without its ffmpeg binary cannot write MP4 either
     except Exception as exc:   # ImportError, or the extra's own "not found" error

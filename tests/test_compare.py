@@ -102,10 +102,12 @@ def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
     for (r, c), cell in printed.items():
         decimals = len(cell.text.split(".")[1])
         assert abs(float(cell.text) - want[r, c]) <= 0.5 * 10 ** -decimals + 1e-9
-        # ... and drawn there: the white fill does not occur in the magma map (max 252,253,191).
+        # ... and drawn there in white: no colour of the magma map has blue above 191 (its top
+        # is 254,253,191), and the strokes reach 245+ in every channel in either font (DejaVu,
+        # or Pillow's own where DejaVu is not installed).
         x, y = int(cell.x), int(cell.y)
         patch = sheet.image[y - 6:y + 6, x - 12:x + 12, :3]
-        assert (patch == 255).all(axis=-1).any()
+        assert (patch.min(axis=-1) > 200).any()
 
 
 @pytest.mark.requires_extra("flip_evaluator")
