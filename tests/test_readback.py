@@ -59,6 +59,29 @@ def test_kept_targets_stay_within_the_pool_budget(session):
         pool.release()
 
 
+def test_reads_land_in_kept_arrays_within_their_budget(session):
+    with session:
+        pool = TargetPool(session.ctx, staging_budget=2 * 64 * 64 * 16)   # two 64² float RGBA arrays
+        a = pool.staging(64, 64, np.float32)
+        assert pool.staging(64, 64, np.float32) is a                      # kept, not made anew
+        b = pool.staging(64, 64, np.float32, slot=1)                      # another slot: its own
+        assert b is not a and b.shape == (64, 64, 4) and b.dtype == np.float32
+        pool.staging(64, 64, np.float16)                                  # third array: the oldest goes
+        assert pool.staging(64, 64, np.float32) is not a
+        big = pool.staging(128, 128, np.float32)                          # over budget alone: not kept
+        assert pool.staging(128, 128, np.float32) is not big
+
+
+def test_a_render_owns_its_arrays_when_the_next_reads_through_the_same_arrays(session):
+    """The reads go through the session's kept arrays; what a render returns is its own copy."""
+    own = Session(session.ctx, session.cache)
+    a = own.render(make_spec(**SMALL, metallic=(1.0, 1.0)), hdr=True, aovs=True)
+    kept = {name: np.array(v) for name, v in [("image", a.image), ("hdr", a.hdr), *a.aov.items()]}
+    own.render(make_spec(**SMALL, roughness=(0.9, 0.9), ground=False), hdr=True, aovs=True)
+    for name, values in [("image", a.image), ("hdr", a.hdr), *a.aov.items()]:
+        np.testing.assert_array_equal(values, kept[name], err_msg=name)
+
+
 def test_reused_targets_do_not_leak_one_render_into_the_next(session):
     """A kept target holds the last render's pixels; the next render must cover all of them
     (the background and a smaller chart included)."""

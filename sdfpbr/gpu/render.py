@@ -260,13 +260,16 @@ def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool
                     fbo.use()
                     vao.render(moderngl.TRIANGLES, vertices=3)
                 where = image_slices(H, x0, y0, tw, th)
+                # Targets are read through the framebuffer (glReadPixels) where there is one.
+                source = targets if fbo is None else [fbo] * len(targets)
                 image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool, origin=(x0, y0))
                 if read_hdr:
-                    radiance = read_rgba(targets[0], tw, th, np.float16 if half else np.float32)
+                    radiance = read_rgba(source[0], tw, th, np.float16 if half else np.float32, pool)
                     hdr[where] = radiance[..., :3]
                     alpha[where] = radiance[..., 3]
                 if aov is not None:
-                    aov.write(where, read_rgba(targets[1], tw, th), read_rgba(targets[2], tw, th))
+                    aov.write(where, read_rgba(source[1], tw, th, pool=pool, slot=1, attachment=1),
+                              read_rgba(source[2], tw, th, pool=pool, slot=2, attachment=2))
             finally:
                 if fbo is not None:
                     fbo.release()
