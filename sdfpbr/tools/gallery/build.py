@@ -154,9 +154,21 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     return manifest
 
 
+def manifest_text(manifest: dict) -> str:
+    """The manifest as JSON, a line per key and per image: each line through json's C encoder
+    (``indent`` takes the pure-Python one, 0.08 s of a 0.5 s build with nothing to render)."""
+    def line(value):
+        return json.dumps(value, ensure_ascii=False)
+    def value(key, v):
+        if key != "images" or not v:
+            return line(v)
+        return "[\n" + ",\n".join(f"    {line(image)}" for image in v) + "\n  ]"
+    return "{\n" + ",\n".join(f"  {line(k)}: {value(k, v)}" for k, v in manifest.items()) + "\n}\n"
+
+
 def _finish(out: Path, manifest: dict, previous: set[str], page: bool) -> None:
     """The manifest (and the page) last, then the images of entries that no longer exist go."""
-    write_file(out / "manifest.json", (json.dumps(manifest, indent=2, ensure_ascii=False) + "\n").encode(), "manifest")
+    write_file(out / "manifest.json", manifest_text(manifest).encode(), "manifest")
     if page:
         write_file(out / "index.html", gallery_html(manifest).encode(), "index")
     for name in previous - {entry["image"] for entry in manifest["images"]}:

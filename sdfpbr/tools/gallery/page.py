@@ -57,7 +57,7 @@ def gallery_html(manifest: dict) -> str:
             f"<dt>{e(str(k))}</dt><dd>{e(param_text(v))}</dd>"
             for k, v in image["params"].items() if v not in ({}, [], "")
         )
-        specs = e(json.dumps(image["specs"], indent=1, ensure_ascii=False))
+        specs = e("\n".join(json.dumps(spec, ensure_ascii=False) for spec in image["specs"]))   # a line each
         src = e(quote(image["image"]))
         figures.append(
             f'<figure id="{e(image["name"])}">\n'
