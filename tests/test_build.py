@@ -321,6 +321,27 @@ def test_the_project_gallery_covers_the_issue_list():
     assert all(max(s.width, s.height) <= 1024 for i in items.values() for s in i.specs)
 
 
+def test_items_that_share_a_chart_go_to_one_worker_together():
+    """A parallel build hands a worker the items that render a spec in common, so the renders
+    and FLIP maps it keeps serve them all: the bug catalog with the bug comparisons (the same
+    correct and buggy charts), the exposure and tone-mapper sweeps (the same ACES, 0 EV chart)."""
+    from sdfpbr.spec.bugs import BUGS
+    from sdfpbr.tools.gallery.build import work_groups
+    items = collect(Path(__file__).resolve().parent.parent / "charts")
+    groups = work_groups(items)
+    names = [[item.name for item in group] for group in groups]
+    assert sorted(n for group in names for n in group) == sorted(item.name for item in items)   # each once
+    order = [item.name for item in items]
+    assert all(group == sorted(group, key=order.index) for group in names)                       # entry order
+    assert set(names[0]) == {"bug-catalog"} | {f"bugs-{bug}" for bug in BUGS}                    # largest first
+    assert {"exposure", "tonemappers"} in [set(group) for group in names]
+    text = {item.name: {json.dumps(s.to_dict(), sort_keys=True, default=str) for s in item.specs} for item in items}
+    for a in groups:                                                  # and groups share no chart
+        for b in groups:
+            if a is not b:
+                assert not set().union(*(text[i.name] for i in a)) & set().union(*(text[i.name] for i in b))
+
+
 def test_the_gallery_page_leads_with_the_default_chart():
     from sdfpbr.tools.gallery.page import page_order
     images = [{"name": n, "kind": k} for n, k in (("bug-catalog", "bug-sheet"), ("bugs-x", "compare"),
