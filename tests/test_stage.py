@@ -263,6 +263,12 @@ def test_sphere_plate_only_where_it_saves_shading():
     for extra in (dict(textures="procedural"), dict(spp=4), dict(stage="shared"), dict(quality="seed002")):
         assert not render_plan(make_spec(**extra)).options["SPHERE_PLATE"], extra
     assert render_plan(make_spec()).options["SPHERE_PLATE"]
+    # The plan carries the layout it decided by (the render draws it), and none without a plate.
+    planned = render_plan(make_spec(rows=3, cols=4)).sphere_layout
+    assert planned.slots.tolist() == layout.slots.tolist() and planned.slot_cells == layout.slot_cells
+    assert (planned.origin, planned.tile, planned.tiles_x, planned.size) == (layout.origin, layout.tile,
+                                                                              layout.tiles_x, layout.size)
+    assert render_plan(make_spec(rows=2, cols=4)).sphere_layout is None
 
 
 @pytest.mark.parametrize("bug", sorted(__import__("sdfpbr.spec.bugs", fromlist=["BUGS"]).BUGS))

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import SpecError
 from ..shading import camera as camera_mod
 from ..shading.camera import cell_sphere_box
-from ..shading.cells import cell_grid, plate_frame, sphere_plate
+from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
 from ..spec.chart_spec import ChartSpec
@@ -212,7 +212,7 @@ def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
 def _sphere_plate(session, plan: RenderPlan, scene) -> None:
     """Each slot's sphere at metallic 0 and 1 once per cell pixel (stage_sphere_main.glsl), and
     the table of each cell's slot the chart mixes them by (shading/cells.py)."""
-    layout = sphere_plate(plan.spec)
+    layout = plan.sphere_layout
     ctx = session.ctx
     scene.uniforms.update(u_sphere_origin=layout.origin, u_sphere_tile=layout.tile, u_sphere_tiles_x=layout.tiles_x)
     scene.replace_texture("u_slot_cells", table_texture(ctx, np.array([layout.slot_cells])))

@@ -16,7 +16,7 @@ from typing import Mapping
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
-from .cells import cell_sphere_radius_px, sphere_plate
+from .cells import SpherePlate, cell_sphere_radius_px, sphere_plate
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 
@@ -147,6 +147,12 @@ def texture_maps(spec: ChartSpec) -> dict[str, bool]:
 def chart_options(spec: ChartSpec) -> dict:
     """The chart program's options: every feature the spec leaves out is absent from the
     composed source."""
+    return _chart_options(spec)[0]
+
+
+def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
+    """chart_options, and the sphere plate's layout where the options use one (worked out
+    once: the render needs it too)."""
     directional = sum(1 for light in spec.lights if light.kind == "directional")
     point = sum(1 for light in spec.lights if light.kind == "point")
     q = quality(spec)
@@ -200,9 +206,9 @@ def chart_options(spec: ChartSpec) -> dict:
     # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
     # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The
     # few-tap bug's shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
-    opts["SPHERE_PLATE"] = (opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
-                            and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False)
-                            and sphere_plate(spec) is not None)
+    layout = (sphere_plate(spec) if opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
+              and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False) else None)
+    opts["SPHERE_PLATE"] = layout is not None
     # Small spheres average points of the pixel box (the plate's, or the chart's own where it
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
     if opts["ANALYTIC_AA"]:
@@ -220,7 +226,7 @@ def chart_options(spec: ChartSpec) -> dict:
     # The sheen and clearcoat layers over the spheres' environment light (lobes_ibl.glsl).
     if opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False) and (opts.get("SHEEN") or opts.get("CLEARCOAT")):
         opts["LAYERED_IBL"] = True
-    return opts
+    return opts, layout
 
 
 def display_options(spec: ChartSpec) -> dict:
@@ -273,6 +279,7 @@ class RenderPlan:
     floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
+    sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
 
     @property
     def options(self) -> dict:
@@ -384,7 +391,7 @@ def dfg_source(brdf: str, direct_k_bug: bool = False, sheen: bool = False) -> Co
 
 def render_plan(spec: ChartSpec) -> RenderPlan:
     q = quality(spec)
-    chart = chart_options(spec)
+    chart, layout = _chart_options(spec)
     chart_source = compose_program("chart_main.glsl", chart)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
     return RenderPlan(
@@ -395,7 +402,8 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
-        floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart))
+        floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart),
+        sphere_layout=layout)
 
 
 # ---- the reference's plan --------------------------------------------------------------------
