@@ -6,7 +6,7 @@ uniform float u_prefiltered_lods;   // number of mip levels - 1
 uniform vec3 u_sh[9];               // irradiance SH9, cosine lobe already applied
 
 vec3 prefiltered_radiance(vec3 r_dir, float perceptual_roughness) {
-#if STAGE == cells
+#if STAGE_PROBE
     r_dir = stage_parallax(r_dir);
 #endif
     return textureLod(u_prefiltered, r_dir, perceptual_roughness * u_prefiltered_lods).rgb;

@@ -51,7 +51,7 @@ SampledSpecular sampled_specular(vec3 n, vec3 v, float n_dot_v, float alpha) {
         vec3 l = l_local.x * t + l_local.y * b + l_local.z * n;
         float pdf = d_ggx(h_local.z, alpha) / (2.0 * lambda_denominator);
         float weight = visibility_ibl(l_local.z, n_dot_v, alpha) * l_local.z * 2.0 * lambda_denominator;
-#if STAGE == cells
+#if STAGE_PROBE
         vec3 radiance = textureLod(u_prefiltered, stage_parallax(l), filtered_lod(1.0 / (float(count) * pdf))).rgb;
 #else
         vec3 radiance = textureLod(u_prefiltered, l, filtered_lod(1.0 / (float(count) * pdf))).rgb;

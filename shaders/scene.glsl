@@ -10,6 +10,20 @@ uniform float u_radius;        // sphere radius
 uniform float u_spacing;       // centre-to-centre distance
 uniform float u_ground_y;      // height of the ground plane
 
+#if STAGE_PROBE
+// The stage probe (stage_probe_main.glsl) sees the stage from the sphere's centre (cells) or
+// the grid's centre (shared); a ray from a surface point that meets the floor meets it
+// elsewhere. Reading the probe towards that floor point instead corrects the parallax (exact
+// for the floor's own position).
+vec3 g_shading_point = vec3(0.0);   // set by shade_point
+
+vec3 stage_parallax(vec3 dir) {
+    if (dir.y >= 0.0) return dir;   // the environment, at infinity
+    vec3 q = g_shading_point + dir * ((u_ground_y - g_shading_point.y) / dir.y);
+    return normalize(q);
+}
+#endif
+
 #if STAGE == cells
 // The cells stage: every cell is one scene seen by one camera, a sphere at the origin resting
 // on its own floor; g_cell is the cell the current pixel shows (it picks the material).
@@ -40,17 +54,6 @@ float sdf_spheres(vec3 p, out ivec2 cell) {
 
 // The cell a pixel (GL coordinates) shows, and the pixel moved into that cell's own frame;
 // cells are whole pixels wide, so every cell computes exactly the same rays.
-
-// The stage probe (stage_probe_main.glsl) sees the stage from the sphere's centre; a ray from
-// a surface point that meets the floor meets it elsewhere. Reading the probe towards that
-// floor point instead corrects the parallax (exact for the floor's own position).
-vec3 g_shading_point = vec3(0.0);   // set by shade_point
-
-vec3 stage_parallax(vec3 dir) {
-    if (dir.y >= 0.0) return dir;   // the environment, at infinity
-    vec3 q = g_shading_point + dir * ((u_ground_y - g_shading_point.y) / dir.y);
-    return normalize(q);
-}
 
 vec2 cell_pixel(vec2 pixel, out ivec2 cell) {
     ivec2 index;

@@ -34,7 +34,7 @@ float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at
 
 vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
                  float light_specular, bool blocked) {
-#if STAGE == cells
+#if STAGE_PROBE
     g_shading_point = p;   // for the probe's parallax correction
 #endif
     Material m = ground ? ground_material() : cell_material(cell, n_geo);

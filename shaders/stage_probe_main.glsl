@@ -4,11 +4,13 @@
 #include "surface_shading.glsl"
 #include "cubemap.glsl"
 
-// The stage probe of the cells stage: the radiance a cell's sphere sees from its centre, for
-// its IBL. Above the floor's plane, the environment; below, its own floor as the chart shades
-// it (lit by the environment's IBL and the lights, darkened by the sphere's occlusion and
-// shadow). Every cell has the same stage, so one probe lights every sphere; the probe is then
-// GGX-prefiltered and projected to SH9 like the environment.
+// The stage probe: the radiance seen from the origin, for the spheres' IBL. Above the floor's
+// plane, the environment; below, the floor as the chart shades it (lit by the environment's
+// IBL and the lights, darkened by the spheres' occlusion and shadows). Cells stage: the origin
+// is every cell's sphere's centre, so one probe lights every sphere. Shared stage: the origin
+// is the grid's centre, and each sphere reads the probe towards the floor point its ray meets
+// (scene.glsl stage_parallax): the floor and its shadows where they are, seen from elsewhere.
+// The probe is then GGX-prefiltered and projected to SH9 like the environment.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform writeonly imageCube u_target;
 uniform int u_size;
@@ -20,7 +22,7 @@ void main() {
     vec3 radiance = env_radiance(d);
 #if HAS_GROUND
     if (d.y < 0.0) {
-        vec3 p = d * (u_ground_y / d.y);   // the floor point seen from the sphere's centre
+        vec3 p = d * (u_ground_y / d.y);   // the floor point seen from the origin
         // Footprint of a probe texel on the floor: its angular size times the distance.
         float pixel_size = length(p) * 2.0 / float(u_size);
         radiance = shade_ground(p, -d, pixel_size);

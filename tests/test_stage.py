@@ -306,3 +306,34 @@ def test_sphere_plate_averages_a_small_sphere_over_the_pixel_box(session, monkey
     assert inside.sum() > 0.2 * inside.size
     error = lambda r: np.abs(r.hdr - box.hdr)[inside].mean()
     assert error(averaged) < 0.5 * error(centre)
+
+
+def test_the_shared_stage_reflects_its_floor_not_the_environment_below(session):
+    """On the shared stage a mirror sphere's lower half shows the floor, as the reference's rays
+    do, not the environment below the horizon. Under a uniform sky of radiance 1 (no lights, no
+    occlusion) the floor's radiance is its albedo 0.18 plus a little specular, while the sky
+    below the horizon is 1: pixels whose normals point steeply down (their mirror rays meet the
+    floor) must read the floor's radiance, within 20 % (the floor's specular depends on the view:
+    the camera's and the sphere's differ), where they read 1.0 before the shared stage had a probe."""
+    from sdfpbr.api import chart
+    from sdfpbr.shading.plan import render_plan
+    # The probe wherever there is a floor to see (either stage); none without one, where the
+    # spheres read the environment itself (no parallax towards a floor that is not there).
+    for stage in ("shared", "cells"):
+        assert render_plan(make_spec(stage=stage)).ibl.stage_probe is not None
+        plan = render_plan(make_spec(stage=stage, ground=False))
+        assert plan.ibl.stage_probe is None and "stage_parallax" not in plan.chart.text
+    spec = make_spec(stage="shared", rows=2, cols=2, width=128, height=128, env="uniform", lights="none",
+                     ao=False, shadows=False, roughness=(0.0, 0.0), metallic=(1.0, 1.0),
+                     base_color=(1.0, 1.0, 1.0), tonemap="none")
+    c = chart(spec, hdr=True, aovs=True, session=session)
+    lum = c.hdr.mean(-1)
+    sphere = c.aov["row"] >= 0
+    down = sphere & (c.aov["normal"][..., 1] < -0.6)
+    up = sphere & (c.aov["normal"][..., 1] > 0.6)
+    floor = ~sphere & np.isfinite(c.aov["depth"])
+    assert down.sum() > 100 and floor.sum() > 1000
+    floor_radiance = lum[floor].mean()
+    assert 0.18 <= floor_radiance <= 0.28
+    assert 0.8 * floor_radiance <= lum[down].mean() <= 1.2 * floor_radiance
+    assert lum[up].mean() == pytest.approx(1.0, abs=0.01)   # the sky above: white furnace

@@ -285,8 +285,8 @@ class AOVBuffers:
     def write(self, where: tuple[slice, slice], normal_depth: np.ndarray, cells: np.ndarray) -> None:
         self.normal[where] = normal_depth[..., :3]
         self.depth[where] = normal_depth[..., 3]
-        self.col[where] = np.rint(cells[..., 0])
-        self.row[where] = np.rint(cells[..., 1])
+        np.rint(cells[..., 0], out=self.col[where], casting="unsafe")   # no float temporaries
+        np.rint(cells[..., 1], out=self.row[where], casting="unsafe")
         self.ndotv[where] = cells[..., 2]
         self.coverage[where] = cells[..., 3]
 

@@ -329,8 +329,9 @@ class IBLBaker:
     def stage_lighting(self, plan: IBLPlan, probe: ComposedSource, environment: EnvironmentLighting,
                        scene_textures: list, scene_uniforms: dict, env: Environment,
                        depends_on: tuple = ()) -> EnvironmentLighting:
-        """The cells stage's probe (the radiance a sphere sees from its centre: the environment
-        above, its own lit floor below), prefiltered and projected like the environment. The
+        """The stage probe (the radiance seen from a sphere's centre on the cells stage, from the
+        grid's on the shared one: the environment above, the lit floor below), prefiltered and
+        projected like the environment. The
         floor is shaded with the environment's lighting and the scene's textures (DFG LUT,
         ground table, environment map), which the probe program reads; ``depends_on``: the
         keys of baked inputs among them."""

@@ -128,7 +128,7 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
                 ground = session.ibl.ground_table(plan, lighting, dfg, scene.uniforms)
                 scene.add_texture("u_ground_ibl", ground.texture)
                 baked.append(ground.key)
-            if plan.ibl.stage_probe is not None:   # cells stage: spheres and floor see the stage
+            if plan.ibl.stage_probe is not None:   # the spheres see the stage (its floor), not the sky below
                 lighting = session.ibl.stage_lighting(plan.ibl, plan.ibl.stage_probe, lighting, scene.textures,
                                                       scene.uniforms, scene.environment, tuple(baked))
             scene.uniforms.update(lighting.uniforms())

@@ -43,7 +43,7 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE") + MAP_OPTIONS,
+           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE") + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "SPHERE_SAMPLES"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
@@ -202,6 +202,10 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
     opts.update(bug_options(spec, "chart"))
+    # The spheres' IBL sees the stage: a probe of the environment above and the lit floor below
+    # (stage_probe_main.glsl), prefiltered like the environment. Not under the few-tap bug,
+    # which reads the environment itself.
+    opts["STAGE_PROBE"] = opts["HAS_GROUND"] and opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False)
     # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
     # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
     # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The
@@ -251,11 +255,11 @@ class IBLPlan:
     size: int                     # prefiltered cube edge
     samples: int                  # prefilter samples per texel
     sh_size: int                  # cube edge the SH projection reads
-    stage_probe: ComposedSource | None = None   # cells stage: the stage seen from a sphere's centre
+    stage_probe: ComposedSource | None = None   # STAGE_PROBE: the stage from a sphere's or the grid's centre
     levels: int = 0               # prefiltered levels, lod = r (levels - 1); 0: down to 4 x 4
     ground_table: ComposedSource | None = None  # the ground's IBL per view direction (GROUND_IBL)
     ground_table_size: int = 0    # its edge in texels
-    turn_probe: ComposedSource | None = None    # cells stage: a light orbit's probe from the first frame's
+    turn_probe: ComposedSource | None = None    # with a stage probe: a light orbit's probe from the first frame's
 
     def sources(self) -> list[ComposedSource]:
         out = [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
@@ -336,9 +340,9 @@ def prefilter_levels(q: Quality) -> int:
 
 
 def _stage_probe(chart: dict) -> ComposedSource | None:
-    """The cells stage lights its spheres with a probe of the stage (environment + its own
-    floor); the floor's shading is the chart's, without the spheres' textures."""
-    if chart["STAGE"] != "cells" or not chart["HAS_GROUND"]:
+    """The spheres' IBL is a probe of the stage (environment + the lit floor); the floor's
+    shading is the chart's, without the spheres' textures."""
+    if not chart["STAGE_PROBE"]:
         return None
     return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False, "SHADOW_CATCHER": False})
 
@@ -372,7 +376,7 @@ def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
     if not chart.get("GROUND_IBL"):
         return None
     return compose_program("ground_ibl_main.glsl", {
-        "STAGE": "shared", "SCENE_SDF": "nearest_cell", "HAS_GROUND": True, "USE_TEXTURES": False,
+        "STAGE": "shared", "SCENE_SDF": "nearest_cell", "HAS_GROUND": True, "USE_TEXTURES": False, "STAGE_PROBE": False,
         "BRDF_MODEL": chart["BRDF_MODEL"], "MULTISCATTER": chart["MULTISCATTER"],
         "IBL_METHOD": "sampled", "IBL_PIXEL_SAMPLES": q.ground_ibl_samples,
         "IBL_DOMINANT_DIR": "none", "IBL_TWO_LOBE": False})
