@@ -105,6 +105,15 @@ vec3 ibl_mix(Material m, vec3 dfg, vec3 mean_a, vec3 mean_b, vec3 irradiance_ove
 // becomes a narrower core plus a share w of the widest level read along N. The core's scale
 // and w are least-squares fits (per roughness, then these ramps) of the float64 lobe average
 // under random three-lobe environments, not the test environment.
+// The sky's irradiance / pi the spheres' diffuse reads (sampled: the r = 1 level, below).
+vec3 ibl_irradiance_over_pi(vec3 n) {
+#if IBL_METHOD == sampled
+    return textureLod(u_prefiltered, n, u_prefiltered_lods).rgb;
+#else
+    return sh_irradiance(n) * INV_PI;
+#endif
+}
+
 vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     SpecularLookup look = specular_lookup(n, v, n_dot_v, m.perceptual_roughness, m.alpha);
 #if IBL_TWO_LOBE
@@ -126,6 +135,6 @@ vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 // ibl_sampled.glsl, and the irradiance read from the r = 1 level (see ibl_sampled.glsl).
 vec3 shade_ibl_sampled(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     SampledSpecular s = sampled_specular(n, v, n_dot_v, m.alpha);
-    return ibl_mix(m, dfg, s.mean_a, s.mean_b, textureLod(u_prefiltered, n, u_prefiltered_lods).rgb);
+    return ibl_mix(m, dfg, s.mean_a, s.mean_b, ibl_irradiance_over_pi(n));
 }
 #endif

@@ -17,11 +17,13 @@ uniform float u_ground_y;      // height of the ground plane
 // for the floor's own position).
 vec3 g_shading_point = vec3(0.0);   // set by shade_point
 
-vec3 stage_parallax(vec3 dir) {
+vec3 stage_parallax_from(vec3 point, vec3 dir) {
     if (dir.y >= 0.0) return dir;   // the environment, at infinity
-    vec3 q = g_shading_point + dir * ((u_ground_y - g_shading_point.y) / dir.y);
+    vec3 q = point + dir * ((u_ground_y - point.y) / dir.y);
     return normalize(q);
 }
+
+vec3 stage_parallax(vec3 dir) { return stage_parallax_from(g_shading_point, dir); }
 #endif
 
 #if STAGE == cells

@@ -69,6 +69,11 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #else
     vec3 ibl = !ground ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #endif
+#if NEIGHBOUR_LIGHT
+    // The base layer's specular share of the sky (without its diffuse), which the neighbours
+    // hide by their share of the lobe rather than by the AO's cosine-weighted share.
+    vec3 sky_specular = ibl - ibl_mix(m, dfg, vec3(0.0), vec3(0.0), ibl_irradiance_over_pi(n));
+#endif
 #if LAYERED_IBL
     if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl);
 #endif
@@ -83,6 +88,13 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     } else
 #endif
     ibl *= ao;
+#endif
+#if NEIGHBOUR_LIGHT
+    if (!ground) {   // the neighbours hide their share of the sky and give their own light there
+        NeighbourLight near = neighbour_light(p, n, reflect(-v, n), m.alpha, cell);
+        ibl += sky_specular * (1.0 - min(near.lobe_share, 1.0) - ao)
+             + ibl_mix(m, dfg, near.specular, near.specular, near.irradiance_over_pi);
+    }
 #endif
 #if USE_TEXTURES
     ibl *= occlusion;   // the ORM occlusion darkens indirect light only

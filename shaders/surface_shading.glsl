@@ -28,4 +28,7 @@
 #if USE_SHADOWS
 #include "shadow.glsl"
 #endif
+#if NEIGHBOUR_LIGHT
+#include "neighbours.glsl"
+#endif
 #include "shade.glsl"

@@ -20,8 +20,9 @@ def _options(spec):
 
 
 # Options a bug turns off by what it removes: the few-tap path has no prefiltered environment,
-# from which the ground's IBL table is baked.
-IMPLIED_OPTIONS = {"fewtap-ibl": {"GROUND_IBL"}}
+# from which the ground's IBL table and the stage probe are baked and which the shared stage's
+# neighbours' light reads.
+IMPLIED_OPTIONS = {"fewtap-ibl": {"GROUND_IBL", "STAGE_PROBE", "NEIGHBOUR_LIGHT"}}
 
 
 @pytest.mark.parametrize("name", list(BUGS))
@@ -54,10 +55,15 @@ def _cell_flip(session, correct, buggy):
 @pytest.mark.requires_extra("flip_evaluator")
 def test_bug_changes_the_image(session, name):
     bug = BUGS[name]
+    if name in NOT_YET_VISIBLE:
+        # A few specks on the rims at this size: the image changes beyond the rounding two
+        # programs may differ by (1 level of 8 bits), in some pixel, by a visible step.
+        a, b = session.render(bug.correct(BASE)), session.render(bug.apply(BASE))
+        step = np.abs(a.image[..., :3].astype(int) - b.image[..., :3].astype(int)).max()
+        assert step > 8, f"{name}: largest change {step} levels"
+        return
     cells = _cell_flip(session, bug.correct(BASE), bug.apply(BASE))
-    # Small, local defects (specks on rims) get a lower bar than whole-image ones.
-    threshold = 0.004 if name == "unclamped-ndotv" else 0.02
-    assert np.nanmax(cells) > threshold, f"{name}: largest per-cell FLIP {np.nanmax(cells):.4f}"
+    assert np.nanmax(cells) > 0.02, f"{name}: largest per-cell FLIP {np.nanmax(cells):.4f}"
 
 
 # Bugs whose own scene does not yet make them visible at chart size (their note says why).
@@ -111,17 +117,23 @@ PROGRAM_RTOL = 256 * 2.0 ** -24
 
 
 def test_bugs_leave_unaffected_spheres_alone(session):
-    # Radiance, not FLIP: FLIP's spatial filter spreads a neighbour's error into a cell.
+    # Radiance, not FLIP: FLIP's spatial filter spreads a neighbour's error into a cell. On the
+    # cells stage, where a sphere sees no other (on the shared one it reflects its neighbours,
+    # whose light a bug changes too).
+    cells = make_spec(BASE, stage="cells")
     # A metal has no diffuse body: the bug touches metallic rows, not the dielectric row 0.
-    change = _cell_hdr_change(session, BASE, BUGS["metal-diffuse"].apply(BASE))
-    rel = _cell_hdr_change(session, BASE, BUGS["metal-diffuse"].apply(BASE), relative=True)
+    change = _cell_hdr_change(session, cells, BUGS["metal-diffuse"].apply(cells))
+    rel = _cell_hdr_change(session, cells, BUGS["metal-diffuse"].apply(cells), relative=True)
     assert rel[0].max() <= PROGRAM_RTOL and change[-1].min() > 0.05
-    # alpha = r and alpha = r^2 agree at r = 1 (the last column) and nowhere else.
-    change = _cell_hdr_change(session, BASE, BUGS["unsquared-roughness"].apply(BASE))
-    rel = _cell_hdr_change(session, BASE, BUGS["unsquared-roughness"].apply(BASE), relative=True)
+    # alpha = r and alpha = r^2 agree at r = 1 (the last column) and nowhere else. With no floor:
+    # the bug also roughens the floor (r = 0.8), which every sphere sees in its reflections.
+    sky = make_spec(BASE, ground=False, ao=False)
+    change = _cell_hdr_change(session, sky, BUGS["unsquared-roughness"].apply(sky))
+    rel = _cell_hdr_change(session, sky, BUGS["unsquared-roughness"].apply(sky), relative=True)
     assert rel[:, -1].max() <= PROGRAM_RTOL and change[:, :-1].min() > 0.01
-    # AO on direct light: only where a neighbour occludes, never on an isolated sphere.
-    lone = make_spec(BASE, rows=1, cols=1)
+    # AO on direct light: only where a neighbour occludes, never on an isolated sphere (with no
+    # floor: the bug darkens the floor's sun by the sphere's occlusion, and the sphere sees it).
+    lone = make_spec(BASE, rows=1, cols=1, ground=False)
     bug = BUGS["ao-on-direct"]
     change = _cell_hdr_change(session, bug.correct(lone), bug.apply(lone))
     assert change.max() < 1e-5   # ao = 1: only float rounding of (c - ibl) * 1 + ibl

@@ -43,7 +43,8 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE") + MAP_OPTIONS,
+           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT")
+    + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "SPHERE_SAMPLES"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
@@ -206,6 +207,10 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     # (stage_probe_main.glsl), prefiltered like the environment. Not under the few-tap bug,
     # which reads the environment itself.
     opts["STAGE_PROBE"] = opts["HAS_GROUND"] and opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False)
+    # The shared stage's neighbours give back their own light where the analytic AO takes the
+    # sky away (neighbours.glsl); on the cells stage a sphere has none.
+    opts["NEIGHBOUR_LIGHT"] = (opts["STAGE"] == "shared" and opts["USE_AO"] and opts.get("AO_METHOD") == "analytic"
+                               and not opts.get("BUG_FEWTAP_IBL", False))
     # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
     # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
     # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The
