@@ -265,6 +265,8 @@ def furnace_error(hdr, aov, spec: ChartSpec, table: FurnaceTable) -> tuple[float
         bad += int((rel > (HALF_EPS if half else 1e-6)).any(-1).sum())
         tested += int(background.sum())
     surf = interior_mask(ids) & (aov["ndotv"] >= FURNACE_MIN_NDOTV)
+    if spec.ground:   # the spheres see the floor below them (a stage probe): no furnace for them
+        surf &= ids < 0
     if not surf.any():
         return worst, bad, tested
     # The expectation at every surface pixel (spheres: their row and column; ground: its own).
