@@ -209,8 +209,8 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     opts["STAGE_PROBE"] = opts["HAS_GROUND"] and opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False)
     # The shared stage's neighbours give back their own light where the analytic AO takes the
     # sky away (neighbours.glsl); on the cells stage a sphere has none.
-    opts["NEIGHBOUR_LIGHT"] = (opts["STAGE"] == "shared" and opts["USE_AO"] and opts.get("AO_METHOD") == "analytic"
-                               and not opts.get("BUG_FEWTAP_IBL", False))
+    opts["NEIGHBOUR_LIGHT"] = (q.neighbour_light and opts["STAGE"] == "shared" and opts["USE_AO"]
+                               and opts.get("AO_METHOD") == "analytic" and not opts.get("BUG_FEWTAP_IBL", False))
     # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
     # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
     # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The

@@ -115,6 +115,7 @@ class Quality:
     ground_ibl_samples: int = 1024
     floor_plate: bool = True         # cells stage: the floor's static light shaded once per cell pixel
     sphere_plate: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
+    neighbour_light: bool = True     # shared stage: the nearest spheres' light in each sphere's (2x the draw)
     # ... averaging n x n points of each pixel's box where the sphere is small: n = round(this /
     # its radius in px), 1 to 4 (0: one point). 40: 3 on the 256² chart's 16-px spheres, where
     # the key light's 6° highlight is under a pixel wide; 1 from 27 px.
@@ -130,7 +131,8 @@ class Quality:
 QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16, sphere_samples_radius=0,
-                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, ground_ibl_size=64),
+                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, ground_ibl_size=64,
+                     neighbour_light=False),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
                     ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048,
