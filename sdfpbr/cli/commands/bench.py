@@ -6,7 +6,8 @@ import argparse
 
 EPILOG = """\
 columns:
-  render ms   chart program draw at full size, median of --repeats after a warm-up; each draw
+  render ms   a frame's draws at full size (the stage's plates and the chart program), median
+              of --repeats after a warm-up; each frame
               between ctx.finish() calls on the wall clock (a GL timer query where it measures
               execution; llvmpipe's does not). '±' is the median absolute deviation.
   compile ms  link of a never-seen program plus its first draw (llvmpipe JIT-compiles there)
@@ -16,8 +17,8 @@ columns:
   FLIP        mean LDR FLIP of the display image vs the reference, whole frame; FLIPsph over
               sphere pixels
   relRMSE     relative RMSE of linear radiance over sphere pixels, sqrt(mean((t-r)^2/(r^2+0.01)))
-scenes: default (5x5 chart), grid3x3, grid10x10 (same size), bare (no ground, shadows, AO),
-  furnace (white spheres, uniform env, no lights or ground).
+scenes:
+{scenes}
 --ablation adds rows 'ablation:<feature>' (one feature off on the default scene; 'code gone'
   when no identifier of the feature is left in the source) and 'absent:<case>' (a feature the
   scene cannot use must compose to the same source and time as leaving it out); these are timed
@@ -33,14 +34,16 @@ def _list(text: str) -> list[str]:
 
 def register(subparsers) -> None:
     from ..main import SEED
+    from ...tools.bench.suite import SCENE_NOTES, available_presets   # the suite's own lists
+    scenes = "\n".join(f"  {name:10s}  {note}" for name, note in SCENE_NOTES.items())
     p = subparsers.add_parser("bench", help="time and error of each quality preset over a scene suite",
                               description="Benchmark render time, compile time, cold start and error "
                                           "against the reference renderer.",
-                              epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+                              epilog=EPILOG.format(scenes=scenes), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true",
                    help="CI size: 256x256, scenes default,bare, presets draft,default, 3 repeats, 16-sample references")
-    p.add_argument("--scenes", type=_list, metavar="A,B", help="default, grid3x3, grid10x10, bare, furnace (default: all)")
-    p.add_argument("--presets", type=_list, metavar="A,B", help="draft, default, high, seed002 (default: all)")
+    p.add_argument("--scenes", type=_list, metavar="A,B", help=f"{', '.join(SCENE_NOTES)} (default: all)")
+    p.add_argument("--presets", type=_list, metavar="A,B", help=f"{', '.join(available_presets())} (default: all)")
     p.add_argument("--size", metavar="WxH", help="render size (default 1024x1024)")
     p.add_argument("--repeats", type=int, metavar="N", help="timed draws per row (default 5)")
     p.add_argument("--warmup", type=int, metavar="N", help="untimed draws first (default 1)")
