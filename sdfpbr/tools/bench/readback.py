@@ -13,7 +13,9 @@ import time
 
 import numpy as np
 
-DTYPES = {"f1": np.uint8, "f2": np.float16, "f4": np.float32}
+from ...gpu.frame import GL_DTYPES
+
+DTYPES = {code: dtype.type for dtype, code in GL_DTYPES.items()}   # "f1" -> np.uint8, ...
 
 
 def probe(ctx, size: int, dtype: str, repeats: int = 15) -> dict[str, float]:

@@ -20,7 +20,7 @@ from typing import Callable
 from ... import __version__
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
-from .entries import Item, collect
+from .entries import Item, collect, spec_identity
 from .images import ImageCache, Rendered, checkpoint, render_item, write_file
 from .keys import gl_renderers, item_keys
 from .page import gallery_html
@@ -61,8 +61,7 @@ def work_groups(items: list[Item]) -> list[list[Item]]:
     first: dict[str, int] = {}       # a spec's text -> the first item that renders it
     for i, item in enumerate(items):
         for spec in item.specs:
-            text = json.dumps(spec.to_dict(), sort_keys=True, default=str)
-            parent[root(i)] = root(first.setdefault(text, i))
+            parent[root(i)] = root(first.setdefault(spec_identity(spec), i))
     groups: dict[int, list[Item]] = {}
     for i, item in enumerate(items):
         groups.setdefault(root(i), []).append(item)

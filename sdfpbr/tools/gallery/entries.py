@@ -34,6 +34,11 @@ class Item:
         return json.dumps(self.document, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
 
 
+def spec_identity(spec: ChartSpec) -> str:
+    """A spec as canonical JSON text: two specs with the same text render the same chart."""
+    return json.dumps(spec.to_dict(), sort_keys=True, default=str)
+
+
 def _catalog():
     try:
         from ...spec import bugs
@@ -140,7 +145,7 @@ def _compare_items(data, table, base, caption, where, base_dir, stem) -> list[It
     else:
         raise SpecError(f"{where}: [compare] bugs must be \"all\", \"each\" or a list of bug names, got {names!r}")
     specs = [s for bug in chosen for s in _bug_specs(base, bug.name)]
-    unique = tuple({json.dumps(s.to_dict(), sort_keys=True, default=str): s for s in specs}.values())
+    unique = tuple({spec_identity(s): s for s in specs}.values())
     default = caption or "Every bug of the catalog against the correct chart."
     return [Item(stem, where, "bug-sheet", data, unique, default,
                  {"bugs": [b.name for b in chosen], "spec": overrides}, base,
