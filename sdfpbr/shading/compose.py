@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import stat
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -137,6 +138,71 @@ class ComposedSource:
 
 
 _TOKEN = re.compile(r"\s*(?:(?P<num>\d+(?:\.\d*)?)|(?P<name>[A-Za-z_]\w*)|(?P<op>==|!=|>=|<=|&&|\|\||[()!<>]))")
+_DIRECTIVE = re.compile(r"\s*#\s*(if|elif|else|endif|include)\b\s*(.*)")
+
+
+@dataclass(frozen=True)
+class _Module:
+    """A module's text split once into directives and runs of plain lines:
+    (line number, directive kind or None, its argument or the run's lines)."""
+    items: tuple[tuple[int, str | None, object], ...]
+
+
+# Parsed modules by path, with the (mtime, size) they were read at: every compose walks the
+# same few dozen files, and splitting them line by line was most of a compose's time.
+_parsed: dict[str, tuple[tuple[int, int], _Module]] = {}
+
+
+def _module(path: str) -> _Module | None:
+    """The parsed module at ``path``; None if there is no such file."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    if not stat.S_ISREG(st.st_mode):
+        return None
+    stamp = (st.st_mtime_ns, st.st_size)
+    hit = _parsed.get(path)
+    if hit is not None and hit[0] == stamp:
+        return hit[1]
+    items: list[tuple[int, str | None, object]] = []
+    run: list[str] = []
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().splitlines()
+    for lineno, line in enumerate(lines, start=1):
+        directive = _DIRECTIVE.match(line)
+        if directive:
+            if run:
+                items.append((lineno - len(run), None, tuple(run)))
+                run = []
+            items.append((lineno, directive.group(1), directive.group(2).strip()))
+        else:
+            run.append(line)
+    if run:
+        items.append((lineno - len(run) + 1, None, tuple(run)))
+    module = _Module(tuple(items))
+    _parsed[path] = (stamp, module)
+    return module
+
+
+_tokens_of: dict[str, tuple[tuple[str, str], ...]] = {}
+_evaluated: dict[str, bool] = {}   # a condition with its options substituted -> its value
+
+
+def _tokens(expr: str, where: str) -> tuple[tuple[str, str], ...]:
+    """A condition's tokens as (kind, text), kind num / name / op; parsed once per text."""
+    tokens = _tokens_of.get(expr)
+    if tokens is None:
+        out = []
+        text, pos = expr.split("//")[0].strip(), 0
+        while pos < len(text):
+            m = _TOKEN.match(text, pos)
+            if not m or m.end() == pos:
+                raise ValueError(f"{where}: cannot parse condition {expr.split('//')[0].strip()!r}")
+            pos = m.end()
+            out.append(next((kind, value) for kind, value in m.groupdict().items() if value is not None))
+        tokens = _tokens_of[expr] = tuple(out)
+    return tokens
 
 
 class _Preprocessor:
@@ -150,18 +216,12 @@ class _Preprocessor:
 
     def condition(self, expr: str, where: str) -> bool:
         python: list[str] = []
-        pos = 0
-        expr = expr.split("//")[0].strip()
         last_option: str | None = None
-        while pos < len(expr):
-            m = _TOKEN.match(expr, pos)
-            if not m or m.end() == pos:
-                raise ValueError(f"{where}: cannot parse condition {expr!r}")
-            pos = m.end()
-            if m.group("num"):
-                python.append(m.group("num"))
-            elif m.group("name"):
-                name = m.group("name")
+        for kind, value in _tokens(expr, where):
+            if kind == "num":
+                python.append(value)
+            elif kind == "name":
+                name = value
                 if name in self.schema.switches and name not in self.options:
                     python.append("False")   # a switch is off unless the caller sets it
                 elif name.isupper() or name in self.options:
@@ -176,55 +236,56 @@ class _Preprocessor:
                                          f"(allowed {', '.join(allowed)})")
                     python.append(repr(name))
             else:
-                op = m.group("op")
-                python.append({"&&": " and ", "||": " or ", "!": " not "}.get(op, op))
-        return bool(eval("".join(python), {"__builtins__": {}}, {}))  # tokens vetted above
+                python.append({"&&": " and ", "||": " or ", "!": " not "}.get(value, value))
+        text = "".join(python)
+        value = _evaluated.get(text)
+        if value is None:
+            value = _evaluated[text] = bool(eval(text, {"__builtins__": {}}, {}))  # tokens vetted above
+        return value
 
     def include(self, name: str, where: str) -> None:
         if name in self.modules:
             return
-        path = self.root / name
-        if not path.is_file():
+        module = _module(os.path.join(self.root, name))
+        if module is None:
             raise ValueError(f"{where}: no shader module {name}")
         self.modules.append(name)
         index = len(self.modules)
         stack: list[list[bool]] = []   # [active, a branch was taken]
-        for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+        active = True
+        for lineno, kind, rest in module.items:
             where_here = f"{name}:{lineno}"
-            stripped = line.strip()
-            active = all(frame[0] for frame in stack)
-            directive = re.match(r"#\s*(if|elif|else|endif|include)\b\s*(.*)", stripped)
-            if directive:
-                kind, rest = directive.groups()
-                if kind == "if":
-                    taken = active and self.condition(rest, where_here)
-                    stack.append([taken, taken])
-                elif kind == "elif":
-                    if not stack:
-                        raise ValueError(f"{where_here}: #elif without #if")
-                    outer = all(frame[0] for frame in stack[:-1])
-                    take = outer and not stack[-1][1] and self.condition(rest, where_here)
-                    stack[-1] = [take, stack[-1][1] or take]
-                elif kind == "else":
-                    if not stack:
-                        raise ValueError(f"{where_here}: #else without #if")
-                    outer = all(frame[0] for frame in stack[:-1])
-                    stack[-1] = [outer and not stack[-1][1], True]
-                elif kind == "endif":
-                    if not stack:
-                        raise ValueError(f"{where_here}: #endif without #if")
-                    stack.pop()
-                elif active:
-                    target = re.match(r'"([^"]+)"', rest)
-                    if not target:
-                        raise ValueError(f"{where_here}: malformed #include {rest!r}")
-                    self.include(target.group(1), where_here)
+            if kind is None:
+                if active:
+                    if self._next != (index, lineno):
+                        self.out.append(f"#line {lineno} {index}")
+                    self.out.extend(rest)
+                    self._next = (index, lineno + len(rest))
                 continue
-            if active:
-                if self._next != (index, lineno):
-                    self.out.append(f"#line {lineno} {index}")
-                self.out.append(line)
-                self._next = (index, lineno + 1)
+            if kind == "if":
+                taken = active and self.condition(rest, where_here)
+                stack.append([taken, taken])
+            elif kind == "elif":
+                if not stack:
+                    raise ValueError(f"{where_here}: #elif without #if")
+                outer = all(frame[0] for frame in stack[:-1])
+                take = outer and not stack[-1][1] and self.condition(rest, where_here)
+                stack[-1] = [take, stack[-1][1] or take]
+            elif kind == "else":
+                if not stack:
+                    raise ValueError(f"{where_here}: #else without #if")
+                outer = all(frame[0] for frame in stack[:-1])
+                stack[-1] = [outer and not stack[-1][1], True]
+            elif kind == "endif":
+                if not stack:
+                    raise ValueError(f"{where_here}: #endif without #if")
+                stack.pop()
+            elif active:
+                target = re.match(r'"([^"]+)"', rest)
+                if not target:
+                    raise ValueError(f"{where_here}: malformed #include {rest!r}")
+                self.include(target.group(1), where_here)
+            active = all(frame[0] for frame in stack)
         if stack:
             raise ValueError(f"{name}: unterminated #if")
 
@@ -236,10 +297,10 @@ _composed: dict[tuple, tuple[ComposedSource, tuple, OptionSchema]] = {}
 
 
 def _stamps(root: Path, modules: tuple[str, ...]) -> tuple:
-    stamps = []
+    stamps, root = [], str(root)
     for name in modules:
         try:
-            st = (root / name).stat()
+            st = os.stat(os.path.join(root, name))
         except OSError:
             return ()
         stamps.append((st.st_mtime_ns, st.st_size))
