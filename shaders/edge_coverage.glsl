@@ -1,15 +1,30 @@
-// Analytic anti-aliasing of the cells stage's sphere (ANALYTIC_AA): the pixel box the
+// Analytic anti-aliasing of the spheres (ANALYTIC_AA): the pixel box the
 // reference integrates, split at the sphere's silhouette. Across one pixel the silhouette
 // distance s (distance of the ray from the sphere's centre minus the radius) is linear in the
 // pixel coordinates to well under 1 %, so the covered fraction of the box is the probability
 // that s(centre) + U_a + U_b < 0, U_a, U_b uniform of widths |ds/dx|, |ds/dy|: the CDF of a
 // trapezoid. Edge pixels shade one ray on each side of the silhouette and blend them by it.
 
-// Distance of the ray through `pixel` (cell frame) from the sphere at the origin, minus R.
-float silhouette_distance(vec2 pixel) {
+#if STAGE == cells
+// The cell's sphere, at the origin of the cell frame.
+vec3 silhouette_centre(vec2 pixel) { return vec3(0.0); }
+#else
+// The shared stage: the sphere nearest where the ray through `pixel` crosses the spheres'
+// plane z = 0 (the spheres never overlap on the image, so it is the one whose edge is near).
+vec3 silhouette_centre(vec2 pixel) {
     vec3 rd;
     vec3 ro = camera_ray(2.0 * pixel / u_resolution - 1.0, rd);
-    return length(cross(-ro, rd)) - u_radius;   // |centre - ro| sin(angle to the centre)
+    float t = abs(rd.z) > 1e-6 ? max(-ro.z / rd.z, 0.0) : 0.0;
+    return cell_center(nearest_cell(ro + rd * t));
+}
+#endif
+
+// Distance of the ray through `pixel` (cell frame on the cells stage) from the sphere at c,
+// minus R.
+float silhouette_distance(vec2 pixel, vec3 c) {
+    vec3 rd;
+    vec3 ro = camera_ray(2.0 * pixel / u_resolution - 1.0, rd);
+    return length(cross(c - ro, rd)) - u_radius;   // |centre - ro| sin(angle to the centre)
 }
 
 // P(x + U_a + U_b < 0): the share of the pixel box inside the silhouette.
@@ -31,11 +46,13 @@ struct EdgeSplit {
     vec2 outside;     // one whose ray passes beside it
 };
 
-// The split of the pixel centred at `centre` (cell frame); coverage 0 or 1 away from edges.
+// The split of the pixel centred at `centre` (cell frame on the cells stage); coverage 0 or 1
+// away from edges.
 EdgeSplit edge_split(vec2 centre) {
-    float s = silhouette_distance(centre);
-    vec2 grad = vec2(silhouette_distance(centre + vec2(1.0, 0.0)),
-                     silhouette_distance(centre + vec2(0.0, 1.0))) - s;
+    vec3 sphere = silhouette_centre(centre);
+    float s = silhouette_distance(centre, sphere);
+    vec2 grad = vec2(silhouette_distance(centre + vec2(1.0, 0.0), sphere),
+                     silhouette_distance(centre + vec2(0.0, 1.0), sphere)) - s;
     float a = abs(grad.x), b = abs(grad.y);
     float c = box_coverage(s, a, b);
     // Sample points a quarter of the box's extent along s into each side (or the centre when

@@ -94,6 +94,8 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         NeighbourLight near = neighbour_light(p, n, reflect(-v, n), m.alpha, cell);
         ibl += sky_specular * (1.0 - min(near.lobe_share, 1.0) - ao)
              + ibl_mix(m, dfg, near.specular, near.specular, near.irradiance_over_pi);
+    } else if (blocked) {   // the floor: the spheres' light where the AO took the sky away
+        ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_sphere_irradiance_over_pi(p, n));
     }
 #endif
 #if USE_TEXTURES
@@ -106,8 +108,8 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         vec3 l = u_dir_light_direction[i];
         vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single,
                                  light_specular) * u_dir_light_illuminance[i];
-#if USE_SHADOWS && STAGE == cells
-        // The ground receives every light's shadow (exact on this stage, shadow.glsl).
+#if USE_SHADOWS && (STAGE == cells || SCENE_SDF == nearest_cell)
+        // The ground receives every light's shadow (each sphere's share of the disc, shadow.glsl).
         if (ground && blocked && dot(n, l) > 0.0)
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
 #elif USE_SHADOWS
@@ -133,6 +135,10 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         if (ground && blocked)
             c *= angle <= 0.0 ? point_shadow(p + n_geo * (1e-3 * u_radius), l, dist)
                : dist > length(p) - u_radius ? soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(angle)) : 1.0;
+#elif USE_SHADOWS && SCENE_SDF == nearest_cell
+        // The spheres between the ground and the light, each hiding its share of the light's disc.
+        if (ground && blocked)
+            c *= grid_shadow(p + n_geo * (1e-3 * u_radius), l, max(angle, 1e-4), dist);
 #endif
         color += c;
     }

@@ -1,12 +1,9 @@
-#if STAGE == cells
-#include "ray_sphere.glsl"
-// The cells stage: the only occluder is the cell's sphere (radius u_radius at the origin), so
-// the visible fraction of a disc light is exact: one minus the overlap of the light's disc
-// (angular radius a) with the sphere's silhouette (angular radius s) at angular separation g,
-// over the disc's area — two circles, planar in angle (error O(a^2) for the small sun).
-float soft_shadow(vec3 ro, vec3 rd, float k) {
-    float a = atan(1.0 / k);
-    vec3 to_c = -ro;
+// The visible fraction of a disc light (angular radius a, direction rd) from ro past one sphere
+// (centre c): one minus the overlap of the light's disc with the sphere's silhouette (angular
+// radius s) at angular separation g, over the disc's area — two circles, planar in angle (error
+// O(a^2) for the small sun).
+float disc_visibility(vec3 ro, vec3 rd, float a, vec3 c) {
+    vec3 to_c = c - ro;
     float dist = length(to_c);
     float s = asin(min(u_radius / dist, 1.0));
     float g = acos(clamp(dot(to_c / dist, rd), -1.0, 1.0));
@@ -19,14 +16,66 @@ float soft_shadow(vec3 ro, vec3 rd, float k) {
     return saturate(1.0 - overlap / (PI * a * a));
 }
 
+#if STAGE == cells
+#include "ray_sphere.glsl"
+// The cells stage: the only occluder is the cell's sphere (radius u_radius at the origin), so
+// the visible fraction of a disc light is exact (disc_visibility).
+float soft_shadow(vec3 ro, vec3 rd, float k) {
+    return disc_visibility(ro, rd, atan(1.0 / k), vec3(0.0));
+}
+
 // A point light's visibility from p: whether the segment to it misses the sphere (exact).
 float point_shadow(vec3 p, vec3 l, float dist) {
     float t = ray_sphere(p, l, vec3(0.0), u_radius);
     return t > 0.0 && t < dist ? 0.0 : 1.0;
 }
+#elif SCENE_SDF == nearest_cell
+// The shared stage: the spheres stand in the plane z = 0, so a ray towards a light meets only
+// those near where it crosses the slab |z| <= radius (widened by the light's cone), up to
+// `far`; each hides a share of the light's disc (disc_visibility) and what they let through
+// multiplies, as if their silhouettes fell on the disc independently (off by h1 h2 - h12 where
+// two meet: tests/test_alpha.py).
+// The ground receives these shadows; a sphere's from its neighbours changed the default
+// scene by nothing measurable (0.0780 -> 0.0781 mean FLIP at 256²) for 4 % more draw time.
+const int MAX_SHADOW_SPHERES = 64;
+uniform float u_shadow_far;
+
+float grid_shadow(vec3 ro, vec3 rd, float a, float far) {
+    float widen = tan(a);
+    float t0 = 0.0, t1 = far;
+    if (abs(rd.z) > 1e-6) {
+        float ta = (-u_radius - ro.z) / rd.z, tb = (u_radius - ro.z) / rd.z;
+        t0 = max(min(ta, tb), 0.0);
+        t1 = min(max(ta, tb), far);
+    } else if (abs(ro.z) > u_radius) {
+        return 1.0;
+    }
+    if (t1 < t0) return 1.0;
+    vec3 e0 = ro + rd * t0, e1 = ro + rd * t1;
+    float margin = u_radius + t1 * widen;
+    vec2 half_extent = 0.5 * vec2(u_grid - 1) * u_spacing;
+    vec2 lo = (vec2(min(e0.x, e1.x), -max(e0.y, e1.y)) - margin + half_extent) / u_spacing;
+    vec2 hi = (vec2(max(e0.x, e1.x), -min(e0.y, e1.y)) + margin + half_extent) / u_spacing;
+    ivec2 first = max(ivec2(ceil(lo)), ivec2(0));
+    ivec2 last = min(ivec2(floor(hi)), u_grid - 1);
+    float visible = 1.0;
+    int tested = 0;
+    for (int j = first.y; j <= last.y; ++j)
+        for (int i = first.x; i <= last.x; ++i) {
+            if (tested >= MAX_SHADOW_SPHERES) continue;
+            visible *= disc_visibility(ro, rd, a, cell_center(ivec2(i, j)));
+            ++tested;
+        }
+    return visible;
+}
+
+float soft_shadow(vec3 ro, vec3 rd, float k) {
+    return grid_shadow(ro, rd, atan(1.0 / k), u_shadow_far);
+}
 #else
-// Soft shadows by sphere tracing towards the key light (Inigo Quilez's improved technique).
-// k = 1 / tan(angular radius) makes the penumbra match the light's size.
+// The seed's union of every sphere: soft shadows by sphere tracing towards the key light
+// (Inigo Quilez's improved technique). k = 1 / tan(angular radius) makes the penumbra match
+// the light's size.
 uniform int u_shadow_steps;
 uniform float u_shadow_far;
 

@@ -224,9 +224,10 @@ def test_split_sum_corrections_help_rough_metals(session, env_path, truth, monke
 
 def test_sampled_path_keeps_the_furnace(session):
     """Under a uniform environment the sampled path's ratio estimators return the radiance
-    itself, so `high` reads the split sum's furnace values (mirror.furnace_expected)."""
+    itself, so `high` reads the split sum's furnace values (mirror.furnace_expected). One ray
+    per pixel (no anti-aliasing): each pixel is the shading of its centre's N.V."""
     spec = make_spec(env="uniform", lights="none", ground=False, ao=False, shadows=False, rows=3, cols=5,
-                     width=160, height=96, quality="high", stage="shared", tonemap="none")
+                     width=160, height=96, quality="high", stage="shared", tonemap="none", antialias=False)
     res = session.render(spec)
     aov = res.aov
     mask = (aov["row"] >= 0) & (aov["ndotv"] >= 0.2)

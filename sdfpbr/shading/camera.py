@@ -9,7 +9,7 @@ import numpy as np
 
 from ..spec.chart_spec import ChartSpec
 from . import plan
-from .cells import CELL_FILL, cell_grid
+from .cells import CELL_FILL, cell_grid, cell_sphere_radius_px
 
 FOV_Y_DEG = 30.0
 MARGIN = 1.06
@@ -111,6 +111,35 @@ def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, i
 def frame(spec: ChartSpec) -> Camera:
     """The camera a render of ``spec`` uses: the grid's, or each cell's."""
     return frame_cell(spec) if plan.stage(spec) == "cells" else frame_grid(spec)
+
+
+def sphere_radius_px(spec: ChartSpec) -> float:
+    """About how many pixels the smallest sphere's radius spans on the image."""
+    if plan.stage(spec) == "cells":
+        return cell_sphere_radius_px(spec)
+    _, scale = frame_grid(spec).project(sphere_centers(spec).reshape(-1, 3))
+    return float(spec.sphere_radius * scale.min())
+
+
+def silhouettes_apart(spec: ChartSpec) -> bool:
+    """Whether every pixel lies near one sphere's silhouette at most: no two neighbouring
+    spheres come within a pixel of each other on the image (the cells stage's never do; the
+    shared stage's may, seen from far round or above). The analytic edge needs it."""
+    if plan.stage(spec) == "cells":
+        return True
+    centres = sphere_centers(spec)
+    px, scale = frame_grid(spec).project(centres.reshape(-1, 3))
+    if np.any(scale <= 0):
+        return False
+    px = px.reshape(spec.rows, spec.cols, 2)
+    radius = (spec.sphere_radius * scale).reshape(spec.rows, spec.cols) * 1.02   # perspective widens
+    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = (slice(0, spec.rows - dr), slice(max(0, -dc), spec.cols - max(0, dc)))
+        b = (slice(dr, spec.rows), slice(max(0, dc), spec.cols - max(0, -dc) if dc < 0 else spec.cols))
+        gap = np.linalg.norm(px[a] - px[b], axis=-1) - radius[a] - radius[b]
+        if gap.size and gap.min() < 1.0:
+            return False
+    return True
 
 
 def frame_grid(spec: ChartSpec) -> Camera:

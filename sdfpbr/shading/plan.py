@@ -100,13 +100,14 @@ def bounce_step(spec: ChartSpec) -> int:
 
 
 def sphere_samples(spec: ChartSpec) -> int:
-    """Points per pixel edge the cells stage averages inside the sphere's silhouette (the sphere
-    plate, or the chart where it shades the sphere): more where the sphere is small, as the
-    preset's sphere_samples_radius says."""
+    """Points per pixel edge a chart averages inside a sphere's silhouette (the cells stage's
+    sphere plate, or the chart where it shades the sphere): more where the spheres are small,
+    as the preset's sphere_samples_radius says."""
+    from .camera import sphere_radius_px   # camera.py reads this module's stage()
     q = quality(spec)
     if q.sphere_samples_radius <= 0:
         return 1
-    return max(1, min(4, round(q.sphere_samples_radius / max(cell_sphere_radius_px(spec), 1e-6))))
+    return max(1, min(4, round(q.sphere_samples_radius / max(sphere_radius_px(spec), 1e-6))))
 
 
 def active_bugs(spec: ChartSpec) -> tuple[str, ...]:
@@ -154,6 +155,7 @@ def chart_options(spec: ChartSpec) -> dict:
 def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     """chart_options, and the sphere plate's layout where the options use one (worked out
     once: the render needs it too)."""
+    from . import camera   # camera.py reads this module's stage()
     directional = sum(1 for light in spec.lights if light.kind == "directional")
     point = sum(1 for light in spec.lights if light.kind == "point")
     q = quality(spec)
@@ -191,10 +193,12 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
         opts.update({m.option: present[m.name] for m in MAPS})
     # The cells stage's floor shaded once per cell pixel (stage_floor_main.glsl).
     opts["FLOOR_PLATE"] = opts["STAGE"] == "cells" and spec.ground and q.floor_plate
-    # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): the cells
-    # stage's one sphere per pixel, intersected in closed form.
-    opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["STAGE"] == "cells"
-                           and opts["INTERSECT"] == "analytic")
+    # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): one sphere
+    # near each pixel (the cells stage's own, the shared stage's nearest), intersected in
+    # closed form.
+    opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["INTERSECT"] == "analytic"
+                           and (opts["STAGE"] == "cells" or opts["SCENE_SDF"] == "nearest_cell")
+                           and camera.silhouettes_apart(spec))
     opts["BOUNCE_PLATE"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
@@ -215,7 +219,8 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
     # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The
     # few-tap bug's shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
-    layout = (sphere_plate(spec) if opts["ANALYTIC_AA"] and q.sphere_plate and not opts["SEE_THROUGH"]
+    layout = (sphere_plate(spec) if opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and q.sphere_plate
+              and not opts["SEE_THROUGH"]
               and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False) else None)
     opts["SPHERE_PLATE"] = layout is not None
     # Small spheres average points of the pixel box (the plate's, or the chart's own where it
