@@ -113,6 +113,12 @@ vec3 dielectric_fresnel(Material m, float x) {
 #endif
 }
 
+// The Fresnel of m's specular layer at cos x: its metal and dielectric lobes mixed by
+// metallic, as brdf_cos mixes them (a sphere's reflection of the lights in closed form).
+vec3 sphere_fresnel(Material m, float x) {
+    return mix(dielectric_fresnel(m, x), fresnel_schlick(m.base_color_linear, x), m.metallic);
+}
+
 vec3 dielectric_f0(Material m) {
 #if KHR_SPECULAR
     return m.specular_f0;

@@ -70,8 +70,7 @@ vec3 sphere_mean_light(Material m, vec3 w, vec3 l, vec3 e) {
     float a = acos(cos_a);
     float phase = (2.0 / 3.0) * (sin(a) + (PI - a) * cos_a) / PI;
     float f_cos = sqrt(0.5 * (1.0 + cos_a));
-    vec3 specular = mix(dielectric_fresnel(m, f_cos), fresnel_schlick(m.base_color_linear, f_cos), m.metallic);
-    return ((1.0 - m.metallic) * diffuse_lobe(m, f_cos) * phase + specular * (0.25 * INV_PI)) * e;
+    return ((1.0 - m.metallic) * diffuse_lobe(m, f_cos) * phase + sphere_fresnel(m, f_cos) * (0.25 * INV_PI)) * e;
 }
 
 // A sphere seen from afar along w: the mean radiance over its disc, in closed form.
@@ -79,15 +78,15 @@ vec3 sphere_mean_light(Material m, vec3 w, vec3 l, vec3 e) {
 //   (2/3)(sin a + (pi - a) cos a) / pi of the radiance where the light falls square on
 //   (a: the phase angle, between w and l). On its specular layer: a sphere shows every normal
 //   once, so its highlight, sharp or rough, spreads the light evenly over directions as a
-//   mirror ball's does: E F / (4 pi), F at the mirror normal's angle, cos(a / 2).
+//   mirror ball's does: E F / (4 pi), F at the mirror normal's angle, cos(a / 2) (the law
+//   stage_bounce.glsl's sphere_reflected_light gives the cells stage's floor).
 // - The environment: the body's irradiance facing w, and the specular layer's mean over all
 //   directions (the irradiance's constant term / pi) with F at its mean over a mirror ball's
 //   normals (f0 + (1 - f0) / 21: Schlick's F at cos 0.456).
 // A sphere seen from close by shows less than a hemisphere: this is the far view.
 vec3 sphere_mean_radiance(ivec2 cell, vec3 w) {
     Material m = cell_material(cell, w);
-    vec3 specular_env = mix(dielectric_fresnel(m, 0.456), fresnel_schlick(m.base_color_linear, 0.456), m.metallic);
-    vec3 radiance = (1.0 - m.metallic) * diffuse_lobe(m, 1.0) * sh_irradiance(w) + specular_env * u_sh[0] * INV_PI;
+    vec3 radiance = (1.0 - m.metallic) * diffuse_lobe(m, 1.0) * sh_irradiance(w) + sphere_fresnel(m, 0.456) * u_sh[0] * INV_PI;
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i)
         radiance += sphere_mean_light(m, w, u_dir_light_direction[i], u_dir_light_illuminance[i]);

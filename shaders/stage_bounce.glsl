@@ -13,11 +13,6 @@
 #define BOUNCE_MIN_FF 1e-3   // far floor: the sphere's light is below what 8 bits show
 #define BOUNCE_FEW_FF 0.05   // below this the sphere is small in the floor's sky: its axis ray will do
 
-// Fresnel of the cell's material at cos x, metal and dielectric lobes mixed as brdf.glsl does.
-vec3 sphere_fresnel(Material m, float x) {
-    return mix(dielectric_fresnel(m, x), fresnel_schlick(m.base_color_linear, x), m.metallic);
-}
-
 // Irradiance at floor point q from the sphere's specular reflection of the punctual lights. A
 // mirror ball of radius R under illuminance E reflects intensity E R^2 F / 4 into every direction
 // u (a parallel beam spreads evenly; F at the incidence that turns l into u, cos = sqrt((1 +
