@@ -289,6 +289,35 @@ def test_floor_direct_light_matches_the_closed_form(session):
 
 # ---- CLI --------------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("env", ["studio", "sky"])
+def test_the_floor_is_darker_where_its_sphere_hides_the_brighter_sky(session, env):
+    """Environment light only: the sphere hides the sky behind it from the floor beside it, so
+    the floor on the side whose hidden sky is brighter is darker. The reference shows it (its
+    left/right ratio is more than 3 standard errors below 1); so must the chart (a cosine-
+    weighted average of the whole sky, taken away evenly, turned the studio's the wrong way
+    round, 1.02 against 0.97, and left the sky's at 0.99 against 0.92). Floor points
+    beside the sphere (|z| < R, 1.2 R to 2 R from its axis), traced here in float64."""
+    spec = make_spec(rows=1, cols=1, width=128, height=128, env=env, lights="none", labels=False)
+    radius = spec.sphere_radius
+    ro, rd, _ = cell_rays(spec, np.array([[0.5, 0.5]]))
+    ro, rd = ro[:, :, 0], rd[:, :, 0]
+    t_floor, t_sphere = floor_t(ro, rd, radius), sphere_t(ro, rd, radius)
+    p = ro + rd * t_floor[..., None]
+    dist = np.hypot(p[..., 0], p[..., 2])
+    beside = (np.isfinite(t_floor) & (t_floor < t_sphere) & (np.abs(p[..., 2]) < radius)
+              & (dist > 1.2 * radius) & (dist < 2.0 * radius))
+    left, right = beside & (p[..., 0] < 0), beside & (p[..., 0] > 0)
+    assert left.sum() > 500 and right.sum() > 500
+    ref = render_reference(spec, samples=512, seed=3, session=session)
+    lum, lum_se = luminance(ref.hdr), ref.stderr.astype(float)   # stderr: of the mean luminance
+    ratio = lum[left].mean() / lum[right].mean()
+    se = ratio * np.hypot(np.sqrt((lum_se[left] ** 2).sum()) / lum[left].sum(),
+                          np.sqrt((lum_se[right] ** 2).sum()) / lum[right].sum())
+    assert ratio < 1 - 3 * se, (ratio, se)
+    chart = luminance(session.render(spec, hdr=True).hdr)
+    assert chart[left].mean() / chart[right].mean() < 1 - 3 * se
+
+
 def test_cli_renders_the_cells_stage(tmp_path, cache_dir):
     r = subprocess.run([sys.executable, "-m", "sdfpbr", "reference", "--stage", "cells", "--size", "48x40",
                         "--rows", "2", "--cols", "2", "--samples", "2", "-o", "x.png", "--aov", "x.npz"],
