@@ -40,16 +40,19 @@ float point_shadow(vec3 p, vec3 l, float dist) {
 const int MAX_SHADOW_SPHERES = 64;
 uniform float u_shadow_far;
 
+// The stretch [t0, t1] of the ray within the slab |z| <= half_width, up to far (t0 > t1: none).
+vec2 slab_stretch(vec3 ro, vec3 rd, float half_width, float far) {
+    if (abs(rd.z) <= 1e-6) return abs(ro.z) <= half_width ? vec2(0.0, far) : vec2(1.0, 0.0);
+    float ta = (-half_width - ro.z) / rd.z, tb = (half_width - ro.z) / rd.z;
+    return vec2(max(min(ta, tb), 0.0), min(max(ta, tb), far));
+}
+
 float grid_shadow(vec3 ro, vec3 rd, float a, float far) {
     float widen = tan(a);
-    float t0 = 0.0, t1 = far;
-    if (abs(rd.z) > 1e-6) {
-        float ta = (-u_radius - ro.z) / rd.z, tb = (u_radius - ro.z) / rd.z;
-        t0 = max(min(ta, tb), 0.0);
-        t1 = min(max(ta, tb), far);
-    } else if (abs(ro.z) > u_radius) {
-        return 1.0;
-    }
+    // The cone about the ray reaches widen * t further: the slab widened by that at its far end.
+    vec2 stretch = slab_stretch(ro, rd, u_radius, far);
+    if (stretch.x <= stretch.y) stretch = slab_stretch(ro, rd, u_radius + stretch.y * widen, far);
+    float t0 = stretch.x, t1 = stretch.y;
     if (t1 < t0) return 1.0;
     vec3 e0 = ro + rd * t0, e1 = ro + rd * t1;
     float margin = u_radius + t1 * widen;

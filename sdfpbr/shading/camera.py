@@ -135,7 +135,7 @@ def silhouettes_apart(spec: ChartSpec) -> bool:
     radius = (spec.sphere_radius * scale).reshape(spec.rows, spec.cols) * 1.02   # perspective widens
     for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
         a = (slice(0, spec.rows - dr), slice(max(0, -dc), spec.cols - max(0, dc)))
-        b = (slice(dr, spec.rows), slice(max(0, dc), spec.cols - max(0, -dc) if dc < 0 else spec.cols))
+        b = (slice(dr, spec.rows), slice(max(0, dc), spec.cols + min(0, dc)))
         gap = np.linalg.norm(px[a] - px[b], axis=-1) - radius[a] - radius[b]
         if gap.size and gap.min() < 1.0:
             return False
