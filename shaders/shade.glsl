@@ -22,7 +22,7 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 }
 
 // Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
-// lights (the key light shadowed where shadows are composed in).
+// lights (shadowed on the ground where shadows are composed in).
 // pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
 // at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
