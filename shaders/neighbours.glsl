@@ -106,7 +106,7 @@ vec3 sphere_mean_radiance(ivec2 cell, vec3 w) {
 // their share of its sky away: each sphere's mean radiance over the disc it shows, the far
 // view (a floor point sees more of a sphere than a neighbour does, whose facing point stands
 // for it there). The diffuse bounce alone: adding the spheres' mean radiance to the floor's
-// specular lobe measured worse (shared stage, 256², 0.0771 -> 0.0790 mean FLIP).
+// specular lobe measured worse (shared stage, 256², 0.0781 -> 0.0790 mean FLIP).
 vec3 floor_sphere_irradiance_over_pi(vec3 p, vec3 n) {
     vec3 sum = vec3(0.0);
     ivec2 centre = nearest_cell(p);
