@@ -344,6 +344,23 @@ def test_spec_to_flags_round_trips(tmp_path_factory, spec, base):
     assert cli_spec(*argv) == spec, argv
 
 
+@pytest.mark.parametrize("rows, materials, metallic", [
+    (1, ("gold",), (0.0, 0.0)),                         # metallic 0 would read back as 1
+    (3, ("gold", "silver", "iron"), (0.25, 0.25)),
+    (2, ("gold", "copper") * 5, (1.0, 1.0)),             # one per cell: 10 would read back as 10 rows
+])
+def test_materials_flags_read_back_with_the_specs_rows_and_metallic(tmp_path, rows, materials, metallic):
+    """`--materials` alone reads back as one metal row per material (attr_values); a spec whose
+    rows or metallic say otherwise writes them too. Found by the round-trip property test: a
+    one-row base and a gold row at metallic 0 read back at metallic 1."""
+    base = ChartSpec(rows=rows)
+    spec = make_spec(base, row_materials=materials, metallic=metallic, rows=rows)
+    path = tmp_path / "base.toml"
+    path.write_text(spec_to_toml(base), encoding="utf-8")
+    for argv in (spec_to_flags(spec, base), ["--spec", str(path), *spec_to_flags(spec, base)]):
+        assert cli_spec(*argv) == spec, argv
+
+
 def test_spec_to_flags_skips_the_defaults_and_bugs_are_added():
     assert spec_to_flags(ChartSpec()) == []
     assert spec_to_flags(make_spec(bugs=["no-cosine"])) == ["--bugs=no-cosine"]

@@ -508,6 +508,14 @@ def spec_to_flags(spec, base=None) -> list[str]:
             flags.append(f"{flag}={field.to_text(added)}")
         else:
             flags.append(f"{flag}={field.to_text(value)}")
+    written = {f.split("=", 1)[0] for f in flags}
+    if field_for_attr("row_materials").option_strings[0] in written:
+        # Materials without rows or metallic read back as one metal row each (attr_values):
+        # write both, so the flags read back to this spec's.
+        for attr in ("rows", "metallic"):
+            field = field_for_attr(attr)
+            if field.option_strings[0] not in written:
+                flags.append(f"{field.option_strings[0]}={field.to_text(getattr(spec, attr))}")
     if any(f.startswith(("--rows=", "--cols=")) for f in flags) and \
             not any(f.startswith(("--width=", "--height=")) for f in flags):
         # A size nobody chose follows the grid (chart_spec.grid_size): write it, so the flags
