@@ -7,7 +7,8 @@ import pytest
 from sdfpbr.errors import SpecError
 from sdfpbr.oracle.display import srgb_eotf
 from sdfpbr.spec.chart_spec import ChartSpec, make_spec
-from sdfpbr.gpu.textures import procedural_set
+from sdfpbr.gpu.textures import PROCEDURAL_SETS, hammered_set, procedural_set, texture_set
+from sdfpbr.spec.presets import PROCEDURAL_MAPS
 
 # The driver's sRGB texel decode against the curve: llvmpipe uses a polynomial fit, measured
 # 0.3 % off at 128; twice that bounds it.
@@ -89,6 +90,37 @@ def test_procedural_maps_are_valid():
     assert (n[..., 2] > 0).all()
     orm = maps.images["orm"][..., :3] / 255.0
     assert 0.3 < orm[..., 1].min() and orm[..., 1].max() == 1.0
+
+
+@pytest.mark.parametrize("mode", list(PROCEDURAL_MAPS))
+def test_each_procedural_mode_bakes_and_composes_its_own_maps(mode):
+    from sdfpbr.shading.plan import render_plan
+    spec = make_spec(FURNACE, textures=mode)
+    assert set(texture_set(spec).images) == set(PROCEDURAL_MAPS[mode]) and mode in PROCEDURAL_SETS
+    text = render_plan(spec).chart.text
+    for name, sampler in (("base", "u_base_color_map"), ("orm", "u_orm_map"), ("normal", "u_normal_map")):
+        assert (sampler in text) == (name in PROCEDURAL_MAPS[mode]), (mode, name)
+
+
+def test_hammered_normals_are_unit_and_steep():
+    """Unit, outward, and steep at the ridges between dimples (its docstring's 60 degrees and
+    more), as the unclamped-N.V bug's scene needs."""
+    n = hammered_set().images["normal"][..., :3] / 255.0 * 2 - 1
+    assert np.allclose(np.linalg.norm(n, axis=-1), 1.0, atol=0.02)
+    tilt = np.degrees(np.arccos(np.clip(n[..., 2], -1, 1)))
+    assert tilt.min() < 5 and tilt.max() > 60 and (tilt > 45).mean() > 0.05
+
+
+def test_hammered_metal_bends_only_normals(session):
+    """The hammered set is a normal map alone: in a uniform white furnace a white metal
+    reflects all of the sky whatever its normal (single scattering plus the multiple-scattering
+    compensation sum to 1 for F0 = 1), so the textured metal equals the untextured one to float
+    rounding; the dielectric, whose albedo depends on N.V, changes (the normals are bent)."""
+    a, b = session.render(make_spec(FURNACE, textures="hammered")), session.render(FURNACE)
+    metal = (a.aov["row"] == 1) & (b.aov["row"] == 1)
+    dielectric = (a.aov["row"] == 0) & (b.aov["row"] == 0)
+    np.testing.assert_allclose(a.hdr[metal][:, :3], b.hdr[metal][:, :3], rtol=1e-5)
+    assert np.abs(a.hdr[dielectric][:, :3] / b.hdr[dielectric][:, :3] - 1).max() > 0.05
 
 
 def test_texture_paths_are_validated(tmp_path):

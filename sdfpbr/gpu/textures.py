@@ -1,4 +1,5 @@
-"""Textures for the textured spheres: a procedural set (riveted panels) or PNGs from the spec.
+"""Textures for the textured spheres: a procedural set (riveted panels, or a hammered normal map
+alone) or PNGs from the spec.
 
 Conventions (glTF 2.0): colour maps (base colour, emission, sheen and specular colour) are
 sRGB-encoded and sampled through sRGB textures; the ORM map (R occlusion, G roughness, B
@@ -65,6 +66,46 @@ def procedural_set() -> TextureSet:
     alpha = np.full((h, w, 1), 255, np.uint8)
     return TextureSet({"base": np.concatenate([base, alpha], -1), "orm": np.concatenate([orm, alpha], -1),
                        "normal": np.concatenate([normal, alpha], -1)})
+
+
+@lru_cache(maxsize=1)
+def hammered_set() -> TextureSet:
+    """Hammered metal: a normal map alone (the cell's colour, roughness and metallic stand), of
+    spherical dimples on a jittered 24 x 12 grid, each texel in the dimple of its nearest
+    centre (a Voronoi pattern: ridges where dimples meet). Slopes reach about 60 degrees at the
+    ridges, so near the silhouette many shading normals face away from the camera."""
+    w, h = PROCEDURAL_SIZE
+    cu, cv = 24, 12                                               # square cells at the equator
+    rng = np.random.default_rng(12)                               # fixed: the same map every run
+    centres = rng.uniform(0.15, 0.85, size=(cv, cu, 2))           # within each cell, (u, v)
+    x = (np.arange(w) + 0.5) / w * cu                             # texel centres in cell units
+    y = (np.arange(h) + 0.5) / h * cv
+    X, Y = np.meshgrid(x, y)
+    best = np.full((h, w), np.inf)
+    dx, dy = np.zeros((h, w)), np.zeros((h, w))
+    for oi in (-1, 0, 1):                                         # the 3 x 3 neighbouring cells
+        for oj in (-1, 0, 1):
+            ci = np.floor(X).astype(int) + oi                     # wraps round in u ...
+            cj = np.clip(np.floor(Y).astype(int) + oj, 0, cv - 1)  # ... and stops at the poles
+            px = ci + centres[cj, ci % cu, 0]
+            py = cj + centres[cj, ci % cu, 1]
+            ex, ey = X - px, Y - py
+            d2 = ex * ex + ey * ey
+            nearer = d2 < best
+            best = np.where(nearer, d2, best)
+            dx, dy = np.where(nearer, ex, dx), np.where(nearer, ey, dy)
+    # Height -sqrt(R^2 - d^2) in cell units: slope d / sqrt(R^2 - d^2), tan 70 deg at d = 0.6.
+    radius2 = 0.6 ** 2 * (1 + 1 / np.tan(np.radians(70)) ** 2)
+    depth = np.sqrt(np.maximum(radius2 - best, 0.05 * radius2))
+    dhdx, dhdy = dx / depth, dy / depth
+    # +Y up: v grows downwards, so the up-slope component is +dh/dv (as procedural_set).
+    n = np.stack([-dhdx, dhdy, np.ones_like(dhdx)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    normal = np.rint((n * 0.5 + 0.5) * 255).astype(np.uint8)
+    return TextureSet({"normal": np.concatenate([normal, np.full((h, w, 1), 255, np.uint8)], -1)})
+
+
+PROCEDURAL_SETS = {"procedural": procedural_set, "hammered": hammered_set}
 
 
 def _load_png(path: str, what: str) -> np.ndarray:
@@ -225,10 +266,10 @@ def gltf_set(materials) -> TextureSet:
 
 def texture_set(spec) -> TextureSet:
     """The maps the plan composes in (shading.plan.texture_maps): the spec's PNGs where given,
-    the procedural ones elsewhere in procedural mode, none otherwise; a glTF asset's own."""
+    the procedural set's elsewhere (riveted or hammered), none otherwise; a glTF asset's own."""
     if spec.gltf:
         return gltf_set(spec.gltf_maps())
-    images = dict(procedural_set().images) if spec.textures == "procedural" else {}
+    images = dict(PROCEDURAL_SETS[spec.textures]().images) if spec.textures in PROCEDURAL_SETS else {}
     for name, field in (("base", "base_color_texture"), ("orm", "orm_texture"), ("normal", "normal_texture")):
         if getattr(spec, field):
             images[name] = _load_png(getattr(spec, field), field)

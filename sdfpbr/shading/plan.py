@@ -16,6 +16,7 @@ from typing import Mapping
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
+from ..spec.presets import PROCEDURAL_MAPS
 from .cells import SpherePlate, cell_sphere_radius_px, sphere_plate
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
@@ -136,14 +137,14 @@ def uses_analytic_intersection(spec: ChartSpec) -> bool:
 
 
 def texture_maps(spec: ChartSpec) -> dict[str, bool]:
-    """Which maps (shading.maps) the chart composes in: base colour, ORM and normal for the
-    procedural set (a PNG replacing its part of it), else only the PNGs the spec names (a
-    base-colour texture alone adds no rivets); for a glTF asset, those any material has."""
+    """Which maps (shading.maps) the chart composes in: those its procedural set bakes (a PNG
+    replacing its part of it) and the PNGs the spec names (a base-colour texture alone adds no
+    rivets); for a glTF asset, those any material has."""
     if spec.gltf:   # the asset's own textures, one layer per cell (gpu.textures)
         return spec.gltf_maps().has_textures
-    procedural = spec.textures == "procedural"
+    baked = PROCEDURAL_MAPS.get(spec.textures, ())
     given = {"base": spec.base_color_texture, "orm": spec.orm_texture, "normal": spec.normal_texture}
-    return {name: procedural and name in given or bool(given.get(name)) for name in MAP_NAMES}
+    return {name: name in baked or bool(given.get(name)) for name in MAP_NAMES}
 
 
 def chart_options(spec: ChartSpec) -> dict:

@@ -122,10 +122,10 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
     _bug("unclamped-ndotv", "N.V not clamped at the silhouette",
          "Black specks on the rims: where a normal map tilts the shading normal away from the "
          "camera, N.V reaches zero or below and the textbook D G F / (4 N.L N.V) divides by it, "
-         "turning the highlight negative (0/0 at N.V = 0). Only a few pixels at chart size: the "
-         "rivets tilt few normals that far. Fix: N.V = max(N.V, 1e-4), or the visibility form "
-         "that never divides.",
-         "BUG_UNCLAMPED_NDOTV", **_TEXTURED),
+         "turning the highlight negative (0/0 at N.V = 0). Shown on hammered metal lit by two rim "
+         "lights behind the spheres, whose highlights fall on the grazing dimples it breaks. Fix: "
+         "N.V = max(N.V, 1e-4), or the visibility form that never divides.",
+         "BUG_UNCLAMPED_NDOTV", textures="hammered", lights=_RIM_LIGHTS),
     _bug("fewtap-ibl", "a few-tap blur instead of the split sum",
          "Rough reflections are blotchy and too sharp, diffuse ignores the hemisphere: five taps "
          "around R cannot integrate a GGX lobe. Fix: prefiltered radiance + DFG LUT + irradiance.",

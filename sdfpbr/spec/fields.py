@@ -303,7 +303,7 @@ FIELDS: tuple[Field, ...] = (
     _other("bugs", "bugs", (), _bugs, "catalogued PBR mistakes to switch on (`sdfpbr bugs` lists them)",
            "NAME,...", aliases=("bug",), choices=tuple(BUGS), many="bug lists (names joined by '+')",
            annotation=tuple[str, ...]),
-    _choice("textures", "none", TEXTURE_MODES, "sphere textures (procedural: riveted panels)"),
+    _choice("textures", "none", TEXTURE_MODES, "sphere textures (procedural: riveted panels; hammered: a hammered-metal normal map)"),
     _other("path", "base_color_texture", "", _png("base_color_texture"), "sRGB base colour map (PNG)", "PNG",
            annotation=str),
     _other("path", "orm_texture", "", _png("orm_texture"), "linear occlusion/roughness/metallic map (PNG)", "PNG",

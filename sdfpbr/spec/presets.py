@@ -27,7 +27,10 @@ CAMERAS = ("perspective", "orthographic")
 STAGES = ("shared", "cells")
 INTERSECT_METHODS = ("auto", "analytic", "march")
 BACKENDS = ("auto", "egl", "osmesa")
-TEXTURE_MODES = ("none", "procedural")
+# The maps each procedural texture mode bakes (gpu.textures): riveted panels carry colour, ORM
+# and normals; hammered metal only normals, so the chart's own materials stand.
+PROCEDURAL_MAPS = {"procedural": ("base", "orm", "normal"), "hammered": ("normal",)}
+TEXTURE_MODES = ("none", *PROCEDURAL_MAPS)
 LIGHT_KINDS = ("directional", "point")
 NORMAL_METHODS = ("tetrahedron", "central")
 HDR_PRECISIONS = ("float32", "float16")   # the float format of the radiance target
