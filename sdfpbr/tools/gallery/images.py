@@ -10,7 +10,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...cache import cache_max, default_cache_dir, enforce_cap, touch
+from ...cache import after_write, cache_max, default_cache_dir, touch
 from ...errors import OutputError
 from ...files import remove_stale_temps, write_bytes
 from .entries import Item
@@ -101,7 +101,7 @@ class ImageCache:
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
             write_file(self.path(key), data, "cache")
-            enforce_cap(self.root)
+            after_write(self.root, len(data))
             return True
         except (OSError, OutputError):
             return False
