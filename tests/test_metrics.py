@@ -244,3 +244,30 @@ def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
     mask = np.zeros(ref.shape[:2], bool)
     mask[:, :32] = True
     assert M.flip_ldr(test, ref, mask=mask)[0] == pytest.approx(fresh[mask].mean(), rel=1e-6)
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
+    """Pairs submitted to a batch are measured (in worker processes, one thread each, where
+    there is more than one core) and kept: flip_ldr of each afterwards takes the kept result
+    without measuring again, and it is flip-evaluator's own figure and map for that pair (the
+    map per pixel exactly; the mean up to the summation order of a different thread count)."""
+    import flip_evaluator
+    from sdfpbr.workers import cores
+    rng = np.random.default_rng(11)
+    refs = [rng.integers(0, 256, (40, 56, 3), np.uint8) for _ in range(M.BATCH_WORKERS_FROM)]
+    tests = [np.clip(r.astype(int) + rng.integers(-60, 60, r.shape), 0, 255).astype(np.uint8) for r in refs]
+    M._kept_flips.clear()
+    with M.FlipBatch(len(refs)) as batch:
+        for t, r in zip(tests, refs):
+            batch.submit(t, r)
+        batch.submit(tests[0], refs[0])                                # a repeat is measured once
+    assert batch.workers == (cores() if cores() > 1 else 0)
+    assert len(M._kept_flips) == len(refs)
+    for t, r in zip(tests, refs):
+        want_map, want_mean, _ = flip_evaluator.evaluate(r / np.float32(255), t / np.float32(255), "LDR",
+                                                         applyMagma=False, parameters={"ppd": M.DEFAULT_PPD})
+        mean, error_map = M.flip_ldr(t, r)
+        np.testing.assert_array_equal(error_map, np.asarray(want_map, np.float32).reshape(r.shape[:2]))
+        assert mean == pytest.approx(want_mean, rel=1e-6)
+    assert len(M._kept_flips) == len(refs)                             # nothing measured again

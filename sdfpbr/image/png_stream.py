@@ -12,7 +12,6 @@ measured on charts (none, sub, up) the best size for the time; files come out ~2
 than Pillow's adaptive filtering at the same zlib level (BENCHMARKS.md, "End to end")."""
 from __future__ import annotations
 
-import os
 import struct
 import zlib
 from collections import deque
@@ -20,6 +19,8 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import BinaryIO
 
 import numpy as np
+
+from ..workers import cores
 
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # Raw bytes a block deflates at once: small enough that a 1024² chart's blocks share the cores
@@ -86,7 +87,7 @@ def write_png_stream(f: BinaryIO, rgba: np.ndarray, metadata: dict[str, str] | N
         raw = _filtered(pixels, above)
         return raw, _deflate(raw, i == len(starts) - 1)
 
-    workers = threads or min(8, os.cpu_count() or 1)
+    workers = threads or min(8, cores())
     with ThreadPoolExecutor(workers) as pool:
         # At most two blocks per worker in flight: memory stays flat in the image's height.
         pending: deque = deque()

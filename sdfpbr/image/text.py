@@ -28,14 +28,20 @@ def load_font(size: int) -> ImageFont.FreeTypeFont:
 
 
 # drawable_text's answers by (font, text): a gallery build asks ~40 000 times (a glyph
-# rendered per character each time: 1.2 s), about 2 000 distinct.
+# rendered per character each time: 1.2 s), about 2 000 distinct; and whether a font draws a
+# character, by (font, character): the distinct texts (captions) share their characters.
 _drawable: dict[tuple, str] = {}
+_glyphs: dict[tuple, bool] = {}
+
+
+def _font_key(font: ImageFont.FreeTypeFont) -> tuple:
+    path = getattr(font, "path", None)
+    return path if isinstance(path, str) else id(font), getattr(font, "size", 0)
 
 
 def drawable_text(text: str, font: ImageFont.FreeTypeFont) -> str:
     """``text`` with the characters ``font`` has no glyph for replaced by ASCII spellings."""
-    path = getattr(font, "path", None)
-    key = (path if isinstance(path, str) else id(font), getattr(font, "size", 0), text)
+    key = (*_font_key(font), text)
     if key not in _drawable:
         if len(_drawable) >= 8192:
             _drawable.clear()
@@ -44,14 +50,22 @@ def drawable_text(text: str, font: ImageFont.FreeTypeFont) -> str:
 
 
 def _drawable_now(text: str, font: ImageFont.FreeTypeFont) -> str:
-    missing = font.getmask("\U0010fffd")
-    missing_key = (missing.size, bytes(missing))
+    font_key = _font_key(font)
+    missing_key = []   # the font's "no glyph" mask, made on the first character not yet known
 
     def has_glyph(ch: str) -> bool:
         if ch.isspace():
             return True
-        mask = font.getmask(ch)
-        return (mask.size, bytes(mask)) != missing_key
+        key = (*font_key, ch)
+        if key not in _glyphs:
+            if not missing_key:
+                missing = font.getmask("\U0010fffd")
+                missing_key.append((missing.size, bytes(missing)))
+            if len(_glyphs) >= 65536:
+                _glyphs.clear()
+            mask = font.getmask(ch)
+            _glyphs[key] = (mask.size, bytes(mask)) != missing_key[0]
+        return _glyphs[key]
 
     def fallback(ch: str) -> str:
         if ch in ASCII_FALLBACK:

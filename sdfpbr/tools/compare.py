@@ -111,6 +111,7 @@ class RenderedChart:
 # pages render the same correct chart again and again (renders are deterministic). Kept arrays
 # are read-only; the oldest go first past the budget.
 KEPT_RENDER_BYTES = 96 << 20
+SHEET_AOVS = ("row", "col")   # what the sheets measure cells by
 _kept = Kept(KEPT_RENDER_BYTES, lambda r: sum(a.nbytes for a in [r.result.image, *r.result.aov.values()]))
 
 
@@ -126,6 +127,8 @@ def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> Ren
             return kept
     session = default_session(spec.backend, spec.device_index)
     rendered = RenderedChart(spec, session.render(spec, aovs=aovs, hdr=False), session.renderer)
+    for name in set(rendered.result.aov) - set(SHEET_AOVS):   # kept small: a catalog's renders fit
+        del rendered.result.aov[name]
     if keep:
         for array in [rendered.result.image, *rendered.result.aov.values()]:
             array.setflags(write=False)
@@ -319,12 +322,17 @@ def _shrunk(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.array(Image.fromarray(image.astype(np.float32), "F").resize(size, Image.Resampling.BOX))
 
 
-def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
-    """correct | buggy | FLIP map of one bug, measured on the renders and shown at
-    ``panel_size`` with each panel's axes, its name and summary above and the caption below."""
+def _bug_panels(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int) -> list[Panel]:
+    """The correct and buggy panels of a bug's card, shown at ``panel_size`` with their axes."""
     shown = [at_panel_size(r.spec, panel_size) for r in (rc, rb)]
-    panels = [panel(label, _shrunk(r.display, (s.width, s.height)), text_size, axes=chart_axes(s, frame(s)))
-              for label, r, s in (("correct", rc, shown[0]), (f"buggy: {bug.name}", rb, shown[1]))]
+    return [panel(label, _shrunk(r.display, (s.width, s.height)), text_size, axes=chart_axes(s, frame(s)))
+            for label, r, s in (("correct", rc, shown[0]), (f"buggy: {bug.name}", rb, shown[1]))]
+
+
+def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panels: list[Panel], panel_size: int, text_size: int):
+    """correct | buggy | FLIP map of one bug (``panels``: _bug_panels'), measured on the renders
+    and shown at ``panel_size``, its name and summary above and the caption below."""
+    shown = [at_panel_size(r.spec, panel_size) for r in (rc, rb)]
     diff = _difference(rc, rb, "correct", f"buggy: {bug.name}", True, text_size, shown=shown[0])
     card = assemble([panels + [diff.panel]], title=f"{bug.name}: {bug.summary}",
                     caption=f"{bug.caption} Mean FLIP {diff.mean:.3f}.", text_size=text_size)
@@ -339,6 +347,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
     summary and caption. The figures are measured on renders at ``measure_size`` (the size
     ``compare --bug`` uses, so both quote the same figure; None: the spec's own size)."""
     from dataclasses import replace as dc_replace
+    from ..image.metrics import FlipBatch
     from ..spec.bugs import BUGS, get_bug
     spec = at_panel_size(as_spec(spec, "spec"), measure_size)
     at_panel_size(spec, panel_size)   # checks panel_size
@@ -358,10 +367,17 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
             specs.append(s)
         return rendered[s], specs.index(s)
 
+    # Every pair rendered first, each measured (in worker processes) while the next renders and
+    # the cards' chart panels are drawn.
+    with FlipBatch(len(pairs)) as batch:
+        for bug, correct, buggy in pairs:
+            batch.submit(render(buggy, False)[0].display, render(correct, True)[0].display)
+        chart_panels = [_bug_panels(bug, render(correct, True)[0], render(buggy, False)[0], panel_size, text_size)
+                        for bug, correct, buggy in pairs]
     cards, card_panels, diffs = [], [], []
-    for bug, correct, buggy in pairs:
+    for (bug, correct, buggy), drawn in zip(pairs, chart_panels):
         (rc, ic), (rb, ib) = render(correct, True), render(buggy, False)
-        card, panels, diff = _bug_card(bug, rc, rb, panel_size, text_size)
+        card, panels, diff = _bug_card(bug, rc, rb, drawn, panel_size, text_size)
         panels[0].spec_index, panels[1].spec_index = ic, ib
         cards.append(card)
         card_panels.append(panels)

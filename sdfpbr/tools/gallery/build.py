@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,24 +18,11 @@ from typing import Callable
 from ... import __version__
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
+from ...workers import cores, process_pool
 from .entries import Item, collect, spec_identity
 from .images import ImageCache, Rendered, checkpoint, render_item, write_file
 from .keys import gl_renderers, item_keys
 from .page import gallery_html
-
-
-def _worker_init(parent: int) -> None:
-    """Workers of a killed build exit on their own instead of rendering for nobody. Ctrl-C
-    reaches the whole process group; the build (the parent) alone answers it, so no worker
-    prints a KeyboardInterrupt traceback."""
-    import signal
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    def watch():
-        while True:
-            time.sleep(0.5)
-            if os.getppid() != parent:
-                os._exit(1)
-    threading.Thread(target=watch, daemon=True).start()
 
 
 def _worker(items: list[Item], keys: list[str]) -> list[Rendered]:
@@ -129,7 +114,7 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     _check_out(out)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 0:
         raise SpecError(f"-j must be a whole number >= 0 (0: one per CPU), got {jobs!r}")
-    jobs = jobs or os.cpu_count() or 1
+    jobs = jobs or cores()
 
     renderers = gl_renderers(items)
     cache = ImageCache()
@@ -264,13 +249,9 @@ def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
 
 
 def _render_parallel(groups: list[list[Item]], keys: dict, workers: int, done) -> None:
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
-    # spawn: each worker starts clean and makes its own GL context (no GL state is forked).
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_init,
-                             initargs=(os.getpid(),)) as pool:
+    with process_pool(workers) as pool:
         futures = {pool.submit(_worker, group, [keys[item.name] for item in group]): group for group in groups}
         pending = set(futures)
         try:

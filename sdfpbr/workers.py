@@ -1,0 +1,51 @@
+"""Worker processes, the one way sdfpbr starts them: a process pool in the spawn context (each
+worker starts clean and makes its own GL context if it needs one; no GL state is forked), whose
+workers ignore Ctrl-C (it reaches the whole process group; the parent alone answers it, so no
+worker prints a KeyboardInterrupt traceback) and exit on their own when their parent dies,
+instead of working for nobody."""
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+
+def cores() -> int:
+    """The CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def can_spawn() -> bool:
+    """Whether a spawned worker can start here: it re-runs the parent's main script, which a
+    program read from stdin (``python - < script``) does not have as a file."""
+    import sys
+    main = getattr(sys.modules.get("__main__"), "__file__", None)
+    return main is None or os.path.exists(main)
+
+
+def _init(parent: int, environ: dict, then) -> None:
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ.update(environ)
+
+    def watch():
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os._exit(1)
+    threading.Thread(target=watch, daemon=True).start()
+    if then is not None:
+        then()
+
+
+def process_pool(workers: int, environ: dict | None = None, initializer=None):
+    """A ProcessPoolExecutor of ``workers`` processes as the module says; ``environ`` is set in
+    each worker before anything else runs there (e.g. a thread count a library reads when it
+    loads), then ``initializer`` (a module-level function) runs."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_init,
+                               initargs=(os.getpid(), dict(environ or {}), initializer))
