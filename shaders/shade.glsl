@@ -83,16 +83,12 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         // The ground: its sphere hides a cosine-weighted share of the diffuse light and the
         // part of the specular lobe it covers (stage_bounce.glsl gives both back as the
         // sphere's own light). The diffuse from the SH9 irradiance (within 2 %); the share
-        // hidden is the sky's radiance behind the sphere: the prefiltered environment towards
-        // its centre, at the roughness whose lobe is as wide as the sphere's disc (the GGX
-        // lobe's half width at half maximum about the mirror direction, 1.287 alpha, matched
-        // to the disc's RMS angle s / sqrt(2): alpha = 0.549 s). A sky brighter on one side
-        // darkens the floor on the other (the cosine-weighted average over the whole sky, which
-        // this replaces, left the studio's floor up to 17 % bright beside the sphere).
+        // hidden is the sky's radiance behind the sphere (ao.glsl sky_behind_sphere). A sky
+        // brighter on one side darkens the floor on the other (the cosine-weighted average
+        // over the whole sky, which this replaces, left the studio's floor up to 17 % bright
+        // beside the sphere).
         vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
-        float disc = asin(min(u_radius / length(p), 1.0));
-        vec3 hidden = m.base_color_linear * dfg.z * (1.0 - ao)
-                    * textureLod(u_prefiltered, -p / length(p), sqrt(0.549 * disc) * u_prefiltered_lods).rgb;
+        vec3 hidden = m.base_color_linear * dfg.z * (1.0 - ao) * sky_behind_sphere(p);
         ibl = (blocked ? max(diffuse - hidden, vec3(0.0)) : diffuse)
             + (ibl - diffuse) * (blocked ? 1.0 - ground_specular_occlusion(p, v, m.alpha) : 1.0);
     } else

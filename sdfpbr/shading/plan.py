@@ -46,7 +46,8 @@ SCHEMA = OptionSchema(
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT")
     + MAP_OPTIONS,
-    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "SPHERE_SAMPLES"),
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "HIDDEN_SKY_SAMPLES",
+            "SPHERE_SAMPLES"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
@@ -207,6 +208,8 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
         opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(spec) > 1
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
+        if opts["STAGE"] == "cells":   # read by ao.glsl: the sky a sphere hides from its floor
+            opts["HIDDEN_SKY_SAMPLES"] = max(q.hidden_sky_samples, 1)
     opts.update(bug_options(spec, "chart"))
     # The spheres' IBL sees the stage: a probe of the environment above and the lit floor below
     # (stage_probe_main.glsl), prefiltered like the environment. Not under the few-tap bug,

@@ -112,6 +112,7 @@ class Quality:
     ibl_pixel_samples: int = 0
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
     bounce_texels: int = 8           # ... shaded on a grid of this many texels per sphere radius (0: every pixel)
+    hidden_sky_samples: int = 32     # cells stage: reads of the sky the sphere hides from its floor (ao.glsl)
     # The ground's IBL from a table over the view direction, baked once per environment with
     # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
     # on an edge.
@@ -134,12 +135,12 @@ class Quality:
 QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16, sphere_samples_radius=0,
-                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, ground_ibl_size=64,
-                     neighbour_light=False),
+                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, hidden_sky_samples=8,
+                     ground_ibl_size=64, neighbour_light=False),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
                     ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048,
-                    ibl_method="sampled", ibl_pixel_samples=256),
+                    ibl_method="sampled", ibl_pixel_samples=256, hidden_sky_samples=64),
     # The approach of shared seed 002 on our scene: every sphere in the SDF, 100 steps to a fixed
     # 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
