@@ -4,7 +4,8 @@ simply write the same bytes.
 
 The whole cache directory (bakes, bench references, built images) is held under a size cap,
 $SDFPBR_CACHE_MAX (default 2G): a write that takes it past the cap evicts the least recently
-used entries (a read marks an entry used) down to 90 % of the cap. ``sdfpbr cache`` lists and clears it."""
+used entries (a read marks an entry used) down to 90 % of the cap. ``sdfpbr cache`` lists and
+clears it."""
 from __future__ import annotations
 
 import hashlib
