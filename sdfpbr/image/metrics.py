@@ -241,6 +241,7 @@ def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, ma
 # against 6.1 s in-process, and runs beside the renders of the next pairs. Starting the
 # workers costs ~0.3 s, so a batch of fewer pairs, or a machine of one core, measures in-process.
 BATCH_WORKERS_FROM = 4
+BATCH_WORKERS_MAX = 8   # each worker holds numpy and flip-evaluator (~80 MB)
 
 
 class FlipBatch:
@@ -253,7 +254,8 @@ class FlipBatch:
 
     def __init__(self, expected: int):
         from ..workers import can_spawn, cores
-        self._workers = cores() if expected >= BATCH_WORKERS_FROM and cores() > 1 and can_spawn() else 0
+        workers = min(cores(), expected, BATCH_WORKERS_MAX)
+        self._workers = workers if expected >= BATCH_WORKERS_FROM and workers > 1 and can_spawn() else 0
         self._pool = None
         self._futures: dict = {}    # key -> the pair's result from a worker
 
