@@ -113,12 +113,18 @@ def frame(spec: ChartSpec) -> Camera:
     return frame_cell(spec) if plan.stage(spec) == "cells" else frame_grid(spec)
 
 
+def _sphere_discs(spec: ChartSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The shared stage's spheres on the image: (rows, cols, 2) centres and (rows, cols) radii in
+    pixels (the projection's scale at each centre; <= 0 behind the camera)."""
+    px, scale = frame_grid(spec).project(sphere_centers(spec).reshape(-1, 3))
+    return px.reshape(spec.rows, spec.cols, 2), (spec.sphere_radius * scale).reshape(spec.rows, spec.cols)
+
+
 def sphere_radius_px(spec: ChartSpec) -> float:
     """About how many pixels the smallest sphere's radius spans on the image."""
     if plan.stage(spec) == "cells":
         return cell_sphere_radius_px(spec)
-    _, scale = frame_grid(spec).project(sphere_centers(spec).reshape(-1, 3))
-    return float(spec.sphere_radius * scale.min())
+    return float(_sphere_discs(spec)[1].min())
 
 
 def silhouettes_apart(spec: ChartSpec) -> bool:
@@ -127,12 +133,10 @@ def silhouettes_apart(spec: ChartSpec) -> bool:
     shared stage's may, seen from far round or above). The analytic edge needs it."""
     if plan.stage(spec) == "cells":
         return True
-    centres = sphere_centers(spec)
-    px, scale = frame_grid(spec).project(centres.reshape(-1, 3))
-    if np.any(scale <= 0):
+    px, radius = _sphere_discs(spec)
+    if np.any(radius <= 0):
         return False
-    px = px.reshape(spec.rows, spec.cols, 2)
-    radius = (spec.sphere_radius * scale).reshape(spec.rows, spec.cols) * 1.02   # perspective widens
+    radius = radius * 1.02   # perspective widens
     for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
         a = (slice(0, spec.rows - dr), slice(max(0, -dc), spec.cols - max(0, dc)))
         b = (slice(dr, spec.rows), slice(max(0, dc), spec.cols + min(0, dc)))
