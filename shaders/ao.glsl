@@ -12,34 +12,47 @@ float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
     return 1.0 - sphere_occlusion(dot(n, -p) / dist, max(dist / u_radius, 1.0 + 1e-4));
 }
 
-// The sky a cell's sphere hides from floor point p: the cosine-weighted mean radiance of the
-// environment over the sphere's disc, by HIDDEN_SKY_SAMPLES directions splitting the disc's
-// solid angle into equal shares (a spiral of golden-angle turns, uniform in cos), each read
-// from the prefiltered map at the roughness whose lobe is as wide as its share (the GGX lobe's
-// half width at half maximum about the mirror direction, 1.287 alpha, matched to a share's
-// RMS angle, its angular radius / sqrt(2): alpha = 0.549 radius). One read for the whole disc
-// (its lobe heavy-tailed, reaching sky beside the sphere) left the floor 0.0415 mean FLIP
-// from the reference at 256²; 8, 16, 32, 64 shares: 0.0390, 0.0368, 0.0342, 0.0336.
+// The sky a cell's sphere hides from floor point p (seen along v), over the sphere's disc, by
+// HIDDEN_SKY_SAMPLES directions splitting the disc's solid angle into equal shares (a spiral of
+// golden-angle turns, uniform in cos), each read from the prefiltered map at the roughness whose
+// lobe is as wide as its share (the GGX lobe's half width at half maximum about the mirror
+// direction, 1.287 alpha, matched to a share's RMS angle, its angular radius / sqrt(2): alpha =
+// 0.549 radius). One read for the whole disc (its lobe heavy-tailed, reaching sky beside the
+// sphere) left the floor 0.0415 mean FLIP from the reference at 256²; 8, 16, 32, 64 shares:
+// 0.0390, 0.0368, 0.0342, 0.0336.
+// diffuse: the cosine-weighted mean radiance over the disc (the AO's form factor times it is the
+// irradiance the sphere hides). specular: the floor's single-scattering specular reflection of
+// that sky, the integral over the disc of f cos L (each share its solid angle times f cos L at
+// its centre), in place of the lobe's share of the whole sky's reflection.
 #if !BUG_FEWTAP_IBL
 #define GOLDEN_ANGLE 2.39996323
-vec3 sky_behind_sphere(vec3 p) {
+struct HiddenSky { vec3 diffuse; vec3 specular; };
+
+HiddenSky sky_behind_sphere(vec3 p, vec3 v, float alpha) {
     float dist = length(p);
     vec3 axis = -p / dist, t, b;
     basis(axis, t, b);
     float cap = 1.0 - sqrt(max(1.0 - sq(u_radius / dist), 0.0));   // 1 - cos(disc radius)
     float share = acos(1.0 - cap / float(HIDDEN_SKY_SAMPLES));    // a share's angular radius
     float lod = sqrt(0.549 * share) * u_prefiltered_lods;
-    vec3 sum = vec3(0.0);
+    float n_dot_v = max(v.y, MIN_N_DOT_V);   // the floor's normal is +y
+    vec3 diffuse = vec3(0.0), specular = vec3(0.0);
     float weight = 0.0;
     for (int k = 0; k < HIDDEN_SKY_SAMPLES; ++k) {
         float cos_r = 1.0 - (float(k) + 0.5) / float(HIDDEN_SKY_SAMPLES) * cap;
         float phi = GOLDEN_ANGLE * float(k);
         vec3 w = cos_r * axis + sqrt(max(1.0 - cos_r * cos_r, 0.0)) * (cos(phi) * t + sin(phi) * b);
         float c = max(w.y, 0.0);   // the floor's cosine; below its horizon it sees nothing
-        sum += c * textureLod(u_prefiltered, w, lod).rgb;
+        vec3 radiance = textureLod(u_prefiltered, w, lod).rgb;
+        vec3 h = normalize(w + v);
+        float f_cos = d_ggx(max(h.y, 0.0), alpha) * vis_smith_ggx_correlated(c, n_dot_v, alpha)
+                    * fresnel_schlick(vec3(DIELECTRIC_F0), saturate(dot(v, h))).x * c;
+        diffuse += c * radiance;
+        specular += f_cos * radiance;
         weight += c;
     }
-    return sum / max(weight, 1e-6);
+    return HiddenSky(diffuse / max(weight, 1e-6),
+                     specular * (2.0 * PI * cap / float(HIDDEN_SKY_SAMPLES)));
 }
 #endif
 

@@ -82,15 +82,19 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     if (ground) {
         // The ground: its sphere hides a cosine-weighted share of the diffuse light and the
         // part of the specular lobe it covers (stage_bounce.glsl gives both back as the
-        // sphere's own light). The diffuse from the SH9 irradiance (within 2 %); the share
-        // hidden is the sky's radiance behind the sphere (ao.glsl sky_behind_sphere). A sky
-        // brighter on one side darkens the floor on the other (the cosine-weighted average
-        // over the whole sky, which this replaces, left the studio's floor up to 17 % bright
-        // beside the sphere).
+        // sphere's own light). The diffuse from the SH9 irradiance (within 2 %), the specular
+        // from the ground's table; what is hidden of each is the sky behind the sphere
+        // (ao.glsl sky_behind_sphere). A sky brighter on one side darkens the floor on the
+        // other: the cosine-weighted average over the whole sky left the studio's floor up to
+        // 17 % bright beside the sphere, and the lobe's share of the table's specular (as if
+        // the sphere hid the lobe's mean sky) left its reflection 15 % off in front of it.
         vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
-        vec3 hidden = m.base_color_linear * dfg.z * (1.0 - ao) * sky_behind_sphere(p);
-        ibl = (blocked ? max(diffuse - hidden, vec3(0.0)) : diffuse)
-            + (ibl - diffuse) * (blocked ? 1.0 - ground_specular_occlusion(p, v, m.alpha) : 1.0);
+        if (blocked) {
+            HiddenSky hidden = sky_behind_sphere(p, v, m.alpha);
+            vec3 specular = ibl - diffuse;
+            ibl = max(diffuse - m.base_color_linear * dfg.z * (1.0 - ao) * hidden.diffuse, vec3(0.0))
+                + max(specular - hidden.specular * energy_compensation(vec3(DIELECTRIC_F0), e_single), vec3(0.0));
+        }
     } else
 #endif
     ibl *= ao;

@@ -287,6 +287,44 @@ def test_floor_direct_light_matches_the_closed_form(session):
     np.testing.assert_allclose(chart.hdr[whole], centre[whole], rtol=1e-4)
 
 
+# The floor's specular reflection round its sphere, on a black floor (no diffuse) under a black
+# rough sphere (next to nothing of its own to reflect): the ground's specular table within 1 %
+# (ground_ibl.glsl) and the sky the sphere hides from the lobe read at the same shares as the
+# diffuse's, which FLOOR_ENV_RTOL's other 2 % allows for there.
+FLOOR_SPECULAR_RTOL = 0.01 + 0.02
+
+
+@pytest.mark.parametrize("env", ["studio", "sky"])
+def test_the_floor_reflects_the_sky_its_sphere_does_not_hide(session, env):
+    """Each of five regions of the floor round the sphere (1.2 R to 2 R from its axis: left,
+    right, in front, front-left, front-right; traced here in float64) within
+    FLOOR_SPECULAR_RTOL plus 3 of the reference's standard errors. The lobe's share of the
+    whole sky's reflection, taken away as if the sphere hid the lobe's mean sky, left the
+    studio's front-left 15 % dark and its front-right 9 % bright."""
+    spec = make_spec(rows=1, cols=1, width=128, height=128, env=env, lights="none", labels=False,
+                     ground_color=(0.0, 0.0, 0.0), base_color=(0.0, 0.0, 0.0), roughness=1.0, metallic=0.0)
+    radius = spec.sphere_radius
+    ro, rd, _ = cell_rays(spec, np.array([[0.5, 0.5]]))
+    ro, rd = ro[:, :, 0], rd[:, :, 0]
+    t_floor = floor_t(ro, rd, radius)
+    p = ro + rd * t_floor[..., None]
+    dist = np.hypot(p[..., 0], p[..., 2])
+    band = np.isfinite(t_floor) & (t_floor < sphere_t(ro, rd, radius)) & (dist > 1.2 * radius) & (dist < 2.0 * radius)
+    x, z = p[..., 0], p[..., 2]
+    regions = {"left": band & (np.abs(z) < radius) & (x < 0), "right": band & (np.abs(z) < radius) & (x > 0),
+               "front": band & (np.abs(x) < radius) & (z > 0),
+               "front-left": band & (x < -0.5 * radius) & (z > 0.5 * radius),
+               "front-right": band & (x > 0.5 * radius) & (z > 0.5 * radius)}
+    ref = render_reference(spec, samples=512, seed=5, session=session)
+    lum, lum_se = luminance(ref.hdr), ref.stderr.astype(float)
+    chart = luminance(session.render(spec, hdr=True).hdr)
+    for name, mask in regions.items():
+        assert mask.sum() > 300, name
+        mean, se = _mean_and_se(lum, lum_se, mask)
+        ratio = chart[mask].mean() / mean
+        assert abs(ratio - 1) < FLOOR_SPECULAR_RTOL + 3 * se / mean, (name, ratio, se / mean)
+
+
 # ---- CLI --------------------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module", params=["studio", "sky"])
