@@ -25,7 +25,6 @@ float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
 // that sky, the integral over the disc of f cos L (each share its solid angle times f cos L at
 // its centre), in place of the lobe's share of the whole sky's reflection.
 #if !BUG_FEWTAP_IBL
-#define GOLDEN_ANGLE 2.39996323
 struct HiddenSky { vec3 diffuse; vec3 specular; };
 
 HiddenSky sky_behind_sphere(vec3 p, vec3 v, float alpha) {
@@ -71,7 +70,8 @@ float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
             if (any(lessThan(cell, ivec2(0))) || any(greaterThanEqual(cell, u_grid)) || cell == self_cell) continue;
             vec3 to_c = cell_center(cell) - p;
             float dist = length(to_c);
-            visible *= 1.0 - sphere_occlusion(dot(n, to_c) / dist, max(dist / u_radius, 1.0 + 1e-4));
+            // a see-through sphere hides its alpha's share (material.glsl light_coverage)
+            visible *= 1.0 - light_coverage(cell) * sphere_occlusion(dot(n, to_c) / dist, max(dist / u_radius, 1.0 + 1e-4));
         }
     return visible;
 }

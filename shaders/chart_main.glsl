@@ -109,6 +109,14 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #elif STAGE == cells && HAS_GROUND && USE_AO
     if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
 #endif
+#if SEE_THROUGH && STAGE == cells
+    // The floor as its sphere leaves it (shadow, occlusion, bounce) in the share of the light
+    // the sphere stops, the open floor in the rest.
+    if (hit.cell.x < 0) {
+        float stops = light_coverage(g_cell);
+        if (stops < 1.0) radiance = mix(shade_open_ground(p, -rd, pixel_size), radiance, stops);
+    }
+#endif
 #if SHADOW_CATCHER
 #if FLOOR_PLATE
     if (hit.cell.x < 0) return shadow_catcher(radiance, plate.a);

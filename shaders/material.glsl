@@ -68,17 +68,46 @@ void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
 #endif
 
 #if SEE_THROUGH
-// The share of its pixel the camera sees of a sphere at geometric normal n_geo (glTF
-// alphaMode): 1 for opaque; the alpha (the factor times the base colour map's) for blend; for
-// mask, 1 where the alpha reaches the cutoff and 0 below it.
-float sphere_alpha(ivec2 cell, vec3 n_geo, float pixel_size) {
+// glTF alphaMode on a cell's alpha: 1 for opaque; the alpha for blend; for mask, 1 where it
+// reaches the cutoff and 0 below it.
+float alpha_coverage(ivec2 cell, float alpha) {
     float test = cell_texel(cell, 4).a;
-    float alpha = cell_texel(cell, 2).a;
-#if USE_TEXTURES
-    alpha *= base_alpha(n_geo, pixel_size, cell);
-#endif
     if (test < -1.5) return 1.0;
     if (test < 0.0) return alpha;
     return alpha >= test ? 1.0 : 0.0;
 }
+
+// The share of its pixel the camera sees of a sphere at geometric normal n_geo: the coverage
+// of the factor's alpha times the base colour map's.
+float sphere_alpha(ivec2 cell, vec3 n_geo, float pixel_size) {
+    float alpha = cell_texel(cell, 2).a;
+#if USE_TEXTURES
+    alpha *= base_alpha(n_geo, pixel_size, cell);
 #endif
+    return alpha_coverage(cell, alpha);
+}
+#endif
+
+// The share of the light a cell's sphere stops: the light meets it as the camera does, alpha
+// as coverage, so its shadow, occlusion and bounce on the floor come in that share. The
+// factor's alpha is the same all over; with a base colour map, the coverage's mean over
+// LIGHT_COVERAGE_POINTS points spread evenly over the sphere (a spiral, equal areas), the map
+// read at a quarter radius per texel: a mask's holes thin the shadow by their share, not in
+// their pattern.
+#define LIGHT_COVERAGE_POINTS 16
+float light_coverage(ivec2 cell) {
+#if SEE_THROUGH && USE_TEXTURES
+    float sum = 0.0;
+    for (int k = 0; k < LIGHT_COVERAGE_POINTS; ++k) {
+        float y = 1.0 - (2.0 * float(k) + 1.0) / float(LIGHT_COVERAGE_POINTS);
+        float phi = GOLDEN_ANGLE * float(k);
+        vec3 n = vec3(sqrt(1.0 - y * y) * vec2(cos(phi), sin(phi)), y).xzy;
+        sum += sphere_alpha(cell, n, 0.25 * u_radius);
+    }
+    return sum / float(LIGHT_COVERAGE_POINTS);
+#elif SEE_THROUGH
+    return sphere_alpha(cell, vec3(0.0, 1.0, 0.0), u_radius);
+#else
+    return 1.0;
+#endif
+}

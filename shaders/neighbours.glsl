@@ -117,7 +117,8 @@ vec3 floor_sphere_irradiance_over_pi(vec3 p, vec3 n) {
             vec3 to_c = cell_center(cell) - p;
             float dist = length(to_c);
             vec3 dir = to_c / dist;
-            sum += sphere_occlusion(dot(n, dir), max(dist / u_radius, 1.0 + 1e-4)) * sphere_mean_radiance(cell, -dir);
+            sum += light_coverage(cell) * sphere_occlusion(dot(n, dir), max(dist / u_radius, 1.0 + 1e-4))
+                 * sphere_mean_radiance(cell, -dir);
         }
     return sum;
 }

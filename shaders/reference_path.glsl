@@ -159,6 +159,35 @@ vec3 environment_seen(vec3 d, float pdf_brdf) {
 #endif
 }
 
+#if SEE_THROUGH
+// A ray of light meets a sphere as the camera's does: with probability its alpha at the point
+// it reaches; else it crosses the sphere (single-sided, a chord of 2 R cos) and goes on, past
+// at most MAX_SEE_THROUGH spheres (after that the next one stops it).
+#define MAX_SEE_THROUGH 4
+Hit trace_light(vec3 ro, vec3 rd, float t_max, ivec2 skip, inout Rng rng) {
+    Hit hit = trace_scene(ro, rd, t_max, skip);
+    float t_start = 0.0;
+    for (int i = 0; i < MAX_SEE_THROUGH && hit.t >= 0.0 && hit.cell.x >= 0; ++i) {
+        if (rng_next4(rng).x < sphere_alpha(hit.cell, hit.normal, 1e-20 * u_radius)) break;
+        float t_exit = hit.t + 2.0 * u_radius * max(dot(hit.normal, -rd), 0.0);
+        t_start += t_exit;
+        ro += rd * t_exit;
+        Hit behind = trace_scene(ro, rd, t_max - t_start, hit.cell);
+        if (behind.t >= 0.0) behind.t += t_start;
+        hit = behind;
+    }
+    return hit;
+}
+#else
+Hit trace_light(vec3 ro, vec3 rd, float t_max, ivec2 skip, inout Rng rng) {
+    return trace_scene(ro, rd, t_max, skip);
+}
+#endif
+
+bool light_blocked(vec3 ro, vec3 rd, float t_max, ivec2 skip, inout Rng rng) {
+    return trace_light(ro, rd, t_max, skip, rng).t > 0.0;
+}
+
 // Next-event estimation at a surface point: one sample per light and one of the environment,
 // each with a shadow ray.
 vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
@@ -170,13 +199,13 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
             float omc = disc_one_minus_cos(i);
             vec3 l = sample_cone(axis, omc, rng_next4(rng).xy);
             vec3 f = surface_f_cos(s, v, l);
-            if (any(greaterThan(f, vec3(0.0))) && !occluded(p, l, 1e30, cell)) {
+            if (any(greaterThan(f, vec3(0.0))) && !light_blocked(p, l, 1e30, cell, rng)) {
                 float pdf_light = 1.0 / (2.0 * PI * omc);
                 sum += f * disc_radiance(i) * (power_heuristic(pdf_light, surface_pdf(s, v, l)) / pdf_light);
             }
         } else {
             vec3 f = surface_f_cos(s, v, axis);
-            if (any(greaterThan(f, vec3(0.0))) && !occluded(p, axis, 1e30, cell))
+            if (any(greaterThan(f, vec3(0.0))) && !light_blocked(p, axis, 1e30, cell, rng))
                 sum += f * u_dir_light_illuminance[i];
         }
     }
@@ -192,7 +221,7 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
             vec3 l = sample_cone(to_light / dist, omc, rng_next4(rng).xy);
             vec3 f = surface_f_cos(s, v, l);
             float t_light = ray_sphere(p, l, u_point_light_position[i], radius);
-            if (any(greaterThan(f, vec3(0.0))) && t_light > 0.0 && !occluded(p, l, t_light, cell)) {
+            if (any(greaterThan(f, vec3(0.0))) && t_light > 0.0 && !light_blocked(p, l, t_light, cell, rng)) {
                 float pdf_light = 1.0 / (2.0 * PI * omc);
                 sum += f * sphere_light_radiance(i, dist) * (power_heuristic(pdf_light, surface_pdf(s, v, l)) / pdf_light);
             }
@@ -200,7 +229,7 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
         }
         vec3 l = to_light / dist;
         vec3 f = surface_f_cos(s, v, l);
-        if (any(greaterThan(f, vec3(0.0))) && !occluded(p, l, dist, cell))
+        if (any(greaterThan(f, vec3(0.0))) && !light_blocked(p, l, dist, cell, rng))
             sum += f * u_point_light_intensity[i] * point_falloff(dist, u_point_light_range[i]);
     }
 #endif
@@ -209,7 +238,7 @@ vec3 direct_light(Surface s, vec3 p, vec3 v, ivec2 cell, inout Rng rng) {
         float pdf_env;
         vec3 l = sample_environment(rng_next4(rng).xy, pdf_env);
         vec3 f = surface_f_cos(s, v, l);
-        if (pdf_env > 0.0 && any(greaterThan(f, vec3(0.0))) && !occluded(p, l, 1e30, cell))
+        if (pdf_env > 0.0 && any(greaterThan(f, vec3(0.0))) && !light_blocked(p, l, 1e30, cell, rng))
             sum += f * env_radiance(l) * (s.occlusion * power_heuristic(pdf_env, surface_pdf(s, v, l)) / pdf_env);
     }
 #endif
@@ -234,7 +263,7 @@ vec3 path_radiance(vec3 ro, vec3 rd, Hit hit, inout Rng rng) {
         vec3 f = surface_f_cos(s, v, l);
         if (!any(greaterThan(f, vec3(0.0)))) break;
         throughput *= f / pdf;
-        Hit next = trace_scene(p, l, 1e30, hit.cell);
+        Hit next = trace_light(p, l, 1e30, hit.cell, rng);
 #if NUM_POINT_LIGHTS > 0
         radiance += throughput * spheres_seen(p, l, next.t < 0.0 ? 1e30 : next.t, pdf);
 #endif
@@ -262,8 +291,8 @@ vec2 g_catcher = vec2(-1.0);   // (L, L_open) of this path; x < 0: it did not me
 vec4 trace_path(vec3 ro, vec3 rd, inout Rng rng) {
     Hit hit = trace_scene(ro, rd, 1e30, SKIP_NONE);
 #if SEE_THROUGH
-    // The camera sees past a sphere with probability 1 - alpha (its texel at full resolution);
-    // the light sees every sphere solid, as the chart does.
+    // The camera sees past a sphere with probability 1 - alpha (its texel at full resolution),
+    // as the light does (trace_light).
     if (hit.t >= 0.0 && hit.cell.x >= 0 && rng_next4(rng).x >= sphere_alpha(hit.cell, hit.normal, 1e-20 * u_radius))
         hit = trace_scene(ro, rd, 1e30, hit.cell);
 #endif

@@ -177,12 +177,15 @@ vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {
     return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, true);
 }
 
-#if SHADOW_CATCHER
-// The ground as if no sphere stood on it: what a shadow catcher's transmittance is relative to.
+#if SHADOW_CATCHER || (SEE_THROUGH && STAGE == cells)
+// The ground as if no sphere stood on it: what a shadow catcher's transmittance is relative to,
+// and a see-through sphere's floor in the share of the light it lets past.
 vec3 shade_open_ground(vec3 p, vec3 v, float pixel_size) {
     return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, false);
 }
+#endif
 
+#if SHADOW_CATCHER
 // A shadow catcher's pixel, premultiplied: no colour of its own, and the alpha of the light its
 // sphere takes from the floor (shadow, occlusion), 1 - L / L_open in luminance; light the
 // sphere adds (its bounce) cannot show on a black matte and is left out.

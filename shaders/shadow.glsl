@@ -66,7 +66,7 @@ float grid_shadow(vec3 ro, vec3 rd, float a, float far) {
     for (int j = first.y; j <= last.y; ++j)
         for (int i = first.x; i <= last.x; ++i) {
             if (tested >= MAX_SHADOW_SPHERES) continue;
-            visible *= disc_visibility(ro, rd, a, cell_center(ivec2(i, j)));
+            visible *= 1.0 - light_coverage(ivec2(i, j)) * (1.0 - disc_visibility(ro, rd, a, cell_center(ivec2(i, j))));
             ++tested;
         }
     return visible;

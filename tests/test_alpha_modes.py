@@ -1,9 +1,12 @@
 """Alpha modes (glTF alphaMode): a blend sphere is laid over what lies behind it by its alpha,
 a mask sphere is cut out below its cutoff, opaque ignores alpha; by factor, by the base colour
-map's alpha and in the reference. The light sees every sphere solid (its shadow and bounce
-stay), so a see-through sphere's pixel is exactly a mix of the opaque sphere's and of the
-pixel with no sphere in front (alpha 0): the tests check that identity, which follows from the
-definition alone."""
+map's alpha and in the reference. Alpha is coverage for the light too: a sphere stops its
+alpha's share of the light, so its floor is the shadowed floor (shadow, occlusion, bounce) in
+that share and the open floor in the rest. The identities the tests check follow from that
+definition alone: the floor a blend sphere leaves is linear in alpha between the opaque
+sphere's and the alpha-0 render's, and a pixel that sees the sphere adds the floor behind it
+in 1 - alpha; the closed form of a sun's light on the floor, thinned by 1 - alpha in the
+shadow, holds in the chart and the reference."""
 import sys
 from pathlib import Path
 
@@ -23,13 +26,26 @@ def hdr(session, **kw):
     return session.render(make_spec(**{**BASE, **kw})).hdr.astype(np.float64)
 
 
-@pytest.mark.parametrize("alpha", [0.3, 0.75])
-def test_blend_is_the_opaque_sphere_laid_over_what_lies_behind_it(session, alpha):
-    opaque, empty = hdr(session), hdr(session, alpha=(0.0, 0.0))
-    got = hdr(session, alpha=(alpha, alpha))
-    # The alpha-0 render shows the floor and sky behind the sphere, the opaque one the sphere.
-    assert np.abs(opaque - empty).max() > 0.1
-    np.testing.assert_allclose(got, alpha * opaque + (1 - alpha) * empty, rtol=RTOL, atol=ATOL)
+@pytest.mark.parametrize("stage", ["cells", "shared"])
+def test_blend_lays_the_sphere_over_a_floor_it_shadows_by_its_alpha(session, stage):
+    """A blend sphere of alpha a: the floor beside it is a (opaque floor) + (1 - a) (alpha-0
+    floor); a pixel that sees the sphere is a S + (1 - a) (a X + (1 - a) O), S the opaque
+    sphere, O the open floor behind it (the alpha-0 render), X the floor behind it as the
+    sphere shadows it (no render shows it: solved from a = 0.3, then a = 0.75 must agree).
+    One sphere on either stage: on the shared one each sphere's share multiplies, linear in a
+    only where one sphere alone hides the light."""
+    opaque, empty = hdr(session, stage=stage), hdr(session, stage=stage, alpha=(0.0, 0.0))
+    res = session.render(make_spec(**{**BASE, "stage": stage, "alpha": (0.3, 0.3)}))
+    aov, low, high = res.aov, res.hdr.astype(np.float64), hdr(session, stage=stage, alpha=(0.75, 0.75))
+    sphere, floor = aov["coverage"] == 1, aov["coverage"] == 0   # not the edge's blend of both
+    # The alpha-0 render shows the open floor, the opaque one the sphere and its shadow.
+    assert np.abs(opaque[sphere] - empty[sphere]).max() > 0.1 and np.abs(opaque[floor] - empty[floor]).max() > 0.01
+    for a, got in ((0.3, low), (0.75, high)):
+        np.testing.assert_allclose(got[floor], a * opaque[floor] + (1 - a) * empty[floor], rtol=RTOL, atol=ATOL)
+    a, b = 0.3, 0.75
+    shadowed = (low[sphere] - a * opaque[sphere] - (1 - a) ** 2 * empty[sphere]) / ((1 - a) * a)
+    want = b * opaque[sphere] + (1 - b) * (b * shadowed + (1 - b) * empty[sphere])
+    np.testing.assert_allclose(high[sphere], want, rtol=1e-4, atol=1e-5)   # the solve divides by 0.21
 
 
 def test_mask_cuts_out_below_the_cutoff_and_keeps_the_rest_opaque(session):
@@ -123,7 +139,7 @@ def glb_with_alpha(tmp_path, mode, factor_alpha=1.0, cutoff=None, left=0, right=
 ])
 def test_gltf_alpha_modes_read_the_factor_and_the_maps_alpha(session, tmp_path, mode, factor, cutoff, left, right,
                                                               want_left, want_right):
-    kw = dict(size="128x128", labels=False)
+    kw = dict(size="128x128", labels=False, ground=False)   # behind the sphere only the sky, which it cannot shadow
     got_res = session.render(make_spec(gltf=glb_with_alpha(tmp_path, mode, factor, cutoff, left, right), **kw))
     # The same sphere opaque, and with nothing in front (alpha 0 by factor).
     opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr.astype(np.float64)
@@ -135,6 +151,22 @@ def test_gltf_alpha_modes_read_the_factor_and_the_maps_alpha(session, tmp_path, 
         want = a * opaque[side] + (1 - a) * empty[side]
         # The map's alpha is filtered (8-bit, level of detail): within half a step of the texel.
         np.testing.assert_allclose(got[side], want, atol=0.5 / 255 * np.abs(opaque[side] - empty[side]).max() + 1e-5)
+
+
+def test_a_masks_holes_thin_its_shadow_by_their_share(session, tmp_path):
+    """A mask sphere cut out on its left half (the map's alpha) stops half the light: the floor
+    beside it is c (opaque floor) + (1 - c) (open floor) with c the share of the sphere kept,
+    1/2, read at LIGHT_COVERAGE_POINTS = 16 points (material.glsl): within one point's share."""
+    kw = dict(size="128x128", labels=False)
+    res = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "MASK", 1.0, 0.5, 0, 255), **kw))
+    opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr.astype(np.float64)
+    empty = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "BLEND", 0.0), **kw)).hdr.astype(np.float64)
+    got = res.hdr.astype(np.float64)
+    shadow = (res.aov["coverage"] == 0) & (np.abs(opaque - empty).max(-1) > 0.02)
+    assert shadow.sum() > 100
+    kept = ((got - empty)[shadow] / (opaque - empty)[shadow]).mean(-1)
+    assert abs(np.median(kept) - 0.5) <= 1 / 16, np.median(kept)
+    np.testing.assert_allclose(kept, np.median(kept), atol=1e-3)   # one share, the same everywhere
 
 
 def test_a_bad_alpha_mode_is_one_line(tmp_path):

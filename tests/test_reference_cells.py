@@ -287,6 +287,32 @@ def test_floor_direct_light_matches_the_closed_form(session):
     np.testing.assert_allclose(chart.hdr[whole], centre[whole], rtol=1e-4)
 
 
+def test_a_blend_spheres_shadow_lets_the_rest_of_the_light_through(session):
+    """The same sun on a blend sphere of alpha a: the light meets it with probability a, so
+    deep in its shadow the floor keeps (1 - a) of the closed form; in the reference (each
+    shadow ray crosses with probability 1 - a: within its standard errors) and in the chart
+    (the floor mixes the open and the shadowed floor by a: exactly, to float32 rounding; no
+    AO, so no bounce, as the reference's one bounce)."""
+    a = 0.4
+    spec = make_spec(floor_scene(), alpha=(a, a))
+    lit, dark, rd = floor_pixels(spec, grid_offsets(6))
+    lam = render_reference(spec, samples=64, max_bounces=1, seed=15, session=session, lambert=True)
+    want = FLOOR / np.pi * SUN_E * SUN_DIR[1]
+    np.testing.assert_allclose(lam.hdr[lit], np.broadcast_to(want, lam.hdr[lit].shape), rtol=1e-5)
+    check_converged(luminance(lam.hdr)[dark], np.full(dark.sum(), (1 - a) * luminance(want)), lam.stderr[dark],
+                    bias=1e-3)
+
+    chart = session.render(make_spec(spec, ibl=False, ao=False))
+    opaque = session.render(make_spec(floor_scene(), ibl=False, ao=False))
+    _, rd0, _ = cell_rays(spec, np.array([[0.5, 0.5]]))
+    n0 = np.broadcast_to([0.0, 1.0, 0.0], rd0.shape)
+    centre = (mirror.brdf(n0, -rd0, np.broadcast_to(SUN_DIR, rd0.shape), FLOOR, 0.0, spec.ground_roughness)
+              * SUN_E * SUN_DIR[1])[..., 0, :]
+    deep = dark & (chart.aov["coverage"] == 0)
+    assert deep.sum() > 20 and (opaque.hdr[deep] == 0).all()
+    np.testing.assert_allclose(chart.hdr[deep], (1 - a) * centre[deep], rtol=1e-4)
+
+
 # The floor's specular reflection round its sphere, on a black floor (no diffuse) under a black
 # rough sphere (next to nothing of its own to reflect): the ground's specular table within 1 %
 # (ground_ibl.glsl) and the sky the sphere hides from the lobe read at the same shares as the

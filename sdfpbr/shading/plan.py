@@ -355,10 +355,12 @@ def prefilter_levels(q: Quality) -> int:
 
 def _stage_probe(chart: dict) -> ComposedSource | None:
     """The spheres' IBL is a probe of the stage (environment + the lit floor); the floor's
-    shading is the chart's, without the spheres' textures."""
+    shading is the chart's, without the spheres' textures, and its shadows those of solid
+    spheres (one probe for every cell: not thinned by any one sphere's alpha)."""
     if not chart["STAGE_PROBE"]:
         return None
-    return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False, "SHADOW_CATCHER": False})
+    return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False, "SHADOW_CATCHER": False,
+                                                     "SEE_THROUGH": False})
 
 
 def _floor_plate(chart: dict) -> ComposedSource | None:
