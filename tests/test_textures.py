@@ -166,3 +166,26 @@ def test_unusable_textures_are_refused_with_one_line(session, tmp_path):
     iio.imwrite(tmp_path / "wide.png", wide)   # GL would leave it undefined: a black sphere
     with pytest.raises(SpecError, match="at most"):
         session.render(make_spec(FURNACE, orm_texture=str(tmp_path / "wide.png")))
+
+
+def test_mapped_normals_lose_the_sky_their_reflection_turns_below_the_sphere(session):
+    """A white mirror metal (F = 1) under a uniform sky with the hammered normal map, no floor:
+    the split sum alone gives exactly the sky's radiance L at every normal (the furnace); where
+    a dimple turns the mirror direction below the sphere's own surface the reference blocks
+    that light (reference_path.glsl). The chart's horizon occlusion fades the specular there
+    ((1 + r . n_geo)^2, between nothing and the reference's step), so the sphere's mean lies
+    between the reference's and L: strictly below L (it was exactly L without the fade), and
+    not below the reference (beyond 4 of its standard errors)."""
+    from sdfpbr.tools.reference import render_reference
+    spec = make_spec(rows=1, cols=1, width=96, height=96, labels=False, textures="hammered", roughness=0.0,
+                     metallic=1.0, base_color=(1.0, 1.0, 1.0), env="uniform", lights="none", ground=False)
+    sky = spec.env_intensity
+    ref = render_reference(spec, samples=256, seed=2, session=session)
+    chart = session.render(spec)
+    sphere = chart.aov["coverage"] == 1
+    lum = lambda h: h[..., :3].astype(np.float64).mean(-1)
+    ref_mean = lum(ref.hdr)[sphere].mean()
+    se = np.sqrt((ref.stderr.astype(np.float64)[sphere] ** 2).sum()) / sphere.sum()
+    chart_mean = lum(chart.hdr)[sphere].mean()
+    assert ref_mean < 0.9 * sky, ref_mean / sky   # the map turns a good share below the surface
+    assert ref_mean - 4 * se <= chart_mean < 0.99 * sky, (chart_mean / sky, ref_mean / sky)
