@@ -112,14 +112,18 @@ def test_hammered_normals_are_unit_and_steep():
 
 
 def test_hammered_metal_bends_only_normals(session):
-    """The hammered set is a normal map alone: in a uniform white furnace a white metal
-    reflects all of the sky whatever its normal (single scattering plus the multiple-scattering
-    compensation sum to 1 for F0 = 1), so the textured metal equals the untextured one to float
-    rounding; the dielectric, whose albedo depends on N.V, changes (the normals are bent)."""
+    """The hammered set is a normal map alone: in a uniform white furnace the split sum gives a
+    white metal all of the sky whatever its normal (single scattering plus the multiple-
+    scattering compensation sum to 1 for F0 = 1), and the horizon occlusion only takes away
+    where a bent normal turns the reflection below the sphere's surface: the textured metal is
+    nowhere brighter than the untextured one (to float rounding), and equal to it on most of
+    the sphere; the dielectric, whose albedo depends on N.V, changes (the normals are bent)."""
     a, b = session.render(make_spec(FURNACE, textures="hammered")), session.render(FURNACE)
     metal = (a.aov["row"] == 1) & (b.aov["row"] == 1)
     dielectric = (a.aov["row"] == 0) & (b.aov["row"] == 0)
-    np.testing.assert_allclose(a.hdr[metal][:, :3], b.hdr[metal][:, :3], rtol=1e-5)
+    ratio = a.hdr[metal][:, :3] / b.hdr[metal][:, :3]
+    assert ratio.max() <= 1 + 1e-5
+    assert (np.abs(ratio - 1) <= 1e-5).all(-1).mean() > 0.5
     assert np.abs(a.hdr[dielectric][:, :3] / b.hdr[dielectric][:, :3] - 1).max() > 0.05
 
 
