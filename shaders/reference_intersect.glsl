@@ -130,7 +130,3 @@ Hit trace_scene(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
 }
 
 #endif
-
-bool occluded(vec3 ro, vec3 rd, float t_max, ivec2 skip) {
-    return trace_scene(ro, rd, t_max, skip).t > 0.0;
-}
