@@ -63,9 +63,8 @@ float grid_shadow(vec3 ro, vec3 rd, float a, float far) {
     ivec2 last = min(ivec2(floor(hi)), u_grid - 1);
     float visible = 1.0;
     int tested = 0;
-    for (int j = first.y; j <= last.y; ++j)
-        for (int i = first.x; i <= last.x; ++i) {
-            if (tested >= MAX_SHADOW_SPHERES) continue;
+    for (int j = first.y; j <= last.y && tested < MAX_SHADOW_SPHERES; ++j)
+        for (int i = first.x; i <= last.x && tested < MAX_SHADOW_SPHERES; ++i) {
             visible *= 1.0 - light_coverage(ivec2(i, j)) * (1.0 - disc_visibility(ro, rd, a, cell_center(ivec2(i, j))));
             ++tested;
         }
