@@ -114,6 +114,11 @@ vec3 ibl_irradiance_over_pi(vec3 n) {
 #endif
 }
 
+// The diffuse part of a sphere's IBL (the rest of shade_ibl's sum is its specular).
+vec3 ibl_diffuse(Material m, vec3 dfg, vec3 n) {
+    return ibl_mix(m, dfg, vec3(0.0), vec3(0.0), ibl_irradiance_over_pi(n));
+}
+
 vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     SpecularLookup look = specular_lookup(n, v, n_dot_v, m.perceptual_roughness, m.alpha);
 #if IBL_TWO_LOBE

@@ -69,7 +69,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #else
     vec3 ibl = !ground ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #endif
-#if USE_TEXTURES
+#if USE_TEXTURES && !BUG_FEWTAP_IBL
     if (!ground) {
         // A mapped normal can turn the mirror direction below the sphere's own surface, which
         // blocks that light (the reference's convention): the specular fades as r sinks
@@ -77,14 +77,14 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         // hammered 0.1109 -> 0.0908 mean FLIP, riveted 0.0510 -> 0.0509; a fade as narrow as
         // the lobe (a step for a mirror) measured 0.0860 and 0.0527.
         float horizon = saturate(1.0 + dot(reflect(-v, n), n_geo));
-        vec3 diffuse_ibl = ibl_mix(m, dfg, vec3(0.0), vec3(0.0), ibl_irradiance_over_pi(n));
+        vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);
         ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
     }
 #endif
 #if NEIGHBOUR_LIGHT
     // The base layer's specular share of the sky (without its diffuse), which the neighbours
     // hide by their share of the lobe rather than by the AO's cosine-weighted share.
-    vec3 sky_specular = ibl - ibl_mix(m, dfg, vec3(0.0), vec3(0.0), ibl_irradiance_over_pi(n));
+    vec3 sky_specular = ibl - ibl_diffuse(m, dfg, n);
 #endif
 #if LAYERED_IBL
     if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl);
@@ -100,8 +100,8 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         // other: the cosine-weighted average over the whole sky left the studio's floor up to
         // 17 % bright beside the sphere, and the lobe's share of the table's specular (as if
         // the sphere hid the lobe's mean sky) left its reflection 15 % off in front of it.
-        vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
-        if (blocked) {
+        if (blocked) {   // the open floor (shadow catcher, see-through spheres) keeps it all
+            vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
             HiddenSky hidden = sky_behind_sphere(p, v, m.alpha);
             vec3 specular = ibl - diffuse;
             ibl = max(diffuse - m.base_color_linear * dfg.z * (1.0 - ao) * hidden.diffuse, vec3(0.0))

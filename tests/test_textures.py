@@ -193,3 +193,11 @@ def test_mapped_normals_lose_the_sky_their_reflection_turns_below_the_sphere(ses
     chart_mean = lum(chart.hdr)[sphere].mean()
     assert ref_mean < 0.9 * sky, ref_mean / sky   # the map turns a good share below the surface
     assert ref_mean - 4 * se <= chart_mean < 0.99 * sky, (chart_mean / sky, ref_mean / sky)
+
+
+def test_textured_spheres_compose_with_the_few_tap_ibl_bug(session):
+    """The horizon occlusion splits the split sum's IBL into diffuse and specular; the few-tap
+    bug's IBL has no such split, so it goes without (this pair once failed to compile)."""
+    spec = make_spec(rows=1, cols=2, width=64, height=32, labels=False, textures="hammered", bugs=("fewtap-ibl",))
+    hdr = session.render(spec).hdr
+    assert np.isfinite(hdr).all() and hdr[..., :3].max() > 0
