@@ -8,6 +8,7 @@
 // their neighbours stand. In a white furnace (white spheres, uniform sky, no floor) every
 // sphere stays at the sky's radiance, as energy conservation wants.
 #include "sphere_occlusion.glsl"
+#include "sphere_mirror.glsl"
 
 struct NeighbourLight {
     vec3 specular;            // sum of (share of the specular lobe) x radiance
@@ -64,22 +65,20 @@ NeighbourLight neighbour_light(vec3 p, vec3 n, vec3 r, float alpha, ivec2 self_c
 }
 
 // A sphere of material m seen from afar along w, lit by a distant light (direction l,
-// illuminance e): the mean radiance over its disc (sphere_mean_radiance).
+// illuminance e): the mean radiance of its diffuse body over its disc (sphere_mean_radiance).
 vec3 sphere_mean_light(Material m, vec3 w, vec3 l, vec3 e) {
     float cos_a = clamp(dot(w, l), -1.0, 1.0);
     float a = acos(cos_a);
     float phase = (2.0 / 3.0) * (sin(a) + (PI - a) * cos_a) / PI;
     float f_cos = sqrt(0.5 * (1.0 + cos_a));
-    return ((1.0 - m.metallic) * diffuse_lobe(m, f_cos) * phase + sphere_fresnel(m, f_cos) * (0.25 * INV_PI)) * e;
+    return (1.0 - m.metallic) * diffuse_lobe(m, f_cos) * phase * e;
 }
 
-// A sphere seen from afar along w: the mean radiance over its disc, in closed form.
+// A sphere seen from afar along w: the mean radiance over its disc, in closed form, but for its
+// highlights (sphere_mirror.glsl gives the floor those as the mirror image near the sphere).
 // - A distant light (direction l, illuminance E) on its diffuse body: a Lambert sphere's,
 //   (2/3)(sin a + (pi - a) cos a) / pi of the radiance where the light falls square on
-//   (a: the phase angle, between w and l). On its specular layer: a sphere shows every normal
-//   once, so its highlight, sharp or rough, spreads the light evenly over directions as a
-//   mirror ball's does: E F / (4 pi), F at the mirror normal's angle, cos(a / 2) (the law
-//   stage_bounce.glsl's sphere_reflected_light gives the cells stage's floor).
+//   (a: the phase angle, between w and l).
 // - The environment: the body's irradiance facing w, and the specular layer's mean over all
 //   directions (the irradiance's constant term / pi) with F at its mean over a mirror ball's
 //   normals (f0 + (1 - f0) / 21: Schlick's F at cos 0.456).
@@ -105,8 +104,10 @@ vec3 sphere_mean_radiance(ivec2 cell, vec3 w) {
 // The floor's light from the 3 x 3 spheres around its point p's nearest, where the AO took
 // their share of its sky away: each sphere's mean radiance over the disc it shows, the far
 // view (a floor point sees more of a sphere than a neighbour does, whose facing point stands
-// for it there). The diffuse bounce alone: adding the spheres' mean radiance to the floor's
-// specular lobe measured worse (shared stage, 256², 0.0781 -> 0.0790 mean FLIP).
+// for it there), and its mirror image of the lights (sphere_mirror.glsl; the far view's even
+// spread lit the spheres' shadows with a grazing reflection that does not reach them). The
+// diffuse bounce alone: adding the spheres' mean radiance to the floor's specular lobe
+// measured worse (shared stage, 256², 0.0781 -> 0.0790 mean FLIP).
 vec3 floor_sphere_irradiance_over_pi(vec3 p, vec3 n) {
     vec3 sum = vec3(0.0);
     ivec2 centre = nearest_cell(p);
@@ -117,8 +118,9 @@ vec3 floor_sphere_irradiance_over_pi(vec3 p, vec3 n) {
             vec3 to_c = cell_center(cell) - p;
             float dist = length(to_c);
             vec3 dir = to_c / dist;
-            sum += light_coverage(cell) * sphere_occlusion(dot(n, dir), max(dist / u_radius, 1.0 + 1e-4))
-                 * sphere_mean_radiance(cell, -dir);
+            sum += light_coverage(cell) * (sphere_occlusion(dot(n, dir), max(dist / u_radius, 1.0 + 1e-4))
+                 * sphere_mean_radiance(cell, -dir)
+                 + sphere_reflected_light(p, cell_center(cell), cell_material(cell, -dir)) * INV_PI);
         }
     return sum;
 }

@@ -1,5 +1,6 @@
 #include "sphere_occlusion.glsl"
 #include "ray_sphere.glsl"
+#include "sphere_mirror.glsl"
 
 // Cells stage: the light a cell's sphere sends onto its own floor point q (seen along v). The
 // sphere hides a form factor FF of the floor's sky (the AO removed that part of the
@@ -19,64 +20,6 @@
 #define BOUNCE_RING_WEIGHT 0.75
 #define BOUNCE_MIN_FF 1e-3   // far floor: the sphere's light is below what 8 bits show
 #define BOUNCE_FEW_FF 0.05   // below this the sphere is small in the floor's sky: its axis ray will do
-
-// Irradiance at floor point q from the sphere's specular reflection of the punctual lights, as
-// a mirror ball's: a parallel beam (illuminance E, from direction l) reflects off the point s
-// = R n whose normal n is halfway between l and the direction from s to q (found by fixed-point
-// steps from the far field's). A convex mirror's reflected beam diverges from two focal lines
-// (astigmatic: R cos(i) / 2 and R / (2 cos(i)) behind s, i the incidence), so at distance D from
-// s it carries E F f_t f_s / ((D + f_t)(D + f_s)) = E F R^2 / (4 (D + f_t)(D + f_s)) across
-// the ray; the far field's E R^2 F / (4 d^2) is its limit. A rough sphere blurs that without
-// changing it much. Near the sphere the far field misplaces the light: behind the sphere (its
-// shadow) the mirror point is on the side q cannot see (under the key light alone the shadow's
-// core read 1.3-1.9x the reference with the far field), and a beam not yet spread is brighter.
-// The image is seen in the share of it (widened by `spread`: the light's angular radius and the
-// lobe's) above s's tangent plane as q sees it.
-#define MIRROR_POINT_STEPS 3
-
-// The light's irradiance at q per unit illuminance and Fresnel; cos_i: the incidence at s.
-float mirror_irradiance(vec3 q, vec3 l, float spread, out float cos_i) {
-    cos_i = 0.0;
-    vec3 h = l + normalize(q);
-    for (int k = 0; k < MIRROR_POINT_STEPS; ++k) {
-        float len = length(h);
-        if (len <= 1e-4) return 0.0;   // q straight behind the sphere
-        h = l + normalize(q - u_radius * h / len);
-    }
-    float len = length(h);
-    if (len <= 1e-4) return 0.0;
-    vec3 n = h / len;
-    vec3 to_q = q - u_radius * n;
-    float dist = length(to_q);
-    vec3 dir = to_q / dist;
-    float cos_q = -dir.y;   // the floor's normal is +y
-    if (cos_q <= 0.0) return 0.0;
-    cos_i = saturate(dot(n, l));
-    float seen = saturate(0.5 + 0.5 * dot(n, dir) / max(sin(spread), 1e-3));
-    float f_t = 0.5 * u_radius * cos_i, f_s = 0.5 * u_radius / max(cos_i, 1e-4);
-    return 0.25 * sq(u_radius) / ((dist + f_t) * (dist + f_s)) * cos_q * seen;
-}
-
-// m: the cell's material.
-vec3 sphere_reflected_light(vec3 q, Material m) {
-    vec3 sum = vec3(0.0);
-    float cos_i;
-#if NUM_DIR_LIGHTS > 0
-    for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
-        float e = mirror_irradiance(q, u_dir_light_direction[i], u_dir_light_angular_radius[i] + m.alpha, cos_i);
-        sum += sphere_fresnel(m, cos_i) * u_dir_light_illuminance[i] * e;
-    }
-#endif
-#if NUM_POINT_LIGHTS > 0
-    for (int i = 0; i < NUM_POINT_LIGHTS; ++i) {
-        float d_light = length(u_point_light_position[i]);
-        vec3 l = u_point_light_position[i] / max(d_light, 1e-6);
-        float e = mirror_irradiance(q, l, m.alpha, cos_i);
-        sum += sphere_fresnel(m, cos_i) * u_point_light_intensity[i] * point_falloff(d_light, u_point_light_range[i]) * e;
-    }
-#endif
-    return sum;
-}
 
 // The share of the lights' reflection the rays resolve: across the cap, the rays' hit points'
 // reflected directions lie about a radian apart, so a lobe narrower than that (alpha below
@@ -117,7 +60,7 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     }
     Material floor_material = ground_material();
     vec3 dfg = dfg_lookup(max(v.y, MIN_N_DOT_V), floor_material.perceptual_roughness);
-    vec3 reflected = floor_material.base_color_linear * dfg.z * INV_PI * sphere_reflected_light(q, sphere_material)
+    vec3 reflected = floor_material.base_color_linear * dfg.z * INV_PI * sphere_reflected_light(q, vec3(0.0), sphere_material)
                    * (1.0 - resolved);
     if (weight <= 0.0) return reflected;
     vec3 albedo = floor_material.base_color_linear * dfg.z * ff;
