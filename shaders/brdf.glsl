@@ -222,7 +222,7 @@ vec3 base_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float ligh
 }
 
 // The diffuse share of f(v, l) * NdotL alone (no layers): a sphere's light on its floor besides
-// its mirror-like reflection of the lights, which stage_bounce.glsl takes in closed form.
+// its mirror-like reflection of the lights, which sphere_mirror.glsl takes in closed form.
 vec3 diffuse_brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
     float n_dot_l = dot(n, l);
     if (n_dot_l <= 0.0) return vec3(0.0);
