@@ -17,6 +17,28 @@ float d_ggx(vec3 n, vec3 h, float alpha) {
     return k * k * INV_PI;
 }
 
+// D seen through a disc light: the lobe averaged over a disc of half vectors (solid angle
+// pi w^2) centred on h, the half vector of the disc's centre. In the slope space of n, GGX is
+// p(s) = a^2 / (pi (|s|^2 + a^2)^2) = laplacian(log(|s|^2 + a^2)) / (4 pi), so by the
+// divergence theorem its integral over a circle of radius r at distance d is a contour
+// integral with a closed form, I = 1/2 - u / (2 S), u = d^2 + a^2 - r^2, S = sqrt(u^2 + 4 r^2
+// a^2). The disc's slope image at d = tan(theta_h) has the area of a circle of radius
+// r = w / cos^1.5, and D = I / (pi w^2 cos) (the 1 / cos of the measure taken at the disc's
+// centre). Multiplied through by cos^4 (finite at grazing), and as 2 a^2 / (pi S (S + u)) where
+// u > 0 (no cancellation): w = 0 gives d_ggx exactly, far from the disc the lobe's own value, a
+// mirror inside the disc's image 1 / (pi w^2 cos).
+float d_ggx_disc(vec3 n, vec3 h, float alpha, float w) {
+    float n_dot_h = saturate(dot(n, h));
+    vec3 n_x_h = cross(n, h);
+    float sin2 = n_dot_h > 0.0 ? dot(n_x_h, n_x_h) : 1.0;
+    float cos2 = n_dot_h * n_dot_h;
+    float a2 = alpha * alpha, w2 = w * w;
+    float r2_cos2 = w2 / max(n_dot_h, 1e-6);   // r^2 cos^2, r^2 = w^2 / cos^3
+    float u = sin2 + a2 * cos2 - r2_cos2;
+    float s = sqrt(u * u + 4.0 * a2 * cos2 * r2_cos2);
+    return u > 0.0 ? 2.0 * a2 / (PI * s * (s + u)) : (s - u) / (2.0 * PI * w2 * s * max(n_dot_h, 1e-6));
+}
+
 float vis_smith_ggx_correlated(float n_dot_l, float n_dot_v, float alpha) {
     float a2 = alpha * alpha;
     float ggx_v = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);

@@ -47,15 +47,9 @@ vec3 clearcoat_layer(Material m, vec3 base_cos, vec3 v, vec3 l, float light_angl
     float n_dot_v = max(dot(n, v), MIN_N_DOT_V);
     float coat = 0.0;
     if (n_dot_l > 0.0) {
-        // A disc light as in base_brdf_cos: the lobe towards its representative point.
-        vec3 l_spec = l;
-        float scale = 1.0;
-        if (light_angle > 0.0) {
-            l_spec = disc_direction(l, v, n, m.clearcoat_alpha, light_angle, scale);
-        }
-        float n_dot_ls = max(dot(n, l_spec), 1e-6);
-        coat = d_ggx(n, normalize(v + l_spec), m.clearcoat_alpha)
-             * visibility_direct(n_dot_ls, n_dot_v, m.clearcoat_perceptual_roughness, m.clearcoat_alpha) * n_dot_ls * scale;
+        // A disc light as in base_brdf_cos (brdf.glsl d_ggx_light).
+        coat = d_ggx_light(n, v, l, m.clearcoat_alpha, light_angle)
+             * visibility_direct(n_dot_l, n_dot_v, m.clearcoat_perceptual_roughness, m.clearcoat_alpha) * n_dot_l;
     }
 #if BUG_CLEARCOAT_ADDS
     return base_cos + coat * clearcoat_weight(m, v);

@@ -37,8 +37,8 @@ __all__ = [
     "e_avg",
     "dfg_table",
     "brdf",
-    "disc_representative",
-    "disc_lobe",
+    "d_ggx_disc",
+    "disc_half_radius",
     "furnace_expected",
     "sample_sphere_cosine",
     "reflect",
@@ -376,36 +376,32 @@ def single_scatter_albedo(n_dot_v, r, model):
     return (A + B)[inv.ravel()].reshape(nv.shape)
 
 
-def disc_representative(l, r, angular_radius, dtype=np.float64):
-    """The direction within a disc of angular radius theta around l closest to r (Karis 2013's
-    representative point): r itself inside the disc, else l turned towards r by theta."""
-    l = np.asarray(l, dtype=dtype)
-    r = np.asarray(r, dtype=dtype)
-    c = _dot(l, r)
-    t = r - l * c[..., None]
-    length = np.linalg.norm(t, axis=-1)
-    cos_t, sin_t = np.cos(np.asarray(angular_radius)), np.sin(np.asarray(angular_radius))
-    inside = (c >= cos_t) | (length < 1e-7)
-    edge = l * cos_t[..., None] + t * (sin_t / np.maximum(length, 1e-300))[..., None]
-    return np.where(inside[..., None], np.where((c >= cos_t)[..., None], r, l), edge)
+def d_ggx_disc(n_dot_h, alpha, w, dtype=np.float64):
+    """D seen through a disc light (as ggx.glsl's d_ggx_disc): the GGX lobe averaged over a disc
+    of half vectors of solid angle pi w^2 centred on the half vector whose NdotH is given. In
+    n's slope space GGX is p(s) = a^2 / (pi (|s|^2 + a^2)^2) = laplacian(log(|s|^2 + a^2)) /
+    (4 pi), so its integral over a circle of radius r at distance d is, by the divergence
+    theorem, I = 1/2 - u / (2 S), u = d^2 + a^2 - r^2, S = sqrt(u^2 + 4 r^2 a^2). The disc's slope
+    image at d = tan(theta_h) has the area of a circle of radius r = w / cos^1.5, and
+    D = I / (pi w^2 cos). w = 0 is d_ggx."""
+    nh = np.asarray(n_dot_h, dtype=dtype)
+    a2 = np.asarray(alpha, dtype=dtype) ** 2
+    w2 = np.asarray(w, dtype=dtype) ** 2
+    tiny = _tiny(dtype)
+    cos = np.maximum(nh, 1e-6)
+    cos2 = nh * nh
+    r2_cos2 = w2 / cos                                        # r^2 cos^2
+    u = (1.0 - nh) * (1.0 + nh) + a2 * cos2 - r2_cos2        # (d^2 + a^2 - r^2) cos^2
+    s = np.sqrt(u * u + 4.0 * a2 * cos2 * r2_cos2)
+    outside = 2.0 * a2 / (np.pi * np.maximum(s * (s + u), tiny))
+    inside = (s - u) / (2.0 * np.pi * np.maximum(w2 * s * cos, tiny))
+    return np.where(u > 0.0, outside, inside)
 
 
-def disc_lobe(alpha, angular_radius, v_dot_h):
-    """How a lobe of width alpha sees a disc light of angular radius theta (as brdf.glsl's
-    disc_lobe): the angular radius of the disc the representative point is taken on, and the
-    factor D is scaled by. The disc's half-vector radius is w = sin(theta) / (2 sqrt(V.H))
-    (its light-direction solid angle over the reflection's Jacobian 4 V.H); x = w / alpha. The
-    representative-point lobe, a plateau of radius w' with GGX shoulders of width alpha, holds
-    1 + (pi/2) x' + x'^2 times a lone lobe's energy (small angles), the disc itself 1: so the
-    plateau is taken at the height of the disc's (factor 1 / x^2: a mirror shows the disc at its
-    radiance) on a disc shrunk to the x' that makes the energies equal, x'^2 + (pi/2) x' + 1 = x^2;
-    a disc narrower than the lobe (x <= 1) leaves it as it is."""
-    alpha = np.asarray(alpha, np.float64)
-    w = np.sin(angular_radius) / (2.0 * np.sqrt(np.maximum(v_dot_h, 1e-4)))
-    x = w / alpha
-    x_rep = np.where(x > 1.0, 0.5 * (-0.5 * np.pi + np.sqrt(0.25 * np.pi ** 2 + 4.0 * np.maximum(np.square(x) - 1.0, 0.0))), 0.0)
-    theta_rep = np.arcsin(np.minimum(1.0, 2.0 * np.sqrt(np.maximum(v_dot_h, 1e-4)) * x_rep * alpha))
-    return theta_rep, np.where(x > 1.0, 1.0 / np.square(np.maximum(x, 1.0)), 1.0)
+def disc_half_radius(angular_radius, v_dot_h):
+    """The radius in the half vector's slope space of a disc light of angular radius theta:
+    sin(theta) / (2 sqrt(V.H)) (its solid angle over the reflection's Jacobian 4 V.H)."""
+    return np.sin(angular_radius) / (2.0 * np.sqrt(np.maximum(v_dot_h, 1e-4)))
 
 
 def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
@@ -420,9 +416,8 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     f0 (0.04 dielectric, base_color metal), E from dfg_integrate unless e_spec is given.
     dtype float16 evaluates every step in half precision (E still integrated in float64);
     min_perceptual_roughness is the clamp (MIN_PERCEPTUAL_ROUGHNESS_FP16 is Filament's fp16 one).
-    disc_angular_radius > 0 makes l the centre of a disc light as the chart shades one: the
-    specular lobe towards disc_representative with its own cosine (returned divided by N.L so
-    that f N.L stays the light's f cos) and D scaled as disc_lobe says.
+    disc_angular_radius > 0 makes l the centre of a disc light as the chart shades one: D
+    convolved with the disc (d_ggx_disc), the other factors at its centre.
     """
     _check_model(model)
     n = np.asarray(n, dtype=dtype)
@@ -439,18 +434,12 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     lit = n_dot_l_raw > 0.0
     n_dot_l = np.clip(n_dot_l_raw, 0.0, 1.0)
     n_dot_v = np.clip(_dot(n, v), MIN_N_DOT_V, 1.0)
-    l_spec, spec_scale, n_dot_ls = l, 1.0, n_dot_l
-    if disc_angular_radius > 0:
-        theta_rep, scale = disc_lobe(alpha, disc_angular_radius, np.abs(_dot(v, normalize(v + l, dtype))))
-        l_spec = np.where((theta_rep > 0)[..., None], disc_representative(l, reflect(-v, n), theta_rep, dtype), l)
-        n_dot_ls = np.maximum(_dot(n, l_spec), 1e-6)
-        spec_scale = scale * np.maximum(_dot(n, l_spec), 0.0) / np.maximum(n_dot_l, 1e-6)
-    h = normalize(v + l_spec, dtype)
+    h = normalize(v + l, dtype)
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
     v_dot_h = np.abs(_dot(v, h))
-
-    f_spec = (d_ggx(n_dot_h, alpha, dtype) * visibility(model, n_dot_ls, n_dot_v, r, alpha, False, dtype)
-              * spec_scale)[..., None]
+    d = d_ggx(n_dot_h, alpha, dtype) if disc_angular_radius <= 0 else \
+        d_ggx_disc(n_dot_h, alpha, disc_half_radius(disc_angular_radius, v_dot_h), dtype)
+    f_spec = (d * visibility(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc
     spec_d = f_spec * fd
@@ -460,10 +449,7 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
         e = np.maximum(np.asarray(e, dtype=dtype), _tiny(dtype))
         spec_d = spec_d * energy_compensation(np.asarray(DIELECTRIC_F0, dtype), e)
         spec_m = spec_m * energy_compensation(base, e)
-    # The diffuse's Fresnel weight at the light's own half vector (a disc's centre).
-    fd_diffuse = fd if disc_angular_radius <= 0 else \
-        DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fresnel_weight(np.abs(_dot(v, normalize(v + l, dtype))))[..., None]
-    dielectric = base / np.pi * (1.0 - fd_diffuse) + spec_d
+    dielectric = base / np.pi * (1.0 - fd) + spec_d
     f = (1.0 - metal) * dielectric + metal * spec_m
     f = np.where(lit[..., None], f, 0.0)
     # A scalar base colour still yields RGB.

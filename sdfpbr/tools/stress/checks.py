@@ -164,7 +164,7 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
         if light.kind == "directional":
             l = np.broadcast_to(np.asarray(light.direction), p.shape)
             # A disc light's highlight is the disc (half vectors within theta/2 of its centre's)
-            # with edges as sharp as the material's own lobe (mirror.disc_representative).
+            # with edges as sharp as the material's own lobe (mirror.d_ggx_disc).
             disc = 0.5 * math.radians(light.angular_radius_deg)
         else:
             to_light = np.asarray(light.position) - p
