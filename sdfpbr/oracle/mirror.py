@@ -376,26 +376,32 @@ def single_scatter_albedo(n_dot_v, r, model):
     return (A + B)[inv.ravel()].reshape(nv.shape)
 
 
+DISC_MIN_COS = 0.5   # ggx.glsl: a wide disc's slope image far off the normal is no circle
+
+
 def d_ggx_disc(n_dot_h, alpha, w, dtype=np.float64):
     """D seen through a disc light (as ggx.glsl's d_ggx_disc): the GGX lobe averaged over a disc
     of half vectors of solid angle pi w^2 centred on the half vector whose NdotH is given. In
     n's slope space GGX is p(s) = a^2 / (pi (|s|^2 + a^2)^2) = laplacian(log(|s|^2 + a^2)) /
     (4 pi), so its integral over a circle of radius r at distance d is, by the divergence
     theorem, I = 1/2 - u / (2 S), u = d^2 + a^2 - r^2, S = sqrt(u^2 + 4 r^2 a^2). The disc's slope
-    image at d = tan(theta_h) has the area of a circle of radius r = w / cos^1.5, and
-    D = I / (pi w^2 cos). w = 0 is d_ggx."""
+    image at d = tan(theta_h) has the area of a circle of radius r = w / cos^1.5 (the cos no
+    lower than DISC_MIN_COS), and D = I / (pi w^2 c_m), c_m the measure's cos where the lobe's
+    share within the disc lies: 1 within, cos^4 / c^3 far off (GGX's own value there). w = 0 is
+    d_ggx."""
     nh = np.asarray(n_dot_h, dtype=dtype)
     a2 = np.asarray(alpha, dtype=dtype) ** 2
     w2 = np.asarray(w, dtype=dtype) ** 2
     tiny = _tiny(dtype)
-    cos = np.maximum(nh, 1e-6)
+    c = np.maximum(nh, DISC_MIN_COS)
     cos2 = nh * nh
-    r2_cos2 = w2 / cos                                        # r^2 cos^2
+    r2_cos2 = w2 * cos2 / c ** 3                             # r^2 cos^2, r^2 = w^2 / c^3
     u = (1.0 - nh) * (1.0 + nh) + a2 * cos2 - r2_cos2        # (d^2 + a^2 - r^2) cos^2
     s = np.sqrt(u * u + 4.0 * a2 * cos2 * r2_cos2)
-    outside = 2.0 * a2 / (np.pi * np.maximum(s * (s + u), tiny))
-    inside = (s - u) / (2.0 * np.pi * np.maximum(w2 * s * cos, tiny))
-    return np.where(u > 0.0, outside, inside)
+    inside = np.where(u > 0.0, 2.0 * a2 * cos2 * r2_cos2 / np.maximum(s * (s + u), tiny),
+                      (s - u) / (2.0 * np.maximum(s, tiny)))
+    measure = cos2 * cos2 / c ** 3 * (1.0 - inside) + inside   # c^3 c_m = cos^4 far off, 1 within
+    return inside / (np.pi * np.maximum(w2 * measure, tiny))
 
 
 def disc_half_radius(angular_radius, v_dot_h):
