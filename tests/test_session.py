@@ -53,6 +53,25 @@ def test_features_a_spec_leaves_out_leave_programs_out():
     assert render_plan(make_spec()).ibl is not None
 
 
+def test_a_program_is_the_same_text_whatever_the_options_it_never_reads():
+    """An option a program neither tests nor names leaves its text (so its compile and its
+    bakes' cache keys) alone: the stage probe shades the floor, which has no normal or ORM map,
+    so a bug in reading those maps leaves the probe as it is (it was a bake of its own per
+    bug). An option it reads stays in its header."""
+    from sdfpbr.tools.compare import bug_pair
+    for name in ("normal-map-srgb", "orm-srgb"):
+        bug, correct, buggy = bug_pair(make_spec(), name)
+        plan, buggy_plan = render_plan(correct), render_plan(buggy)
+        assert dict(buggy_plan.ibl.stage_probe.options)[bug.option] and not dict(plan.ibl.stage_probe.options).get(bug.option)
+        assert buggy_plan.ibl.stage_probe.text == plan.ibl.stage_probe.text
+        assert buggy_plan.chart.text != plan.chart.text
+        assert f"#define {bug.option} 1" in buggy_plan.chart.text
+    plain = render_plan(make_spec())
+    brdf_bug = render_plan(make_spec(bugs=["unsquared-roughness"]))
+    assert "#define BUG_UNSQUARED_ROUGHNESS 1" in brdf_bug.chart.text
+    assert brdf_bug.ibl.stage_probe.text != plain.ibl.stage_probe.text   # the floor is shaded with it
+
+
 def test_bugs_and_presets_are_resolved_by_the_plan_not_the_composer():
     """The composer evaluates whatever schema it is given: a bug switch is legal only because
     the plan's schema names it."""

@@ -144,8 +144,13 @@ _DIRECTIVE = re.compile(r"\s*#\s*(if|elif|else|endif|include)\b\s*(.*)")
 @dataclass(frozen=True)
 class _Module:
     """A module's text split once into directives and runs of plain lines:
-    (line number, directive kind or None, its argument or the run's lines)."""
+    (line number, directive kind or None, its argument or the run's lines), and for each run
+    the upper-case names its code uses (an option may be named there, not only tested)."""
     items: tuple[tuple[int, str | None, object], ...]
+    names: dict[int, frozenset[str]]      # index of a run in items -> its upper-case names
+
+
+_UPPER_NAME = re.compile(r"\b[A-Z_][A-Z0-9_]*\b")
 
 
 # Parsed modules by path, with the (mtime, size) they were read at: every compose walks the
@@ -180,7 +185,9 @@ def _module(path: str) -> _Module | None:
             run.append(line)
     if run:
         items.append((lineno - len(run) + 1, None, tuple(run)))
-    module = _Module(tuple(items))
+    names = {i: frozenset(_UPPER_NAME.findall("\n".join(rest))) for i, (_, kind, rest) in enumerate(items)
+             if kind is None}
+    module = _Module(tuple(items), names)
     _parsed[path] = (stamp, module)
     return module
 
@@ -212,6 +219,8 @@ class _Preprocessor:
         self.root = root
         self.modules: list[str] = []
         self.out: list[str] = []
+        self.consulted: set[str] = set()   # the options a condition read
+        self.named: set[str] = set()       # the upper-case names in the code composed
         self._next: tuple[int, int] | None = None   # (file index, line) the output continues at
 
     def condition(self, expr: str, where: str) -> bool:
@@ -228,6 +237,7 @@ class _Preprocessor:
                     if name not in self.options:
                         raise ValueError(f"{where}: condition uses {name}, which the composer did not define")
                     python.append(repr(self.options[name]))
+                    self.consulted.add(name)
                     last_option = name
                 else:  # a bare lower-case word is a value of the option it is compared with
                     allowed = self.schema.choices.get(last_option)
@@ -253,13 +263,14 @@ class _Preprocessor:
         index = len(self.modules)
         stack: list[list[bool]] = []   # [active, a branch was taken]
         active = True
-        for lineno, kind, rest in module.items:
+        for i, (lineno, kind, rest) in enumerate(module.items):
             where_here = f"{name}:{lineno}"
             if kind is None:
                 if active:
                     if self._next != (index, lineno):
                         self.out.append(f"#line {lineno} {index}")
                     self.out.extend(rest)
+                    self.named |= module.names[i]
                     self._next = (index, lineno + len(rest))
                 continue
             if kind == "if":
@@ -326,7 +337,12 @@ def _compose(main: str, opts: dict[str, Value], schema: OptionSchema, root: Path
     pre = _Preprocessor(opts, schema, root)
     pre.include(main, "<compose>")
     header = [GLSL_VERSION, "// composed by sdfpbr from " + main]
+    # Only the options this program's text depends on: those its conditions read and those its
+    # code names. Programs that differ in options they never read (a display bug, to the stage
+    # probe) are then the same text: one compile, one cache key, one IBL bake between them.
     for name, value in sorted(opts.items()):
+        if name not in pre.consulted and name not in pre.named:
+            continue
         if name in schema.choices:
             header.append(f"// option {name} = {value}")
         else:
