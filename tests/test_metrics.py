@@ -178,6 +178,22 @@ def _find(canvas: np.ndarray, block: np.ndarray) -> tuple[int, int] | None:
     return None
 
 
+@pytest.mark.parametrize("colormap", M.COLORMAPS)
+def test_a_colormap_is_the_linear_interpolation_of_its_samples(colormap):
+    """The lookup table holds each of the map's samples exactly and the colours between them
+    within 1 of 255 of float64 linear interpolation (rounded); out of range clamps, NaN is gray."""
+    table = np.asarray(M._COLORMAPS[colormap], np.float64)
+    knots = np.arange(len(table)) / (len(table) - 1)
+    np.testing.assert_array_equal(M.apply_colormap(knots, colormap), table.astype(np.uint8))
+    v = np.concatenate([rng.random(20000), np.linspace(0, 1, 4099)])
+    want = np.stack([np.interp(v * (len(table) - 1), np.arange(len(table)), table[:, k]) for k in range(3)], -1)
+    got = M.apply_colormap(v, colormap).astype(float)
+    assert np.abs(got - np.rint(want)).max() <= 1
+    edge = M.apply_colormap(np.array([-0.5, 1.5, np.nan, np.inf]), colormap)
+    assert tuple(edge[0]) == tuple(table[0]) and tuple(edge[1]) == tuple(table[-1])
+    assert tuple(edge[2]) == tuple(edge[3]) == M._NAN_COLOR
+
+
 def test_heatmap_holds_the_mapped_errors_and_a_bar_dark_at_the_bottom():
     e = rng.random((40, 60))
     e[3, 4] = np.nan
@@ -249,7 +265,8 @@ def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
 @pytest.mark.requires_extra("flip_evaluator")
 def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
     """Pairs submitted to a batch are measured (in worker processes, one thread each, where
-    there is more than one core) and kept: flip_ldr of each afterwards takes the kept result
+    there is more than one core) and kept: flip_ldr of a pair still in flight takes its worker's
+    result, and flip_ldr of each afterwards takes the kept result
     without measuring again, and it is flip-evaluator's own figure and map for that pair (the
     map per pixel exactly; the mean up to the summation order of a different thread count)."""
     import flip_evaluator
@@ -262,9 +279,14 @@ def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
         for t, r in zip(tests, refs):
             batch.submit(t, r)
         batch.submit(tests[0], refs[0])                                # a repeat is measured once
+        assert len(M._in_flight) == (len(refs) if batch.workers else 0)
+        early_mean, early_map = M.flip_ldr(tests[1], refs[1])          # in the block: the worker's result
+        assert len(M._in_flight) == (len(refs) - 1 if batch.workers else 0) and len(M._kept_flips) >= 1
+    assert not M._in_flight
     workers = min(cores(), len(refs), M.BATCH_WORKERS_MAX)
     assert batch.workers == (workers if workers > 1 else 0)
     assert len(M._kept_flips) == len(refs)
+    assert M.flip_ldr(tests[1], refs[1])[0] == early_mean
     for t, r in zip(tests, refs):
         want_map, want_mean, _ = flip_evaluator.evaluate(r / np.float32(255), t / np.float32(255), "LDR",
                                                          applyMagma=False, parameters={"ppd": M.DEFAULT_PPD})

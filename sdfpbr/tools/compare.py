@@ -302,6 +302,16 @@ def bug_pair(spec: ChartSpec, bug_name: str) -> tuple[Any, ChartSpec, ChartSpec]
     return bug, correct, bug.apply(correct)
 
 
+def submit_bug_pairs(spec: ChartSpec, names: Sequence[str], batch) -> None:
+    """Render each named bug's correct and buggy charts of ``spec`` (kept, as compare_bug and
+    bug_contact_sheet render them) and submit their FLIP to ``batch`` (an open FlipBatch):
+    a build measures them while it renders other images."""
+    for name in names:
+        _, correct, buggy = bug_pair(spec, name)
+        rc, rb = render_chart(correct, aovs=True, keep=True), render_chart(buggy, keep=True)
+        batch.submit(rb.display, rc.display)
+
+
 def compare_bug(spec: ChartSpec | str | Path | None, bug_name: str, *, axes: bool | None = None,
                 panel_size: int | None = None) -> Sheet:
     """correct | buggy | FLIP difference for one catalog bug, titled with its name and summary
@@ -370,8 +380,9 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
     # Every pair rendered first, each measured (in worker processes) while the next renders and
     # the cards' chart panels are drawn.
     with FlipBatch(len(pairs)) as batch:
-        for bug, correct, buggy in pairs:
-            batch.submit(render(buggy, False)[0].display, render(correct, True)[0].display)
+        submit_bug_pairs(spec, names, batch)
+        for bug, correct, buggy in pairs:   # the sheet's specs in this order
+            render(buggy, False), render(correct, True)
         chart_panels = [_bug_panels(bug, render(correct, True)[0], render(buggy, False)[0], panel_size, text_size)
                         for bug, correct, buggy in pairs]
     cards, card_panels, diffs = [], [], []

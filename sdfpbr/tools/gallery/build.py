@@ -20,13 +20,16 @@ from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from ...workers import cores, process_pool
 from .entries import Item, collect, spec_identity
-from .images import ImageCache, Rendered, checkpoint, render_item, write_file
+from .images import ImageCache, Rendered, checkpoint, render_items, write_file
 from .keys import gl_renderers, item_keys
 from .page import gallery_html
 
 
 def _worker(items: list[Item], keys: list[str]) -> list[Rendered]:
-    return [render_item(item, key) for item, key in zip(items, keys)]
+    rendered: dict[str, Rendered] = {}
+    render_items(items, {item.name: key for item, key in zip(items, keys)},
+                 lambda item, result: rendered.__setitem__(item.name, result))
+    return [rendered[item.name] for item in items]
 
 
 def work_groups(items: list[Item]) -> list[list[Item]]:
@@ -152,8 +155,7 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     groups = work_groups(todo)
     workers = min(jobs, len(groups))
     if workers <= 1:
-        for item in todo:
-            done(item, render_item(item, keys[item.name]))
+        render_items(todo, keys, done)
     else:
         _render_parallel(groups, keys, workers, done)
 

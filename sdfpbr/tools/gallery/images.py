@@ -9,10 +9,12 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from ...cache import after_write, cache_max, default_cache_dir, touch
 from ...errors import OutputError
 from ...files import remove_stale_temps, write_bytes
+from ...spec.chart_spec import ChartSpec
 from .entries import Item
 from .keys import gl_renderers, item_key
 
@@ -146,6 +148,42 @@ def render_item(item: Item, key: str) -> Rendered:
     metadata = {**metadata, KEY_FIELD: key, ENTRY_FIELD: item.canonical}
     data = png_bytes(image, metadata)
     return Rendered(data, time.perf_counter() - start, renderer, timings)
+
+
+def flip_pairs(item: Item) -> list[tuple[ChartSpec, str]]:
+    """The (base, bug) pairs whose FLIP ``item`` measures (bug comparisons and the catalog)."""
+    if item.kind == "compare":
+        return [(item.base, item.bug)]
+    if item.kind == "bug-sheet":
+        return [(item.base, name) for name in item.bug_names]
+    return []
+
+
+def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, Rendered], None]) -> None:
+    """Render ``items`` on this process's GL context, calling ``done`` with each. The pairs
+    the comparisons measure are rendered first and their FLIPs handed to worker processes
+    (metrics.FlipBatch), which measure them while the other images render here: measured one
+    after the other, the catalog's 22 FLIPs were a third of a gallery build's time on 2 cores."""
+    pairs = list(dict.fromkeys(pair for item in items for pair in flip_pairs(item)))
+    if not pairs:
+        for item in items:
+            done(item, render_item(item, keys[item.name]))
+        return
+    from ...image.metrics import FlipBatch
+    from ..compare import submit_bug_pairs
+    measuring = sorted((item for item in items if flip_pairs(item)), key=lambda item: len(flip_pairs(item)))
+    others = [item for item in items if not flip_pairs(item)]
+    with FlipBatch(len(pairs)) as batch:
+        start = time.perf_counter()
+        for base, name in pairs:
+            submit_bug_pairs(base, [name], batch)
+        share = (time.perf_counter() - start) / len(measuring)   # each measuring item's part of it
+        for item in others:
+            done(item, render_item(item, keys[item.name]))
+        for item in measuring:   # fewest pairs first: a page takes its FLIP while the rest are measured
+            rendered = render_item(item, keys[item.name])
+            rendered.seconds += share
+            done(item, rendered)
 
 
 def ensure_image(item: Item, cache: ImageCache | None = None, force: bool = False,
