@@ -102,6 +102,26 @@ def test_each_procedural_mode_bakes_and_composes_its_own_maps(mode):
         assert (sampler in text) == (name in PROCEDURAL_MAPS[mode]), (mode, name)
 
 
+@pytest.mark.parametrize("mode", list(PROCEDURAL_MAPS))
+def test_a_procedural_set_is_kept_in_the_cache_and_read_back_unchanged(mode, tmp_path, monkeypatch):
+    """Made once and written to the session's cache; a new process (here: the process's own
+    copy forgotten) reads the same texels back instead of making them again."""
+    from sdfpbr.cache import ArrayCache
+    from sdfpbr.gpu import textures
+    made = PROCEDURAL_SETS[mode]().images
+    cache = ArrayCache(tmp_path)
+    monkeypatch.setattr(textures, "_made", {})
+    first = textures.procedural_maps(mode, cache)
+    assert [p.parent.name for p in tmp_path.rglob("*.npz")] == ["textures"]
+    monkeypatch.setattr(textures, "_made", {})
+    monkeypatch.setattr(textures, "PROCEDURAL_SETS", {})   # reading back needs no generator
+    again = textures.procedural_maps(mode, cache)
+    assert again is not first and set(again.images) == set(made)
+    for name in made:
+        np.testing.assert_array_equal(again.images[name], made[name])
+        np.testing.assert_array_equal(first.images[name], made[name])
+
+
 def test_hammered_normals_are_unit_and_steep():
     """Unit, outward, and steep at the ridges between dimples (its docstring's 60 degrees and
     more), as the unclamped-N.V bug's scene needs."""

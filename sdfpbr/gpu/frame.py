@@ -213,10 +213,11 @@ class SceneBindings:
         self.owned.clear()
 
 
-def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, uses_textures: bool) -> SceneBindings:
+def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, uses_textures: bool,
+                   cache=None) -> SceneBindings:
     """Bindings for ``spec``: camera, grid, lights and marching budget (from ``quality``), the
     environment (a texture for file environments) and the surface maps when the program
-    composes them in."""
+    composes them in (procedural ones kept in ``cache``, the session's ArrayCache)."""
     cam = camera_mod.frame(spec)
     env = make_environment(ctx, spec)
     uniforms = chart_uniforms(spec, cam, quality)
@@ -226,7 +227,7 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     bindings.add_texture("u_cell_materials", upload_materials(ctx, spec.cell_materials()), owned=True)
     if uses_textures:
         from .textures import texture_set, upload
-        maps = texture_set(spec)
+        maps = texture_set(spec, cache)
         for name, tex in upload(ctx, maps).items():
             bindings.add_texture(name, tex, owned=True)
         bindings.uniforms["u_map_layers"] = maps.layers

@@ -117,7 +117,7 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
 def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
     """The scene's bindings with the lighting the chart program reads: DFG LUT, and the baked
     environment, ground table and stage probe where the plan has them (cached bakes)."""
-    scene = scene_bindings(session.ctx, spec, plan.quality, plan.options["USE_TEXTURES"])
+    scene = scene_bindings(session.ctx, spec, plan.quality, plan.options["USE_TEXTURES"], session.cache)
     try:
         dfg = session.ibl.dfg(plan)
         scene.add_texture("u_dfg", dfg)

@@ -174,7 +174,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
     timings["compile_s"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    scene = scene_bindings(ctx, plan.scene, quality(plan.scene), plan.options["USE_TEXTURES"])
+    scene = scene_bindings(ctx, plan.scene, quality(plan.scene), plan.options["USE_TEXTURES"], session.cache)
     owned = []
     try:
         scene.uniforms.update({"u_cell_reach": cell_reach(spec), "u_max_bounces": max_bounces,
