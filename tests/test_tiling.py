@@ -34,6 +34,23 @@ def test_tiled_render_equals_untiled(session, variant, tile):
     assert same(tiled.render(spec), session.render(spec))
 
 
+@pytest.mark.parametrize("variant", VARIANTS + [{"x_axis": "exposure", "x_values": [-1.0, 0.0, 2.0], "stage": "cells"}])
+@pytest.mark.parametrize("display", [{"tonemap": "reinhard-extended", "reinhard_white": 2.0},
+                                     {"exposure": 1.5, "tonemap": "none"}])
+def test_a_display_field_changed_redisplays_the_same_pixels_as_a_render(session, variant, display):
+    """A spec that differs in display fields alone, shown from another render's radiance
+    (Session.redisplay, what tone-map and exposure sweeps use), in tiles, is the image a render
+    of it gives, bit for bit: the display pass reads the same texels."""
+    from sdfpbr.spec.fields import same_radiance
+    spec = make_spec(**BASE, **variant)
+    shown = make_spec(spec, **display)
+    assert same_radiance(spec, shown) and shown != spec
+    tiled = Session(session.ctx, session.cache, tile=36)
+    again = tiled.redisplay(shown, tiled.render(spec, aovs=False))
+    np.testing.assert_array_equal(again.image, session.render(shown, aovs=False, hdr=False).image)
+    assert not same_radiance(spec, make_spec(spec, spacing=2.6))
+
+
 def test_no_step_at_tile_borders(session):
     """Independently of the untiled render: across a tile border neighbouring columns differ no
     more than neighbouring columns elsewhere in the same smooth region."""

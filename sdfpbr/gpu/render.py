@@ -114,6 +114,32 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
     return RenderResult(radiance, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
 
 
+def redisplay(session, spec: ChartSpec, source: RenderResult) -> RenderResult:
+    """``spec``'s render from ``source``, a render (its HDR read) of a spec that differs from
+    ``spec`` in display fields alone (fields.same_radiance: the caller checks): its radiance
+    through ``spec``'s display pass, tile by tile as render_chart draws. The display image is
+    the one render_chart gives (the display pass reads the same texels: float32, or float16
+    read back exactly); a tone-map or exposure sweep draws its chart once."""
+    if source.hdr is None or source.hdr.shape[:2] != (spec.height, spec.width):
+        raise ValueError("redisplay needs a render of the same size with its HDR read")
+    t0 = time.perf_counter()
+    plan = render_plan(spec)
+    display = session.programs.fragment(plan.display)
+    ctx, H, W = session.ctx, spec.height, spec.width
+    image = np.empty((H, W, 4), np.uint8)
+    for x0, y0, tw, th in tiles(W, H, session.tile):
+        where = image_slices(H, x0, y0, tw, th)
+        rgba = np.empty((th, tw, 4), np.float32)
+        rgba[..., :3], rgba[..., 3] = source.hdr[where], source.alpha[where]
+        radiance = ctx.texture((tw, th), 4, rgba[::-1].tobytes(), dtype="f4")   # GL rows run bottom-up
+        try:
+            image[where] = display_pass(ctx, display, radiance, spec, tw, th, session.targets, origin=(x0, y0))
+        finally:
+            radiance.release()
+    return RenderResult(source.hdr, source.alpha, image, {}, source.camera, source.chart_source, plan.display,
+                        {"render_s": time.perf_counter() - t0})
+
+
 def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
     """The scene's bindings with the lighting the chart program reads: DFG LUT, and the baked
     environment, ground table and stage probe where the plan has them (cached bakes)."""

@@ -19,7 +19,7 @@ from .gl import create_context, renderer_string
 from .ibl import IBLBaker
 from .programs import ProgramCache
 from .frame import TargetPool
-from .render import TILE, RenderResult, render_chart
+from .render import TILE, RenderResult, redisplay, render_chart
 
 
 CHART_STAGES = ("fragment", "compute")
@@ -92,6 +92,11 @@ class Session:
         else is asked (see gpu.render.render_chart)."""
         with self:
             return render_chart(self, spec, aovs, hdr=hdr, image=image)
+
+    def redisplay(self, spec, source: RenderResult) -> RenderResult:
+        """``spec``'s render from ``source``'s radiance (see gpu.render.redisplay)."""
+        with self:
+            return redisplay(self, spec, source)
 
     @contextmanager
     def turning_light(self, light: int = 0):

@@ -42,6 +42,7 @@ class Field:
     bounds: tuple = ()               # (lo, hi) of a number or of a range's ends, as check enforces
     choices: tuple = ()              # the allowed words of a choice (or list of names), as check enforces
     annotation: Any = Any
+    display: bool = False            # read by the display pass alone: the radiance does not change with it
 
     @property
     def stored(self) -> tuple[str, ...]:
@@ -266,9 +267,10 @@ FIELDS: tuple[Field, ...] = (
     _bool("ao", True, "ambient occlusion"),
     _bool("ground", True, "the ground plane"),
     _bool("ibl", True, "image-based lighting from the environment"),
-    _choice("tonemap", "aces", TONEMAPPERS, "tone mapper", sweep=TONEMAPPERS),
-    _float("exposure", 0.0, -40.0, 40.0, "exposure in EV", metavar="EV", sweep=(-2.0, -1.0, 0.0, 1.0, 2.0)),
-    _float("reinhard_white", 4.0, 1e-3, 1e6, "white point of reinhard-extended"),
+    _choice("tonemap", "aces", TONEMAPPERS, "tone mapper", sweep=TONEMAPPERS, display=True),
+    _float("exposure", 0.0, -40.0, 40.0, "exposure in EV", metavar="EV", sweep=(-2.0, -1.0, 0.0, 1.0, 2.0),
+           display=True),
+    _float("reinhard_white", 4.0, 1e-3, 1e6, "white point of reinhard-extended", display=True),
     _int("spp", 1, 1, 1024, "samples per pixel"),
     _bool("antialias", True, "at spp 1 on the cells stage, the spheres' edges covered analytically "
           "(the pixel box the reference integrates)"),
@@ -369,6 +371,17 @@ def resolve_field(name: str, what: str = "spec field", also=()) -> Field:
     if field is None:
         raise SpecError(f"unknown {what} {quote(name)}{did_you_mean(key, [*_BY_NAME, *also])}")
     return field
+
+
+DISPLAY_ATTRS = tuple(f.attr for f in FIELDS if f.display)
+
+
+def same_radiance(a, b) -> bool:
+    """Whether specs ``a`` and ``b`` differ in display fields alone (tone map, exposure, ...):
+    their charts' radiance is the same, and one's display image is the other's radiance
+    through its own display pass."""
+    from dataclasses import replace
+    return replace(a, **{k: getattr(b, k) for k in DISPLAY_ATTRS}) == b
 
 
 def field_for_attr(attr: str) -> Field:

@@ -136,6 +136,29 @@ def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> Ren
     return rendered
 
 
+def render_charts(specs: Sequence[ChartSpec]) -> list[RenderedChart]:
+    """Each spec's render (as render_chart's); the specs that differ from the first in display
+    fields alone (a tone-map or exposure sweep) take its radiance through their own display
+    pass, with the same pixels as drawing each (gpu.render.redisplay)."""
+    from ..gpu.session import default_session
+    from ..spec.fields import same_radiance
+    first = specs[0]
+    if not any(same_radiance(first, s) for s in specs[1:]):
+        return [render_chart(s) for s in specs]
+    session = default_session(first.backend, first.device_index)
+    source = session.render(first, aovs=False, hdr=True)
+    out = []
+    for s in specs:
+        if s is first:
+            result = source
+        elif same_radiance(first, s):
+            result = session.redisplay(s, source)
+        else:
+            result = session.render(s, aovs=False, hdr=False)
+        out.append(RenderedChart(s, result, session.renderer))
+    return out
+
+
 def at_panel_size(spec: ChartSpec, panel_size: int | None) -> ChartSpec:
     """The spec rendered so that its longer edge is ``panel_size`` px (aspect kept)."""
     if panel_size is None:
@@ -446,7 +469,7 @@ def sweep(spec: ChartSpec | str | Path | None, name: str, values: Sequence | Non
         raise SpecError(f"columns must be a positive whole number, got {columns!r}")
     axes = base.labels if axes is None else axes
     text_size = sheet_text_size(max(s.height for s in specs))
-    rendered = [render_chart(s) for s in specs]
+    rendered = render_charts(specs)
     panels = [chart_panel(_sweep_label(field_name, v), r, axes, text_size, spec_index=i)
               for i, (v, r) in enumerate(zip(values, rendered))]
     grid = [panels[i:i + columns] for i in range(0, len(panels), columns)]
