@@ -43,9 +43,8 @@ Material cell_material(ivec2 cell, vec3 n_geo) {
 #if USE_TEXTURES
 // glTF: texture values scale the cell's factors (roughness before its clamp).
 void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
-    vec4 t0 = cell_texel(cell, 0);
     m.base_color_linear *= tx.base_color_linear;
-    m.metallic = t0.a * tx.orm.b;
+    m.metallic *= tx.orm.b;   // the factor (cell_material), or the sphere plate's end
     set_roughness(m, cell_texel(cell, 1).x * tx.orm.g);
 #if EMISSION
     m.emission_linear *= tx.emission_linear;

@@ -227,11 +227,14 @@ def _without_sphere_plate(monkeypatch, quality="default"):
     dict(x_axis="metallic", y_axis="roughness", camera="orthographic"),   # slots are rows
     dict(camera_azimuth=40.0, transparent=True),
     dict(quality="high", size="96x120", rows=3, cols=1),
+    dict(textures="procedural", metallic=(0.0, 0.8)),                # the map's metallic times the cell's
+    dict(textures="hammered", x_axis="metallic", y_axis="roughness", clearcoat=(0.5, 0.5)),
 ])
 def test_sphere_plate_is_the_per_pixel_sphere(session, monkeypatch, extra):
     """The sphere shaded once per slot as a dielectric and as a metal and mixed by each cell's
     metallic equals the sphere shaded in every cell: the shading is linear in metallic (glTF's
-    mix), the plate's texel holds the same rays' points (n x n of them on small spheres, as the
+    mix; a map's metallic scales the cell's, so its slot's metal end is shaded at the map's),
+    the plate's texel holds the same rays' points (n x n of them on small spheres, as the
     chart takes them), so within float rounding; every sphere pixel lies in the plate's drawn
     box (a pixel outside it would read 0)."""
     from sdfpbr.shading.plan import render_plan
@@ -249,8 +252,8 @@ def test_sphere_plate_is_the_per_pixel_sphere(session, monkeypatch, extra):
 
 def test_sphere_plate_only_where_it_saves_shading():
     """Slots are the cells' materials with metallic set aside; the plate is used where two
-    shadings per slot are fewer than one per cell, and for opaque untextured spheres on the
-    cells stage's one-ray-per-pixel path."""
+    shadings per slot are fewer than one per cell, and for opaque spheres (textured too, but
+    not by a glTF asset's per-cell maps) on the cells stage's one-ray-per-pixel path."""
     from sdfpbr.shading.cells import sphere_plate
     from sdfpbr.shading.plan import render_plan
     layout = sphere_plate(make_spec(rows=3, cols=4))
@@ -260,9 +263,10 @@ def test_sphere_plate_only_where_it_saves_shading():
     assert sphere_plate(make_spec(rows=2, cols=4)) is None                     # 8 shadings for 8 cells
     assert sphere_plate(make_spec(rows=3, cols=3, y_axis="clearcoat")) is None  # nothing shared
     assert sphere_plate(make_spec(size="8192x8192")) is None                   # over the plate's memory cap
-    for extra in (dict(textures="procedural"), dict(spp=4), dict(stage="shared"), dict(quality="seed002")):
+    for extra in (dict(spp=4), dict(stage="shared"), dict(quality="seed002"), dict(alpha=(0.5, 0.5))):
         assert not render_plan(make_spec(**extra)).options["SPHERE_PLATE"], extra
     assert render_plan(make_spec()).options["SPHERE_PLATE"]
+    assert render_plan(make_spec(textures="procedural")).options["SPHERE_PLATE"]
     # The plan carries the layout it decided by (the render draws it), and none without a plate.
     planned = render_plan(make_spec(rows=3, cols=4)).sphere_layout
     assert planned.slots.tolist() == layout.slots.tolist() and planned.slot_cells == layout.slot_cells

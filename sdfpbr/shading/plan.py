@@ -221,11 +221,14 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
                                and opts.get("AO_METHOD") == "analytic" and not opts.get("BUG_FEWTAP_IBL", False))
     # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
     # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
-    # edge's), opaque, untextured, where cells share all but their metallic (cells.py). The
-    # few-tap bug's shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
+    # edge's), opaque, where cells share all but their metallic (cells.py). A map's metallic
+    # scales the cell's (m_factor m_map), and the shading is linear in it, so a textured slot
+    # is shaded at m_map and at 0 and mixed by m_factor alike; not a glTF asset's, whose maps
+    # are each cell's own (the material table does not tell them apart). The few-tap bug's
+    # shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
     layout = (sphere_plate(spec) if opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and q.sphere_plate
-              and not opts["SEE_THROUGH"]
-              and not opts["USE_TEXTURES"] and not opts.get("BUG_FEWTAP_IBL", False) else None)
+              and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
+              and not opts.get("BUG_FEWTAP_IBL", False) else None)
     opts["SPHERE_PLATE"] = layout is not None
     # Small spheres average points of the pixel box (the plate's, or the chart's own where it
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
