@@ -213,6 +213,29 @@ def test_a_removed_entry_loses_its_image_only(env):
     assert sorted(p.name for p in out.glob("*.png")) == ["notes.png", "plain.png"]
 
 
+@pytest.mark.requires_extra("flip_evaluator")
+def test_comparisons_measured_beside_other_entries_are_the_images_each_makes_alone(env):
+    """The build renders the comparisons' pairs first and measures their FLIPs in workers while
+    the other entries render (images.render_items); every image is still the one its entry
+    makes on its own, in a fresh process's state (nothing kept), pixel for pixel."""
+    import io
+
+    from sdfpbr.image import metrics
+    from sdfpbr.tools import compare
+    from sdfpbr.tools.gallery.images import render_item
+    charts = make_charts(env, {**ENTRIES, "sheet.toml": '[compare]\nbugs = ["metal-diffuse", "double-gamma", '
+                                                        '"unsquared-roughness", "gamma-2.2"]\n[spec]\n' + SMALL})
+    out = env / "out"
+    manifest = build(charts, out)
+    for entry in manifest["images"]:
+        item = next(i for i in collect(charts) if i.name == entry["name"])
+        metrics._kept_flips.clear()
+        compare._kept.clear()
+        alone = render_item(item, entry["key"]).png
+        got = np.asarray(Image.open(out / entry["image"]))
+        np.testing.assert_array_equal(got, np.asarray(Image.open(io.BytesIO(alone))), err_msg=entry["name"])
+
+
 def test_each_bug_expands_to_one_image_per_bug(tmp_path):
     from sdfpbr.spec.bugs import BUGS
     charts = make_charts(tmp_path, {"bugs.toml": '[compare]\nbugs = "each"\n[spec]\n' + SMALL})
