@@ -75,7 +75,7 @@ def test_shader_command_prints_each_program_of_the_frame(capsys):
     assert "// composed by sdfpbr from stage_sphere_main.glsl" in capsys.readouterr().out
     assert main(["shader", "--display"]) == 0
     assert "// composed by sdfpbr from display_main.glsl" in capsys.readouterr().out
-    assert main(["shader", "--program", "sphere-plate", "--textures", "procedural"]) == 2
+    assert main(["shader", "--program", "sphere-plate", "--spp", "4"]) == 2   # stratified rays: no plate
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "runs no sphere-plate program; it runs: floor-plate, bounce-plate, chart" in err
 
