@@ -338,8 +338,9 @@ def _compose(main: str, opts: dict[str, Value], schema: OptionSchema, root: Path
     pre.include(main, "<compose>")
     header = [GLSL_VERSION, "// composed by sdfpbr from " + main]
     # Only the options this program's text depends on: those its conditions read and those its
-    # code names. Programs that differ in options they never read (a display bug, to the stage
-    # probe) are then the same text: one compile, one cache key, one IBL bake between them.
+    # code names. Programs that differ in options they never read (a normal-map bug, to the
+    # stage probe, which shades no map) are then the same text: one compile, one cache key,
+    # one IBL bake between them.
     for name, value in sorted(opts.items()):
         if name not in pre.consulted and name not in pre.named:
             continue
