@@ -126,6 +126,25 @@ def bounce_pair(session):
     return spec, step, plate, direct, unlit, floor
 
 
+def test_the_bounce_rays_weights_are_gauss_radau_on_the_caps_solid_angle():
+    """stage_bounce.glsl averages the sphere's radiance over the cap its floor point sees with
+    the axis ray (x = 0) and a ring at x_r, weights 1 - w and w, x = (1 - cos) / (1 - cos of
+    the cap's radius), uniform on [0, 1] in solid angle. Radau with its node fixed at 0 and one
+    free node is exact for polynomials in x up to degree 2 and no further: the constants in the
+    shader must be that rule (x_r = 2/3, w = 3/4), checked against the integrals of x^k."""
+    import re
+    from fractions import Fraction
+
+    from sdfpbr.shading.compose import shader_dir
+    text = (shader_dir() / "stage_bounce.glsl").read_text()
+    x_r = float(re.search(r"#define BOUNCE_RING_X ([0-9.]+)", text).group(1))
+    w = float(re.search(r"#define BOUNCE_RING_WEIGHT ([0-9.]+)", text).group(1))
+    rule = [(1.0 - w) * 0.0 ** k + w * x_r ** k for k in range(4)]
+    exact = [float(Fraction(1, k + 1)) for k in range(4)]
+    np.testing.assert_allclose(rule[:3], exact[:3], rtol=1e-6)
+    assert abs(rule[3] - exact[3]) > 0.01     # degree 3 is beyond a two-node Radau rule
+
+
 def test_bounce_plate_is_the_per_pixel_bounce_at_its_texels(bounce_pair):
     """Where a floor pixel's centre is one of the plate's texels (every step-th pixel of the
     cell's frame, from the plate's origin), the interpolated bounce is that texel's: the same
