@@ -263,6 +263,28 @@ def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
 
 
 @pytest.mark.requires_extra("flip_evaluator")
+def test_read_only_pairs_are_known_by_identity_and_writeable_ones_by_content():
+    """A pair of read-only arrays (the sheets' kept renders) is looked up by the arrays
+    themselves the second time; a writeable array may change between calls, so it is hashed
+    each time: the same object with new content is measured anew."""
+    rng_ = np.random.default_rng(3)
+    ref = rng_.integers(0, 256, (24, 32, 3), np.uint8)
+    test = np.clip(ref.astype(int) + 40, 0, 255).astype(np.uint8)
+    ref.setflags(write=False)
+    test.setflags(write=False)
+    M._kept_flips.clear()
+    first = M.flip_ldr(test, ref)
+    assert M._known_key(test, ref, M.DEFAULT_PPD) is not None
+    again = M.flip_ldr(test, ref)
+    assert again[0] == first[0] > 0 and np.array_equal(again[1], first[1])
+    changing = test.copy()
+    before = M.flip_ldr(changing, ref)[0]
+    assert M._known_key(changing, ref, M.DEFAULT_PPD) is None
+    changing[...] = ref
+    assert before == first[0] and M.flip_ldr(changing, ref)[0] == 0.0
+
+
+@pytest.mark.requires_extra("flip_evaluator")
 def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
     """Pairs submitted to a batch are measured (in worker processes, one thread each, where
     there is more than one core) and kept: flip_ldr of a pair still in flight takes its worker's

@@ -182,6 +182,24 @@ KEPT_FLIP_BYTES = 64 << 20
 _kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mean, error map)
 
 
+# Keys of LDR pairs given as read-only arrays (the sheets' kept renders), by the arrays'
+# identity: a gallery asks for each pair three times (submitted, its page, the catalog), and
+# checking and hashing two 512² images each time was a tenth of the catalog's composition.
+_keys_of_arrays: dict = {}   # (id(test), id(ref), ppd) -> (test, ref, key): the arrays held, so ids stay theirs
+
+
+def _known_key(test, ref, ppd: float) -> str | None:
+    hit = _keys_of_arrays.get((id(test), id(ref), ppd))
+    return hit[2] if hit is not None and hit[0] is test and hit[1] is ref else None
+
+
+def _remember_key(test, ref, ppd: float, key: str) -> None:
+    if isinstance(test, np.ndarray) and isinstance(ref, np.ndarray) and not (test.flags.writeable or ref.flags.writeable):
+        if len(_keys_of_arrays) >= 256:
+            _keys_of_arrays.clear()
+        _keys_of_arrays[(id(test), id(ref), ppd)] = (test, ref, key)
+
+
 def _flip_key(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) -> str:
     digest = hashlib.sha256()
     for array in (ref, test):
@@ -199,16 +217,23 @@ def _evaluate(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) ->
     return mean, np.asarray(error_map, np.float32).reshape(ref.shape[:2])
 
 
-def _flip(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict, mask) -> tuple[float, np.ndarray]:
-    m = None if mask is None else _mask(mask, ref.shape[:2])
-    key = _flip_key(ref, test, mode, parameters)
+def _flip(ref: np.ndarray | None, test: np.ndarray | None, mode: str, parameters: dict, mask,
+          key: str | None = None) -> tuple[float, np.ndarray]:
+    """The pair's (mean, map), kept; ``key`` given: the pair's, and ref and test may be None
+    where it is kept or in flight."""
+    m = None if mask is None or ref is None else _mask(mask, ref.shape[:2])   # checked before any work
+    key = key or _flip_key(ref, test, mode, parameters)
     kept = _kept_flips.get(key)
     if kept is None:
         kept = _collect(key)
         if kept is None:
+            if ref is None:
+                raise RuntimeError("a pair known by its key alone is neither kept nor in flight")
             kept = _evaluate(ref, test, mode, parameters)
         _kept_flips.put(key, kept)
     mean, error_map = kept
+    if mask is not None and m is None:
+        m = _mask(mask, error_map.shape)
     error_map = error_map.copy()   # the kept one stays as measured
     if m is not None:
         mean = error_map[m].mean(dtype=np.float64)
@@ -219,10 +244,17 @@ def flip_ldr(test_srgb8, ref_srgb8, pixels_per_degree: float | None = None, mask
     """LDR-FLIP of two display images: uint8 sRGB (or floats in [0, 1], sRGB-encoded), (H, W, 3|4),
     alpha ignored. Returns (mean error, (H, W) float32 map in [0, 1]); the mean is over the whole
     image, or over ``mask`` (bool array or AOV dict) when given."""
-    test = _image(test_srgb8, "test image", ldr=True)
-    ref = _image(ref_srgb8, "reference image", ldr=True)
-    _same_size(test, ref)
-    return _flip(ref, test, "LDR", {"ppd": _ppd(pixels_per_degree)}, mask)
+    ppd = _ppd(pixels_per_degree)
+    key = _known_key(test_srgb8, ref_srgb8, ppd)
+    if key is None:
+        test = _image(test_srgb8, "test image", ldr=True)
+        ref = _image(ref_srgb8, "reference image", ldr=True)
+        _same_size(test, ref)
+        key = _flip_key(ref, test, "LDR", {"ppd": ppd})
+        _remember_key(test_srgb8, ref_srgb8, ppd, key)
+    else:
+        test = ref = None   # measured already, or in flight: _flip takes it by its key
+    return _flip(ref, test, "LDR", {"ppd": ppd}, mask, key)
 
 
 def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, mask=None) -> tuple[float, np.ndarray]:
@@ -290,12 +322,17 @@ class FlipBatch:
         return self._workers
 
     def submit(self, test_srgb8, ref_srgb8, pixels_per_degree: float | None = None) -> None:
+        ppd = _ppd(pixels_per_degree)
+        key = _known_key(test_srgb8, ref_srgb8, ppd)
+        if key is not None and (key in _in_flight or _kept_flips.get(key) is not None):
+            return
         test = _image(test_srgb8, "test image", ldr=True)
         ref = _image(ref_srgb8, "reference image", ldr=True)
         _same_size(test, ref)
         _flip_module()                     # a missing package says so now, not in a worker
-        args = (ref, test, "LDR", {"ppd": _ppd(pixels_per_degree)})
+        args = (ref, test, "LDR", {"ppd": ppd})
         key = _flip_key(*args)
+        _remember_key(test_srgb8, ref_srgb8, ppd, key)
         if key in _in_flight or _kept_flips.get(key) is not None:
             return
         if self._workers:

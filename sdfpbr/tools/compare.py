@@ -8,6 +8,7 @@ viewer sees, tone mapping and encoding included.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass, field
@@ -101,10 +102,13 @@ class RenderedChart:
     result: Any                         # render.RenderResult
     renderer: str
 
-    @property
+    @functools.cached_property
     def display(self) -> np.ndarray:
-        """The unlabeled display image, flattened onto the sheet background."""
-        return flatten(self.result.image)
+        """The unlabeled display image, flattened onto the sheet background: made once and
+        read-only (a FLIP of the same two renders is then known by the arrays)."""
+        image = flatten(self.result.image)
+        image.setflags(write=False)
+        return image
 
 
 # Renders a process keeps by spec for the sheets: the catalog's cards and a gallery's per-bug
