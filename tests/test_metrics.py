@@ -277,6 +277,8 @@ def test_read_only_pairs_are_known_by_identity_and_writeable_ones_by_content():
     assert M._known_key(test, ref, M.DEFAULT_PPD) is not None
     again = M.flip_ldr(test, ref)
     assert again[0] == first[0] > 0 and np.array_equal(again[1], first[1])
+    M._kept_flips.clear()                                              # the result gone, the key still known
+    assert M.flip_ldr(test, ref)[0] == first[0]
     changing = test.copy()
     before = M.flip_ldr(changing, ref)[0]
     assert M._known_key(changing, ref, M.DEFAULT_PPD) is None

@@ -227,7 +227,7 @@ def _flip(ref: np.ndarray | None, test: np.ndarray | None, mode: str, parameters
     if kept is None:
         kept = _collect(key)
         if kept is None:
-            if ref is None:
+            if ref is None:   # flip_ldr looked first; only another thread's eviction gets here
                 raise RuntimeError("a pair known by its key alone is neither kept nor in flight")
             kept = _evaluate(ref, test, mode, parameters)
         _kept_flips.put(key, kept)
@@ -246,14 +246,13 @@ def flip_ldr(test_srgb8, ref_srgb8, pixels_per_degree: float | None = None, mask
     image, or over ``mask`` (bool array or AOV dict) when given."""
     ppd = _ppd(pixels_per_degree)
     key = _known_key(test_srgb8, ref_srgb8, ppd)
-    if key is None:
-        test = _image(test_srgb8, "test image", ldr=True)
-        ref = _image(ref_srgb8, "reference image", ldr=True)
-        _same_size(test, ref)
-        key = _flip_key(ref, test, "LDR", {"ppd": ppd})
-        _remember_key(test_srgb8, ref_srgb8, ppd, key)
-    else:
-        test = ref = None   # measured already, or in flight: _flip takes it by its key
+    if key is not None and (key in _in_flight or _kept_flips.get(key) is not None):
+        return _flip(None, None, "LDR", {"ppd": ppd}, mask, key)   # taken by its key
+    test = _image(test_srgb8, "test image", ldr=True)
+    ref = _image(ref_srgb8, "reference image", ldr=True)
+    _same_size(test, ref)
+    key = _flip_key(ref, test, "LDR", {"ppd": ppd})
+    _remember_key(test_srgb8, ref_srgb8, ppd, key)
     return _flip(ref, test, "LDR", {"ppd": ppd}, mask, key)
 
 
