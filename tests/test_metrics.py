@@ -284,6 +284,10 @@ def test_read_only_pairs_are_known_by_identity_and_writeable_ones_by_content():
     assert M._known_key(changing, ref, M.DEFAULT_PPD) is None
     changing[...] = ref
     assert before == first[0] and M.flip_ldr(changing, ref)[0] == 0.0
+    import weakref
+    held = weakref.ref(test)
+    del test, again, first
+    assert held() is None                                              # the arrays are not kept alive
 
 
 @pytest.mark.requires_extra("flip_evaluator")

@@ -185,19 +185,25 @@ _kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mea
 # Keys of LDR pairs given as read-only arrays (the sheets' kept renders), by the arrays'
 # identity: a gallery asks for each pair three times (submitted, its page, the catalog), and
 # checking and hashing two 512² images each time was a tenth of the catalog's composition.
-_keys_of_arrays: dict = {}   # (id(test), id(ref), ppd) -> (test, ref, key): the arrays held, so ids stay theirs
+# The arrays are held weakly (an animation's frames must not stay alive for this), and an
+# entry counts only while both are the very objects it was made for (ids are reused).
+_keys_of_arrays: dict = {}   # (id(test), id(ref), ppd) -> (weakref to test, to ref, key)
 
 
 def _known_key(test, ref, ppd: float) -> str | None:
     hit = _keys_of_arrays.get((id(test), id(ref), ppd))
-    return hit[2] if hit is not None and hit[0] is test and hit[1] is ref else None
+    return hit[2] if hit is not None and hit[0]() is test and hit[1]() is ref else None
 
 
 def _remember_key(test, ref, ppd: float, key: str) -> None:
+    import weakref
     if isinstance(test, np.ndarray) and isinstance(ref, np.ndarray) and not (test.flags.writeable or ref.flags.writeable):
         if len(_keys_of_arrays) >= 256:
-            _keys_of_arrays.clear()
-        _keys_of_arrays[(id(test), id(ref), ppd)] = (test, ref, key)
+            for k in [k for k, (t, r, _) in _keys_of_arrays.items() if t() is None or r() is None]:
+                del _keys_of_arrays[k]
+            if len(_keys_of_arrays) >= 256:
+                _keys_of_arrays.clear()
+        _keys_of_arrays[(id(test), id(ref), ppd)] = (weakref.ref(test), weakref.ref(ref), key)
 
 
 def _flip_key(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) -> str:
