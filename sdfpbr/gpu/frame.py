@@ -10,8 +10,7 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
-from ..shading.cells import cell_grid
-from ..shading import plan
+from ..shading.cells import cell_grid, stage
 from ..shading.material_table import upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
 from ..spec.material import exposure_axis
@@ -160,7 +159,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_ao_radius": 0.5 * spec.sphere_radius,
         "u_env_intensity": spec.env_intensity,
     }
-    if plan.stage(spec) == "cells":
+    if stage(spec) == "cells":
         u.update(cell_grid(spec).uniforms(spec.height))
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]

@@ -9,7 +9,8 @@ import numpy as np
 
 from ..shading.camera import sphere_centers
 from ..shading.cells import cell_grid
-from ..shading.plan import brdf_model, stage
+from ..shading.cells import stage
+from ..shading.plan import brdf_model
 from ..spec.chart_spec import ChartSpec
 from ..spec.material import axis_param, exposure_axis
 from .layout import Cell, chart_canvas, compose_chart, name_cells

@@ -8,8 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..spec.chart_spec import ChartSpec
-from . import plan
-from .cells import CELL_FILL, cell_grid, cell_sphere_radius_px
+from .cells import CELL_FILL, cell_grid, cell_sphere_radius_px, stage
 
 FOV_Y_DEG = 30.0
 MARGIN = 1.06
@@ -58,7 +57,7 @@ def sphere_centers(spec: ChartSpec) -> np.ndarray:
 def ground_height(spec: ChartSpec) -> float:
     """The floor's height: under the bottom row (shared stage), or under each sphere, which
     rests on it (cells stage, where every sphere sits at its own origin)."""
-    if plan.stage(spec) == "cells":
+    if stage(spec) == "cells":
         return -spec.sphere_radius
     return -0.5 * (spec.rows - 1) * spec.spacing - spec.sphere_radius
 
@@ -110,7 +109,7 @@ def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, i
 
 def frame(spec: ChartSpec) -> Camera:
     """The camera a render of ``spec`` uses: the grid's, or each cell's."""
-    return frame_cell(spec) if plan.stage(spec) == "cells" else frame_grid(spec)
+    return frame_cell(spec) if stage(spec) == "cells" else frame_grid(spec)
 
 
 def _sphere_discs(spec: ChartSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -122,7 +121,7 @@ def _sphere_discs(spec: ChartSpec) -> tuple[np.ndarray, np.ndarray]:
 
 def sphere_radius_px(spec: ChartSpec) -> float:
     """About how many pixels the smallest sphere's radius spans on the image."""
-    if plan.stage(spec) == "cells":
+    if stage(spec) == "cells":
         return cell_sphere_radius_px(spec)
     return float(_sphere_discs(spec)[1].min())
 
@@ -131,7 +130,7 @@ def silhouettes_apart(spec: ChartSpec) -> bool:
     """Whether every pixel lies near one sphere's silhouette at most: no two neighbouring
     spheres come within a pixel of each other on the image (the cells stage's never do; the
     shared stage's may, seen from far round or above). The analytic edge needs it."""
-    if plan.stage(spec) == "cells":
+    if stage(spec) == "cells":
         return True
     px, radius = _sphere_discs(spec)
     if np.any(radius <= 0):

@@ -12,6 +12,11 @@ from ..spec.chart_spec import ChartSpec
 CELL_FILL = 0.62   # the sphere's radius over the cell's half height (or half width if narrower)
 
 
+def stage(spec: ChartSpec) -> str:
+    """The stage a chart renders (one place to ask, as for the other resolved settings)."""
+    return spec.stage
+
+
 @dataclass(frozen=True)
 class CellGrid:
     """Where the cells lie in the image: whole pixels each, so cells are shifted copies."""

@@ -17,7 +17,9 @@ from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
 from ..spec.presets import PROCEDURAL_MAPS
-from .cells import SpherePlate, cell_sphere_radius_px, sphere_plate
+from . import camera
+from .camera import sphere_radius_px
+from .cells import SpherePlate, cell_sphere_radius_px, sphere_plate, stage
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 
@@ -86,11 +88,6 @@ def has_alpha(spec: ChartSpec) -> bool:
     return spec.transparent or bool(spec.backdrop)
 
 
-def stage(spec: ChartSpec) -> str:
-    """The stage a chart renders (one place to ask, as for the other resolved settings)."""
-    return spec.stage
-
-
 def bounce_step(spec: ChartSpec) -> int:
     """Cell pixels between the bounce plate's texels (stage_bounce_main.glsl): the preset's
     bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no plate), where the
@@ -105,7 +102,6 @@ def sphere_samples(spec: ChartSpec) -> int:
     """Points per pixel edge a chart averages inside a sphere's silhouette (the cells stage's
     sphere plate, or the chart where it shades the sphere): more where the spheres are small,
     as the preset's sphere_samples_radius says."""
-    from .camera import sphere_radius_px   # camera.py reads this module's stage()
     q = quality(spec)
     if q.sphere_samples_radius <= 0:
         return 1
@@ -157,7 +153,6 @@ def chart_options(spec: ChartSpec) -> dict:
 def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     """chart_options, and the sphere plate's layout where the options use one (worked out
     once: the render needs it too)."""
-    from . import camera   # camera.py reads this module's stage()
     directional = sum(1 for light in spec.lights if light.kind == "directional")
     point = sum(1 for light in spec.lights if light.kind == "point")
     q = quality(spec)

@@ -15,7 +15,8 @@ from ...gpu.session import Session, default_session
 from ...progress import Progress
 from ...shading.camera import Camera
 from ...shading.compose import ComposedSource
-from ...shading.plan import ReferencePlan, quality, reference_plan, stage
+from ...shading.cells import stage
+from ...shading.plan import ReferencePlan, quality, reference_plan
 from ...spec.chart_spec import ChartSpec
 from .tables import compensation_texture, environment_sampling
 
