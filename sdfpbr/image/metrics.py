@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import weakref
 
 from dataclasses import dataclass
 
@@ -196,7 +197,6 @@ def _known_key(test, ref, ppd: float) -> str | None:
 
 
 def _remember_key(test, ref, ppd: float, key: str) -> None:
-    import weakref
     if isinstance(test, np.ndarray) and isinstance(ref, np.ndarray) and not (test.flags.writeable or ref.flags.writeable):
         if len(_keys_of_arrays) >= 256:
             for k in [k for k, (t, r, _) in _keys_of_arrays.items() if t() is None or r() is None]:

@@ -9,7 +9,7 @@ are the same in all of them. Old names keep working as aliases (``row_materials`
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -380,7 +380,6 @@ def same_radiance(a, b) -> bool:
     """Whether specs ``a`` and ``b`` differ in display fields alone (tone map, exposure, ...):
     their charts' radiance is the same, and one's display image is the other's radiance
     through its own display pass."""
-    from dataclasses import replace
     return replace(a, **{k: getattr(b, k) for k in DISPLAY_ATTRS}) == b
 
 

@@ -147,18 +147,14 @@ def render_charts(specs: Sequence[ChartSpec]) -> list[RenderedChart]:
     from ..gpu.session import default_session
     from ..spec.fields import same_radiance
     first = specs[0]
-    if not any(same_radiance(first, s) for s in specs[1:]):
+    from_first = [i > 0 and same_radiance(first, s) for i, s in enumerate(specs)]
+    if not any(from_first):
         return [render_chart(s) for s in specs]
     session = default_session(first.backend, first.device_index)
     source = session.render(first, aovs=False, hdr=True)
-    out = []
-    for s in specs:
-        if s is first:
-            result = source
-        elif same_radiance(first, s):
-            result = session.redisplay(s, source)
-        else:
-            result = session.render(s, aovs=False, hdr=False)
+    out = [RenderedChart(first, source, session.renderer)]
+    for s, shared in zip(specs[1:], from_first[1:]):
+        result = session.redisplay(s, source) if shared else session.render(s, aovs=False, hdr=False)
         out.append(RenderedChart(s, result, session.renderer))
     return out
 
