@@ -61,6 +61,57 @@ def test_every_sphere_stands_on_its_own_floor_with_no_horizon_in_view(session):
     assert 0 <= x < g.cell_width and 0 <= y < g.cell_height
 
 
+CELL_SHAPES = [(100, 400), (100, 250), (100, 100), (150, 100), (300, 100)]   # cells from 1:4 to 3:1
+
+
+def _border_floor_points(cam, radius):
+    """Where the rays through a cell's border pixels meet its floor (y = -radius)."""
+    w, h = cam.width, cam.height
+    ys, xs = np.mgrid[0:h, 0:w]
+    border = (xs == 0) | (xs == w - 1) | (ys == 0) | (ys == h - 1)
+    ndc_x, ndc_y = (xs[border] + 0.5) / w * 2 - 1, 1 - (ys[border] + 0.5) / h * 2
+    rays = (cam.forward + ndc_x[:, None] * cam.half_height * (w / h) * cam.right
+            + ndc_y[:, None] * cam.half_height * cam.up)
+    t = (-radius - cam.position[1]) / rays[:, 1]
+    assert (t > 0).all()    # every border pixel sees the floor
+    return cam.position + t[:, None] * rays
+
+
+@pytest.mark.parametrize("shape", CELL_SHAPES)
+def test_the_key_lights_penumbra_stays_inside_the_cell(shape):
+    """Geometry alone: from no border pixel's floor point does the key light's disc (its angular
+    radius) touch the sphere's disc, so the default chart shows each shadow whole, never cut at
+    the seam with the next cell."""
+    from sdfpbr.spec.chart_spec import KEY_LIGHT
+    spec = make_spec(stage="cells", rows=1, cols=1, width=shape[0], height=shape[1])
+    points = _border_floor_points(frame_cell(spec), spec.sphere_radius)
+    to_centre = -points / np.linalg.norm(points, axis=1)[:, None]   # the sphere is centred at the origin
+    light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
+    apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))
+    touching = np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=1)) + np.radians(KEY_LIGHT.angular_radius_deg)
+    assert (apart > touching).all()
+
+
+@pytest.mark.parametrize("shape", CELL_SHAPES[::2])
+def test_shadows_leave_the_cells_border_as_it_is(session, shape):
+    """Rendered: turning shadows off changes the floor at the cell's border by no more than the
+    sphere's whole bounce light does there (what a shadow may still take away is part of it);
+    a penumbra reaching the border changed it by 57-100%."""
+    from sdfpbr.spec.chart_spec import KEY_LIGHT
+
+    def render(**options):
+        spec = make_spec(stage="cells", rows=1, cols=1, width=shape[0], height=shape[1], labels=False,
+                         env="black", lights=(KEY_LIGHT,), metallic=(0.0, 0.0), **options)
+        return session.render(spec).hdr[..., :3].astype(np.float64)
+
+    def border(hdr):
+        return np.concatenate([hdr[0], hdr[-1], hdr[:, 0], hdr[:, -1]])
+    lit, shadowed = render(shadows=False), render(shadows=True)
+    assert (np.abs(shadowed - lit) > 0.5 * lit).any()     # the shadow is in the cell
+    bounce = np.abs(border(lit) - border(render(shadows=False, base_color=(0.0, 0.0, 0.0)))).max()
+    assert np.abs(border(shadowed) - border(lit)).max() <= bounce
+
+
 def test_labels_sit_on_the_spheres(session):
     spec = make_spec(stage="cells", width=300, height=200, rows=2, cols=3)
     res = session.render(spec)

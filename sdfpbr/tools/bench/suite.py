@@ -22,8 +22,6 @@ SCENES: dict[str, dict] = {
     # IBL/BRDF integration (split sum, DFG LUT, multiple-scattering compensation).
     "furnace": {"env": "uniform", "lights": "none", "ground": False, "shadows": False, "ao": False,
                 "base_color": (1.0, 1.0, 1.0)},
-    # Every KHR lobe at once on the cells stage: clearcoat down the rows over a sheened,
-    # ior-2 dielectric (roughness across), so the chart composes clearcoat, sheen and specular.
     # The default chart before its orange base and soft boxes: a grey base under a 2.5-degree
     # sun and a point light, the scene the stage's accuracy was first measured on (kept so those
     # figures stay comparable: FLIP reads a coloured chart's errors larger).
@@ -31,6 +29,8 @@ SCENES: dict[str, dict] = {
              "lights": (Light("directional", direction=(-0.55, 0.65, 0.52), color=(1.0, 0.95, 0.88), intensity=3.0,
                               angular_radius_deg=2.5),
                         Light("point", position=(9.0, 1.5, 7.0), color=(0.85, 0.92, 1.0), intensity=25.0, range=60.0))},
+    # Every KHR lobe at once on the cells stage: clearcoat down the rows over a sheened,
+    # ior-2 dielectric (roughness across), so the chart composes clearcoat, sheen and specular.
     "lobes": {"stage": "cells", "y_axis": "clearcoat", "metallic": 0.0, "base_color": (0.2, 0.3, 0.7),
               "sheen_color": (0.6, 0.3, 0.4), "sheen_roughness": 0.5, "ior": 2.0, "clearcoat_roughness": 0.1},
 }
