@@ -16,6 +16,11 @@
 #if STAGE == cells && HAS_GROUND && USE_AO && !BOUNCE_PLATE
 #include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
 #endif
+#if SEE_THROUGH && STAGE == cells && HAS_GROUND && USE_SHADOWS && USE_TEXTURES
+#if HAS_BASE_COLOR_MAP
+#include "patterned_shadow.glsl"   // a see-through sphere's shadows in its map's pattern
+#endif
+#endif
 
 // Chart program: one fullscreen triangle per tile (CHART_STAGE fragment), or one invocation
 // per pixel of the tile (compute: where a GPU runs few fragment units, session.py picks it);
@@ -115,6 +120,11 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
     if (hit.cell.x < 0) {
         float stops = light_coverage(g_cell);
         if (stops < 1.0) radiance = mix(shade_open_ground(p, -rd, pixel_size), radiance, stops);
+#if USE_SHADOWS && USE_TEXTURES
+#if HAS_BASE_COLOR_MAP
+        radiance -= patterned_shadow_correction(p, -rd, g_cell, stops);
+#endif
+#endif
     }
 #endif
 #if SHADOW_CATCHER

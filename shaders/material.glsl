@@ -91,8 +91,8 @@ float sphere_alpha(ivec2 cell, vec3 n_geo, float pixel_size) {
 // as coverage, so its shadow, occlusion and bounce on the floor come in that share. The
 // factor's alpha is the same all over; with a base colour map, the coverage's mean over
 // LIGHT_COVERAGE_POINTS points spread evenly over the sphere (a spiral, equal areas), the map
-// read at a quarter radius per texel: a mask's holes thin the shadow by their share, not in
-// their pattern.
+// read at a quarter radius per texel: a mask's holes thin the occlusion and bounce by their
+// share, not in their pattern (the cells stage's shadows take the pattern: patterned_shadow.glsl).
 #define LIGHT_COVERAGE_POINTS 16
 float light_coverage(ivec2 cell) {
 #if SEE_THROUGH && USE_TEXTURES

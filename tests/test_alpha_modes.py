@@ -117,6 +117,7 @@ def test_the_reference_blends_by_the_same_alpha(session):
 pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
 sys.path.insert(0, str(Path(__file__).parent))
 from test_gltf import png_bytes, textured_glb  # noqa: E402
+from test_alpha import floor_points  # noqa: E402
 
 
 def glb_with_alpha(tmp_path, mode, factor_alpha=1.0, cutoff=None, left=0, right=255):
@@ -153,20 +154,49 @@ def test_gltf_alpha_modes_read_the_factor_and_the_maps_alpha(session, tmp_path, 
         np.testing.assert_allclose(got[side], want, atol=0.5 / 255 * np.abs(opaque[side] - empty[side]).max() + 1e-5)
 
 
-def test_a_masks_holes_thin_its_shadow_by_their_share(session, tmp_path):
-    """A mask sphere cut out on its left half (the map's alpha) stops half the light: the floor
-    beside it is c (opaque floor) + (1 - c) (open floor) with c the share of the sphere kept,
-    1/2, read at LIGHT_COVERAGE_POINTS = 16 points (material.glsl): within one point's share."""
-    kw = dict(size="128x128", labels=False)
+def test_a_masks_holes_thin_its_light_by_their_share(session, tmp_path):
+    """Under the environment alone (no lights, so no shadow to pattern), a mask sphere cut out
+    on its left half (the map's alpha) takes half the light an opaque one takes from the floor
+    beside it: the floor is c (opaque floor) + (1 - c) (open floor) with c the share of the
+    sphere kept, 1/2, read at LIGHT_COVERAGE_POINTS = 16 points (material.glsl): within one
+    point's share, and the same everywhere."""
+    kw = dict(size="128x128", labels=False, lights=())
     res = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "MASK", 1.0, 0.5, 0, 255), **kw))
     opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr.astype(np.float64)
     empty = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "BLEND", 0.0), **kw)).hdr.astype(np.float64)
     got = res.hdr.astype(np.float64)
-    shadow = (res.aov["coverage"] == 0) & (np.abs(opaque - empty).max(-1) > 0.02)
-    assert shadow.sum() > 100
-    kept = ((got - empty)[shadow] / (opaque - empty)[shadow]).mean(-1)
+    shade = (res.aov["coverage"] == 0) & (np.abs(opaque - empty).max(-1) > 0.02)
+    assert shade.sum() > 100
+    kept = ((got - empty)[shade] / (opaque - empty)[shade]).mean(-1)
     assert abs(np.median(kept) - 0.5) <= 1 / 16, np.median(kept)
-    np.testing.assert_allclose(kept, np.median(kept), atol=1e-3)   # one share, the same everywhere
+    np.testing.assert_allclose(kept, np.median(kept), atol=1e-3)
+
+
+@pytest.mark.parametrize("direction", [(-0.5, 0.7, 0.5), (0.6, 0.6, 0.3)])
+def test_a_masks_shadow_falls_in_its_pattern(session, tmp_path, direction):
+    """A sun alone (half a degree, black sky, no occlusion or bounce): the floor takes only the
+    sun's light, and where an opaque sphere hides all of it, the mask sphere hides it where
+    the sun's ray meets its kept half (x > 0, the map's right half) and lets it all through
+    where the ray enters the cut-out half, as the reference's rays do. So the share of the
+    opaque sphere's shadow on the floor is 1 or 0 by ray geometry, away from the cut (5% of a
+    radius, the map read at level 0 and nearest); an even thinning by the mean would be 1/2."""
+    sun = {"kind": "directional", "direction": list(direction), "intensity": 3.0, "angular_radius_deg": 0.5}
+    kw = dict(size="128x128", labels=False, lights=[sun], env="black", ao=False)
+    spec = make_spec(gltf=glb_with_alpha(tmp_path, "MASK", 1.0, 0.5, 0, 255), **kw)
+    res = session.render(spec)
+    opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr[..., :3].astype(np.float64)
+    empty = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "BLEND", 0.0), **kw)).hdr[..., :3].astype(np.float64)
+    got = res.hdr[..., :3].astype(np.float64)
+    points, _, floor = floor_points(spec, np.zeros((1, 3)))
+    umbra = floor & (res.aov["coverage"] == 0) & (opaque.max(-1) < 0.01 * empty.max(-1))
+    l = np.asarray(direction) / np.linalg.norm(direction)
+    p = points[umbra]
+    b = p @ l     # the sphere (radius 1 at the origin): entry at t = -b - sqrt(b^2 - |p|^2 + 1)
+    entry = p + (-b - np.sqrt(b * b - (p * p).sum(-1) + 1.0))[:, None] * l
+    clear = np.abs(entry[:, 0]) > 0.05
+    assert clear.sum() > 50 and (entry[clear, 0] > 0).any() and (entry[clear, 0] < 0).any()
+    kept = ((got - empty)[umbra] / (opaque - empty)[umbra]).mean(-1)
+    np.testing.assert_allclose(kept[clear], (entry[clear, 0] > 0).astype(float), atol=0.02)
 
 
 def test_a_bad_alpha_mode_is_one_line(tmp_path):
