@@ -92,7 +92,7 @@ float sphere_alpha(ivec2 cell, vec3 n_geo, float pixel_size) {
 // factor's alpha is the same all over; with a base colour map, the coverage's mean over
 // LIGHT_COVERAGE_POINTS points spread evenly over the sphere (a spiral, equal areas), the map
 // read at a quarter radius per texel: a mask's holes thin the occlusion and bounce by their
-// share, not in their pattern (the cells stage's shadows take the pattern: patterned_shadow.glsl).
+// share, not in their pattern (shadows take the pattern: light_ray_coverage below).
 #define LIGHT_COVERAGE_POINTS 16
 float light_coverage(ivec2 cell) {
 #if SEE_THROUGH && USE_TEXTURES
@@ -108,5 +108,42 @@ float light_coverage(ivec2 cell) {
     return sphere_alpha(cell, vec3(0.0, 1.0, 0.0), u_radius);
 #else
     return 1.0;
+#endif
+}
+
+#if SEE_THROUGH && USE_TEXTURES
+#if HAS_BASE_COLOR_MAP
+// The share of a footprint `size` wide (world units) at n_geo that stops light: the map's alpha
+// filtered over it (blend, opaque). A mask's cutoff is tested as the camera does where the
+// footprint is a texel or less; over two texels or more it is the share of the footprint that
+// passes, which the filtered alpha is for a map of 0s and 1s (what a mask's map mostly is):
+// the cutoff of a filtered value would draw a soft light's blurred pattern sharp.
+float light_alpha(ivec2 cell, vec3 n_geo, float size) {
+    float cutoff = cell_texel(cell, 4).a, factor = cell_texel(cell, 2).a;
+    float map = base_alpha(n_geo, size, cell);
+    if (cutoff < 0.0) return alpha_coverage(cell, factor * map);
+    float passing = factor >= cutoff ? map : 0.0;
+    return mix(factor * map >= cutoff ? 1.0 : 0.0, passing, saturate(layer_lod(u_base_color_map, size)));
+}
+#endif
+#endif
+
+// The share of a light (angular radius `angle`, direction l from p) that the cell's sphere
+// (centred at `centre`) stops, where the sphere hides it: the reference's rays towards a light
+// pass a see-through sphere with one minus the alpha where they enter it, so with a base
+// colour map it is the coverage where the light's central ray enters (or passes closest), the
+// map read over the light's cone there: a sharp sun casts the pattern, a soft box a blurred one.
+float light_ray_coverage(ivec2 cell, vec3 centre, vec3 p, vec3 l, float angle) {
+#if SEE_THROUGH && USE_TEXTURES
+#if HAS_BASE_COLOR_MAP
+    vec3 oc = p - centre;
+    float b = dot(oc, l), h = u_radius * u_radius - (dot(oc, oc) - b * b);
+    float along = h >= 0.0 && -b - sqrt(h) > 0.0 ? -b - sqrt(h) : max(-b, 0.0);   // the entry, or the closest approach
+    return light_alpha(cell, normalize(oc + l * along), max(2.0 * along * tan(angle), 1e-4 * u_radius));
+#else
+    return light_coverage(cell);
+#endif
+#else
+    return light_coverage(cell);
 #endif
 }

@@ -65,7 +65,8 @@ float grid_shadow(vec3 ro, vec3 rd, float a, float far) {
     int tested = 0;
     for (int j = first.y; j <= last.y && tested < MAX_SHADOW_SPHERES; ++j)
         for (int i = first.x; i <= last.x && tested < MAX_SHADOW_SPHERES; ++i) {
-            visible *= 1.0 - light_coverage(ivec2(i, j)) * (1.0 - disc_visibility(ro, rd, a, cell_center(ivec2(i, j))));
+            vec3 centre = cell_center(ivec2(i, j));
+            visible *= 1.0 - light_ray_coverage(ivec2(i, j), centre, ro, rd, a) * (1.0 - disc_visibility(ro, rd, a, centre));
             ++tested;
         }
     return visible;

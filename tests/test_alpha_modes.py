@@ -172,8 +172,9 @@ def test_a_masks_holes_thin_its_light_by_their_share(session, tmp_path):
     np.testing.assert_allclose(kept, np.median(kept), atol=1e-3)
 
 
-@pytest.mark.parametrize("direction", [(-0.5, 0.7, 0.5), (0.6, 0.6, 0.3)])
-def test_a_masks_shadow_falls_in_its_pattern(session, tmp_path, direction):
+@pytest.mark.parametrize("stage, direction", [("cells", (-0.5, 0.7, 0.5)), ("cells", (0.6, 0.6, 0.3)),
+                                              ("shared", (-0.5, 0.7, 0.5))])
+def test_a_masks_shadow_falls_in_its_pattern(session, tmp_path, stage, direction):
     """A sun alone (half a degree, black sky, no occlusion or bounce): the floor takes only the
     sun's light, and where an opaque sphere hides all of it, the mask sphere hides it where
     the sun's ray meets its kept half (x > 0, the map's right half) and lets it all through
@@ -181,7 +182,7 @@ def test_a_masks_shadow_falls_in_its_pattern(session, tmp_path, direction):
     opaque sphere's shadow on the floor is 1 or 0 by ray geometry, away from the cut (5% of a
     radius, the map read at level 0 and nearest); an even thinning by the mean would be 1/2."""
     sun = {"kind": "directional", "direction": list(direction), "intensity": 3.0, "angular_radius_deg": 0.5}
-    kw = dict(size="128x128", labels=False, lights=[sun], env="black", ao=False)
+    kw = dict(size="128x128", labels=False, lights=[sun], env="black", ao=False, stage=stage)
     spec = make_spec(gltf=glb_with_alpha(tmp_path, "MASK", 1.0, 0.5, 0, 255), **kw)
     res = session.render(spec)
     opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr[..., :3].astype(np.float64)
