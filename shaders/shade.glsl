@@ -26,8 +26,10 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 // pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
 // at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
-// `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
-// false gives the open floor a shadow catcher divides by.
+// `blocked` (a literal too): the point as the stage leaves it: the ground's light as its sphere
+// blocks it (occlusion, shadows), a sphere's with what its floor gives back (FLOOR_RETURN);
+// false gives the open floor a shadow catcher divides by, and the sphere's light its bounce
+// rays carry to the floor.
 #if SPHERE_PLATE_PASS
 float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at metallic 0 and 1
 #endif
@@ -120,6 +122,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_sphere_irradiance_over_pi(p, n));
     }
 #endif
+#if FLOOR_RETURN
+    if (!ground && blocked) ibl += floor_return(m, n_geo, v, dfg);   // the sphere's own light back from its floor
+#endif
 #if USE_TEXTURES
     ibl *= occlusion;   // the ORM occlusion darkens indirect light only
 #endif
@@ -182,7 +187,7 @@ vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 // if the light were `spread` radians wide (the rays' spacing), and weighted by `specular`, the
 // share of the lights' reflection the rays can resolve (stage_bounce.glsl).
 vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread, float specular) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, true);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, false);
 }
 
 vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {

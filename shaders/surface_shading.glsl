@@ -31,4 +31,7 @@
 #if NEIGHBOUR_LIGHT
 #include "neighbours.glsl"
 #endif
+#if FLOOR_RETURN
+#include "floor_return.glsl"
+#endif
 #include "shade.glsl"

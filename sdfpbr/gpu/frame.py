@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
-from ..shading.cells import cell_grid, stage
+from ..shading.cells import FLOOR_RETURN_G, cell_grid, stage
 from ..shading.material_table import upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
 from ..spec.material import exposure_axis
@@ -161,6 +161,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
     }
     if stage(spec) == "cells":
         u.update(cell_grid(spec).uniforms(spec.height))
+        u["u_floor_return"] = FLOOR_RETURN_G
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]
         u["u_dir_light_illuminance"] = [tuple(c * light.intensity for c in light.color) for light in directional]

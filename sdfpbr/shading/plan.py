@@ -19,7 +19,7 @@ from ..spec.material import exposure_axis, spec_lobes, spec_see_through
 from ..spec.presets import PROCEDURAL_MAPS
 from . import camera
 from .camera import sphere_radius_px
-from .cells import SpherePlate, cell_sphere_radius_px, sphere_plate, stage
+from .cells import FLOOR_RETURN_G, SpherePlate, cell_sphere_radius_px, sphere_plate, stage
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 
@@ -46,10 +46,11 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT")
+           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
+           "FLOOR_RETURN")
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "HIDDEN_SKY_SAMPLES",
-            "SPHERE_SAMPLES"),
+            "SPHERE_SAMPLES", "FLOOR_RETURN_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
@@ -210,6 +211,11 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     # (stage_probe_main.glsl), prefiltered like the environment. Not under the few-tap bug,
     # which reads the environment itself.
     opts["STAGE_PROBE"] = opts["HAS_GROUND"] and opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False)
+    # A cells-stage sphere's own light back from its floor (floor_return.glsl): the probe's
+    # floor is every cell's, without the cell's bounce.
+    opts["FLOOR_RETURN"] = q.floor_return and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
+    if opts["FLOOR_RETURN"]:
+        opts["FLOOR_RETURN_STEPS"] = len(FLOOR_RETURN_G)
     # The shared stage's neighbours give back their own light where the analytic AO takes the
     # sky away (neighbours.glsl); on the cells stage a sphere has none.
     opts["NEIGHBOUR_LIGHT"] = (q.neighbour_light and opts["STAGE"] == "shared" and opts["USE_AO"]
