@@ -35,9 +35,7 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops) {
         float dist = length(to_light);
         vec3 l = to_light / dist;
         float angle = point_angular_radius(i, dist);
-        // As shade.glsl: a light nearer than the sphere's near side cannot be hidden by it.
-        float visible = angle <= 0.0 ? point_shadow(ro, l, dist)
-                      : dist > length(p) - u_radius ? soft_shadow(ro, l, 1.0 / tan(angle)) : 1.0;
+        float visible = point_light_visibility(ro, p, l, dist, angle);
         if (visible < 1.0)
             taken += lights_brdf_cos(m, n, v, l, n_dot_v, angle, e_single, 1.0)
                    * u_point_light_intensity[i] * point_falloff(dist, u_point_light_range[i])

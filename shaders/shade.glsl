@@ -157,11 +157,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
-        // The sphere's shadow on its floor: a sphere light's disc against the sphere's, as the sun's.
-        // (A light nearer than the sphere's near side cannot be hidden by it.)
+        // The sphere's shadow on its floor (shadow.glsl point_light_visibility).
         if (ground && blocked)
-            c *= angle <= 0.0 ? point_shadow(p + n_geo * (1e-3 * u_radius), l, dist)
-               : dist > length(p) - u_radius ? soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(angle)) : 1.0;
+            c *= point_light_visibility(p + n_geo * (1e-3 * u_radius), p, l, dist, angle);
 #elif USE_SHADOWS && SCENE_SDF == nearest_cell
         // The spheres between the ground and the light, each hiding its share of the light's disc.
         if (ground && blocked)

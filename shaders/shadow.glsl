@@ -29,6 +29,14 @@ float point_shadow(vec3 p, vec3 l, float dist) {
     float t = ray_sphere(p, l, vec3(0.0), u_radius);
     return t > 0.0 && t < dist ? 0.0 : 1.0;
 }
+
+// A point light's visible share from the floor point p (ro: p lifted off the floor): a point's
+// exact, a sphere light's disc against the sphere's as the sun's; a light nearer than the
+// sphere's near side cannot be hidden by it.
+float point_light_visibility(vec3 ro, vec3 p, vec3 l, float dist, float angle) {
+    return angle <= 0.0 ? point_shadow(ro, l, dist)
+         : dist > length(p) - u_radius ? soft_shadow(ro, l, 1.0 / tan(angle)) : 1.0;
+}
 #elif SCENE_SDF == nearest_cell
 // The shared stage: the spheres stand in the plane z = 0, so a ray towards a light meets only
 // those near where it crosses the slab |z| <= radius (widened by the light's cone), up to
