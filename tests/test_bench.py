@@ -242,3 +242,25 @@ def test_timing_only_run_writes_json_and_no_plot(tmp_path):
     assert out.exists() and not out.with_suffix(".png").exists()
     proc = subprocess.run(base + ["--plot", str(tmp_path / "p.png")], capture_output=True, text=True)
     assert proc.returncode == 2 and "--no-reference" in proc.stderr and not (tmp_path / "p.png").exists()
+
+
+def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
+    """The bench keeps a reference until what the path tracer runs changes: editing a
+    chart-only shader (the floor return) keeps hours of references, editing the path tracer's
+    renders them again. The preset is not the scene (one key for every preset); the samples
+    and the seed are."""
+    import shutil
+    from sdfpbr.shading import compose
+    spec = suite.scene_spec("cells", suite.BenchConfig(width=64, height=64))
+    keys = {accuracy.reference_key(suite.scene_spec("cells", suite.BenchConfig(width=64, height=64), preset), 64, 0)
+            for preset in suite.available_presets()}
+    assert len(keys) == 1
+    assert accuracy.reference_key(spec, 128, 0) not in keys and accuracy.reference_key(spec, 64, 1) not in keys
+    shaders = tmp_path / "shaders"
+    shutil.copytree(compose.shader_dir(), shaders)
+    monkeypatch.setattr(compose, "shader_dir", lambda: shaders)
+    assert accuracy.reference_key(spec, 64, 0) in keys
+    for module, kept in (("floor_return.glsl", True), ("reference_path.glsl", False)):
+        path = shaders / module
+        path.write_text(path.read_text() + "\n// an edit\n")
+        assert (accuracy.reference_key(spec, 64, 0) in keys) == kept, module

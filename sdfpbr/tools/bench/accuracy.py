@@ -33,20 +33,30 @@ def reference_available() -> bool:
     return importlib.util.find_spec(REFERENCE_MODULE) is not None
 
 
-def _reference_code_digest() -> str:
-    """The reference's code: its module (or every module of its package) and every shader (a
-    change re-renders references)."""
-    from ...shading.compose import shader_dir
+# The Python a reference's pixels depend on besides its own package: the frame (tiles, bindings,
+# display), the camera and the stage's geometry, and the float64 BRDF its tables come from.
+REFERENCE_DEPENDENCIES = ("sdfpbr.gpu.frame", "sdfpbr.shading.camera", "sdfpbr.shading.cells",
+                          "sdfpbr.oracle.lobes", "sdfpbr.oracle.mirror")
+
+
+def _reference_code_digest(spec: ChartSpec) -> str:
+    """The reference's code for this spec: its package's modules, the modules it reads its
+    geometry and tables from, and the programs its plan composes (so an edit of a chart-only
+    shader leaves the bench's references alone, and any edit of what the path tracer runs
+    re-renders them)."""
+    from ...shading.plan import reference_plan
     found = importlib.util.find_spec(REFERENCE_MODULE)
     if found.submodule_search_locations:
         files = sorted(p for d in found.submodule_search_locations for p in Path(d).rglob("*.py"))
     else:
         files = [Path(found.origin)]
-    files += sorted(Path(str(shader_dir())).glob("*.glsl"))
+    files += [Path(importlib.util.find_spec(name).origin) for name in REFERENCE_DEPENDENCIES]
     h = hashlib.sha256()
     for p in files:
         h.update(p.name.encode())
         h.update(p.read_bytes())
+    for source in reference_plan(spec).sources():
+        h.update(source.text.encode())
     return h.hexdigest()
 
 
@@ -55,7 +65,7 @@ def reference_key(spec: ChartSpec, samples: int, seed: int) -> str:
     d = spec.to_dict()
     for k in ("quality", "backend", "device_index", "labels", "title"):
         d.pop(k, None)
-    return content_key("bench-reference", d, samples, seed, __version__, _reference_code_digest())
+    return content_key("bench-reference", d, samples, seed, __version__, _reference_code_digest(spec))
 
 
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
