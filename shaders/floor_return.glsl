@@ -32,7 +32,11 @@ vec3 floor_return(Material m, vec3 n_geo, vec3 v, vec3 dfg) {
     // Above n.y = 0.75 G is under 0.002 (pi at the foot), and a mirror ray going up meets no
     // floor: nothing to add worth the work.
     if (n_geo.y > 0.75 && r.y >= 0.0) return vec3(0.0);
-    vec3 diffuse_e = 0.5 * (sh_irradiance(n_geo) + (u_sh[0] - 0.5 * u_sh[1]));
+    vec3 point_e = sh_irradiance(n_geo);
+#if FLOOR_PARALLAX
+    point_e += floor_parallax_irradiance(n_geo);
+#endif
+    vec3 diffuse_e = 0.5 * (point_e + (u_sh[0] - 0.5 * u_sh[1]));
     vec3 specular_e = vec3(0.0);   // the lights' mirrored glow
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {

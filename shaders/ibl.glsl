@@ -119,11 +119,20 @@ vec3 ibl_diffuse(Material m, vec3 dfg, vec3 n) {
     return ibl_mix(m, dfg, vec3(0.0), vec3(0.0), ibl_irradiance_over_pi(n));
 }
 
+// The share of a lobe the two-lobe lookup reads along N at the widest level (0 without it).
+float ibl_tail_share(float perceptual_roughness) {
+#if IBL_TWO_LOBE
+    return clamp(0.55 * (perceptual_roughness - 0.27), 0.0, TAIL_MAX);
+#else
+    return 0.0;
+#endif
+}
+
 vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     SpecularLookup look = specular_lookup(n, v, n_dot_v, m.perceptual_roughness, m.alpha);
 #if IBL_TWO_LOBE
     float r = m.perceptual_roughness;
-    float tail = clamp(0.55 * (r - 0.27), 0.0, TAIL_MAX);
+    float tail = ibl_tail_share(r);
     float core_scale = mix(CORE_SCALE, 1.0, smoothstep(0.8, 1.0, r));
     vec3 radiance = mix(prefiltered_radiance(look.direction, look.perceptual_roughness * core_scale),
                         textureLod(u_prefiltered, n, u_prefiltered_lods).rgb, tail);

@@ -11,7 +11,11 @@ vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base) {
 #if !BUG_SHEEN_NO_SCALING
     color *= 1.0 - max3(m.sheen_color_linear) * e_sheen;
 #endif
-    color += m.sheen_color_linear * e_sheen * sh_irradiance(n) * INV_PI;
+    vec3 irradiance = sh_irradiance(n);
+#if FLOOR_PARALLAX
+    irradiance += floor_parallax_irradiance(n);
+#endif
+    color += m.sheen_color_linear * e_sheen * irradiance * INV_PI;
 #endif
 #if CLEARCOAT
     vec3 n_c = m.clearcoat_normal;

@@ -83,6 +83,18 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
     }
 #endif
+#if FLOOR_PARALLAX
+    // The floor as the sphere's point sees it, not its centre (floor_parallax.glsl).
+    if (!ground) {
+        vec3 floor_e = floor_parallax_irradiance(n) * INV_PI;
+#if IBL_METHOD == split_sum
+        vec3 tail = ibl_tail_share(m.perceptual_roughness) * floor_e;
+#else
+        vec3 tail = vec3(0.0);   // each sample of the sampled lobe reads the probe with its own parallax
+#endif
+        ibl += ibl_mix(m, dfg, tail, tail, floor_e);
+    }
+#endif
 #if NEIGHBOUR_LIGHT
     // The base layer's specular share of the sky (without its diffuse), which the neighbours
     // hide by their share of the lobe rather than by the AO's cosine-weighted share.

@@ -16,6 +16,9 @@
 #elif USE_IBL
 #include "ibl.glsl"
 #endif
+#if FLOOR_PARALLAX
+#include "floor_parallax.glsl"
+#endif
 #if GROUND_IBL
 #include "ground_ibl.glsl"
 #endif

@@ -132,6 +132,11 @@ class EnvironmentLighting:
     sh: np.ndarray    # (9, 3) irradiance coefficients, cosine lobe applied
     key: str = ""     # the content key it was baked or loaded under
     load: Callable[[], moderngl.TextureCube] | None = None   # makes the cube when it is None
+    # A stage probe's floor parallax table (IBLBaker.floor_parallax), made on first use; a light
+    # orbit's later frames carry (orbit, turn) instead of a bake of their own, and their table,
+    # like their cube, is the orbit's.
+    floor_parallax: moderngl.TextureCube | None = None
+    orbit: tuple | None = None
 
     @property
     def prefiltered(self) -> moderngl.TextureCube:
@@ -140,8 +145,11 @@ class EnvironmentLighting:
         return self.cube
 
     def release(self) -> None:
-        if self.cube is not None:
-            self.cube.release()
+        if self.orbit is not None:   # the orbit's textures: released with it
+            return
+        for texture in (self.cube, self.floor_parallax):
+            if texture is not None:
+                texture.release()
 
     def uniforms(self) -> dict:
         return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh]}
@@ -218,9 +226,10 @@ class _Orbit:
     full: EnvironmentLighting
     rest: EnvironmentLighting
     frame: moderngl.TextureCube | None = None
+    floor_parallax: moderngl.TextureCube | None = None   # a later frame's table, turned likewise
 
     def release(self) -> None:
-        kept = (self.full, self.rest, self.frame)   # full is rest when the key light is dark
+        kept = (self.full, self.rest, self.frame, self.floor_parallax)   # full is rest when the key light is dark
         for texture in {id(t): t for t in kept if t is not None}.values():
             texture.release()
 
@@ -400,7 +409,62 @@ class IBLBaker:
         self.ctx.memory_barrier()
         sh = rest.sh + turned_sh(full.sh - rest.sh, turn)
         return EnvironmentLighting(orbit.frame, full.lods, sh.astype(np.float32),
-                                   content_key(full.key, rest.key, turn.tolist()))
+                                   content_key(full.key, rest.key, turn.tolist()), orbit=(orbit, turn))
+
+    # ---- the floor parallax table ---------------------------------------------------------
+    def floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting, scene_uniforms: dict) -> moderngl.TextureCube:
+        """The cells stage's floor parallax table of a stage probe (floor_parallax_main.glsl): the
+        irradiance each sphere point gets from the floor beyond what the probe's, seen from the
+        centre, gives it. Baked from the probe's level 0 once per probe and cached on disk with
+        it; a light orbit's later frames turn the first frame's tables as they turn its probe
+        (the stage is symmetric about the vertical through the sphere, so the table turns with
+        the light)."""
+        if lighting.floor_parallax is None:
+            if lighting.orbit is not None:
+                lighting.floor_parallax = self._turned_floor_parallax(plan, *lighting.orbit, scene_uniforms)
+            else:
+                lighting.floor_parallax = self._baked_floor_parallax(plan, lighting, scene_uniforms)
+        return lighting.floor_parallax
+
+    def _baked_floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting,
+                              scene_uniforms: dict) -> moderngl.TextureCube:
+        source, size, samples = plan.floor_parallax, plan.floor_parallax_size, plan.floor_parallax_samples
+        geometry = {name: float(scene_uniforms[name]) for name in ("u_radius", "u_ground_y")}
+        key = content_key(source.text, size, samples, geometry, lighting.key)
+        cached = self.cache.get("ibl", key)
+        if cached is not None:
+            table = self._cube_from_levels(plan.copy_to_cube, [cached["table"]])
+        else:
+            table = self.ctx.texture_cube((size, size), 4, dtype="f4")
+            program = self.programs.compute(source)
+            lighting.prefiltered.use(0)
+            set_uniforms(program, {**geometry, "u_probe": 0, "u_size": size, "u_samples": samples})
+            table.bind_to_image(0, read=False, write=True, level=0)
+            program.run(_groups(size), _groups(size), 6)
+            self.ctx.memory_barrier()
+            self.cache.put("ibl", key, {"table": self._read_cube_level(plan.copy_from_cube, table, 0, size)})
+        table.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        return table
+
+    def _turned_floor_parallax(self, plan: IBLPlan, orbit: _Orbit, turn: np.ndarray,
+                               scene_uniforms: dict) -> moderngl.TextureCube:
+        """rest + the key light's share turned, as _turned composes the probe."""
+        full = self.floor_parallax(plan, orbit.full, scene_uniforms)
+        with self.cache.reading_only():   # as the orbit's probe with the key light off
+            rest = self.floor_parallax(plan, orbit.rest, scene_uniforms)
+        size = plan.floor_parallax_size
+        if orbit.floor_parallax is None:
+            orbit.floor_parallax = self.ctx.texture_cube((size, size), 4, dtype="f4")
+            orbit.floor_parallax.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        program = self.programs.compute(plan.turn_probe)
+        full.use(1)
+        rest.use(2)
+        set_uniforms(program, {"u_full": 1, "u_rest": 2, "u_turn_back": tuple(turn.ravel()),
+                               "u_size": size, "u_lod": 0.0})
+        orbit.floor_parallax.bind_to_image(0, read=False, write=True, level=0)
+        program.run(_groups(size), _groups(size), 6)
+        self.ctx.memory_barrier()
+        return orbit.floor_parallax
 
     def _baked(self, plan: IBLPlan, program: ComposedSource, content: str, uniforms: dict,
                textures: Callable[[], list]) -> EnvironmentLighting:
@@ -429,7 +493,13 @@ class IBLBaker:
 
     def read_level(self, plan: IBLPlan, lighting: EnvironmentLighting, level: int) -> np.ndarray:
         """One prefiltered level as (6, size, size, 4) float32, faces in GL order."""
-        return self._read_cube_level(plan.copy_from_cube, lighting.prefiltered, level, plan.size >> level)
+        return self.read_cube(plan, lighting.prefiltered, level)
+
+    def read_cube(self, plan: IBLPlan, cube: moderngl.TextureCube, level: int = 0) -> np.ndarray:
+        """Level ``level`` of any float cube (a prefiltered map, a floor parallax table) as
+        (6, size, size, 4) float32, faces in GL order, indexed [face, y, x] as
+        oracle.ibl_integral.cube_directions lays out their directions."""
+        return self._read_cube_level(plan.copy_from_cube, cube, level, cube.size[0] >> level)
 
     def _bake(self, plan: IBLPlan, levels: int, program: ComposedSource, uniforms: dict,
               textures: list) -> EnvironmentLighting:

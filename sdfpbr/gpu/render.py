@@ -159,6 +159,8 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
                                                       scene.uniforms, scene.environment, tuple(baked))
             scene.uniforms.update(lighting.uniforms())
             scene.add_texture("u_prefiltered", lighting.prefiltered)
+            if plan.ibl.floor_parallax is not None:   # the floor as each sphere point sees it
+                scene.add_texture("u_floor_parallax", session.ibl.floor_parallax(plan.ibl, lighting, scene.uniforms))
     except BaseException:
         scene.release()
         raise

@@ -47,7 +47,7 @@ SCHEMA = OptionSchema(
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
-           "FLOOR_RETURN")
+           "FLOOR_RETURN", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "HIDDEN_SKY_SAMPLES",
             "SPHERE_SAMPLES", "FLOOR_RETURN_STEPS"),
@@ -216,6 +216,9 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     opts["FLOOR_RETURN"] = q.floor_return and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
     if opts["FLOOR_RETURN"]:
         opts["FLOOR_RETURN_STEPS"] = len(FLOOR_RETURN_G)
+    # The floor seen from each sphere point, not from the centre the probe sees it from
+    # (floor_parallax.glsl): a table over the normal, baked from the probe.
+    opts["FLOOR_PARALLAX"] = q.floor_parallax and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
     # The shared stage's neighbours give back their own light where the analytic AO takes the
     # sky away (neighbours.glsl); on the cells stage a sphere has none.
     opts["NEIGHBOUR_LIGHT"] = (q.neighbour_light and opts["STAGE"] == "shared" and opts["USE_AO"]
@@ -278,10 +281,14 @@ class IBLPlan:
     ground_table: ComposedSource | None = None  # the ground's IBL per view direction (GROUND_IBL)
     ground_table_size: int = 0    # its edge in texels
     turn_probe: ComposedSource | None = None    # with a stage probe: a light orbit's probe from the first frame's
+    floor_parallax: ComposedSource | None = None   # FLOOR_PARALLAX: the table's bake from the probe
+    floor_parallax_size: int = 0                   # its cube's edge in texels
+    floor_parallax_samples: int = 0                # directions per texel
 
     def sources(self) -> list[ComposedSource]:
         out = [self.env_bake, self.prefilter, self.irradiance, self.copy_to_cube, self.copy_from_cube]
-        return out + [s for s in (self.stage_probe, self.ground_table, self.turn_probe) if s is not None]
+        return out + [s for s in (self.stage_probe, self.ground_table, self.turn_probe, self.floor_parallax)
+                      if s is not None]
 
 
 @dataclass(frozen=True)
@@ -338,7 +345,9 @@ def _ibl_plan(spec: ChartSpec, q: Quality, chart: dict) -> IBLPlan:
                    env_bake_size=q.env_bake_size, size=q.ibl_size, samples=q.ibl_samples, sh_size=q.sh_size,
                    stage_probe=probe, levels=prefilter_levels(q),
                    turn_probe=compose_program("turn_probe_main.glsl") if probe else None,
-                   ground_table=_ground_table(q, chart), ground_table_size=q.ground_ibl_size)
+                   ground_table=_ground_table(q, chart), ground_table_size=q.ground_ibl_size,
+                   floor_parallax=compose_program("floor_parallax_main.glsl") if chart.get("FLOOR_PARALLAX") else None,
+                   floor_parallax_size=q.floor_parallax_size, floor_parallax_samples=q.floor_parallax_samples)
 
 
 def prefilter_kernel(q: Quality) -> str:
@@ -364,7 +373,7 @@ def _stage_probe(chart: dict) -> ComposedSource | None:
     if not chart["STAGE_PROBE"]:
         return None
     return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False, "SHADOW_CATCHER": False,
-                                                     "SEE_THROUGH": False})
+                                                     "SEE_THROUGH": False, "FLOOR_PARALLAX": False})
 
 
 def _floor_plate(chart: dict) -> ComposedSource | None:

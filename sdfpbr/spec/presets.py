@@ -124,6 +124,11 @@ class Quality:
     ground_ibl_samples: int = 1024
     floor_plate: bool = True         # cells stage: the floor's static light shaded once per cell pixel
     floor_return: bool = True        # cells stage: the sphere's own light back from its floor
+    # cells stage: the floor seen from each sphere point rather than the centre, a table over
+    # the normal of floor_parallax_size texels a cube face, floor_parallax_samples directions each
+    floor_parallax: bool = True
+    floor_parallax_size: int = 16
+    floor_parallax_samples: int = 512
     sphere_plate: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
     neighbour_light: bool = True     # shared stage: the nearest spheres' light in each sphere's (2x the draw)
     # ... averaging n x n points of each pixel's box where the sphere is small: n = round(this /
