@@ -188,6 +188,18 @@ def test_default_rough_metals_beat_an_ideal_single_lookup(session, env_path, tru
     assert err.max() < SINGLE_LOOKUP_FLOOR, np.array2string(100 * err, precision=2)
 
 
+POLISHED_METAL = (2, 0)                              # metallic 1, r 0 (clamped to 0.045)
+
+
+def test_default_polished_metal_reads_the_mirror_level(session, env_path, truth):
+    """An r = 0 lobe is one direction, so the split sum is exact there but for the prefilter's
+    level 0: the default must be as close as the prefiltered levels are to float64 on the high
+    preset (LEVEL_BOUND). Reading the level at lod = r (levels - 1) blended in 20 % of the
+    r = 0.2 level and measured 0.73 %; the blend by the lobe's second moment reads 0.12 %."""
+    err = errors_for(session, env_path, truth, "default")[POLISHED_METAL]
+    assert err < LEVEL_BOUND["high"], 100 * err
+
+
 def test_high_within_target_on_every_cell(session, env_path, truth):
     err = errors_for(session, env_path, truth, "high")
     assert err.max() < TARGET["high"], np.array2string(100 * err, precision=2)
