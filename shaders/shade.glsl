@@ -13,7 +13,7 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 
 // A punctual light's f cos, its specular share weighted by `specular` (1, a literal, at every
 // call but the bounce's: stage_bounce.glsl takes the rest of a smooth sphere's reflection of
-// the lights in closed form).
+// the lights and the environment in closed form).
 vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
                      float specular) {
     if (specular >= 1.0) return brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
@@ -26,10 +26,9 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 // pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
 // at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
-// `blocked` (a literal too): the point as the stage leaves it: the ground's light as its sphere
-// blocks it (occlusion, shadows), a sphere's with what its floor gives back (FLOOR_RETURN);
-// false gives the open floor a shadow catcher divides by, and the sphere's light its bounce
-// rays carry to the floor.
+// `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
+// false gives the open floor a shadow catcher divides by. `light_spread`, `light_specular`:
+// the bounce rays' (shade_sphere_for_bounce), 0 and 1 (literals) elsewhere.
 #if SPHERE_PLATE_PASS
 float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at metallic 0 and 1
 #endif
@@ -81,6 +80,12 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         float horizon = saturate(1.0 + dot(reflect(-v, n), n_geo));
         vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);
         ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
+    }
+#endif
+#if BOUNCE_MIRROR_DIRECTIONS > 0
+    if (!ground && light_specular < 1.0) {   // the bounce rays: the rest of the reflection is closed-form
+        vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);
+        ibl = diffuse_ibl + (ibl - diffuse_ibl) * light_specular;
     }
 #endif
 #if FLOOR_PARALLAX
@@ -135,7 +140,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     }
 #endif
 #if FLOOR_RETURN
-    if (!ground && blocked) ibl += floor_return(m, n_geo, v, dfg);   // the sphere's own light back from its floor
+    if (!ground) ibl += floor_return(m, n_geo, v, dfg);   // the sphere's own light back from its floor
 #endif
 #if USE_TEXTURES
     ibl *= occlusion;   // the ORM occlusion darkens indirect light only
@@ -194,10 +199,12 @@ vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 }
 
 // The sphere's light as a few bounce rays sample it: each punctual light's highlight spread as
-// if the light were `spread` radians wide (the rays' spacing), and weighted by `specular`, the
-// share of the lights' reflection the rays can resolve (stage_bounce.glsl).
+// if the light were `spread` radians wide (the rays' spacing), and its specular reflection (of
+// the lights and of the environment) weighted by `specular`, the share the rays can resolve
+// (stage_bounce.glsl). With what its floor gives back (FLOOR_RETURN): the floor's light
+// returned by the sphere reaches the floor again (default chart 0.0292 -> 0.0289 mean FLIP).
 vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread, float specular) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, false);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, true);
 }
 
 vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {

@@ -49,7 +49,8 @@ SCHEMA = OptionSchema(
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
            "FLOOR_RETURN", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
-    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "HIDDEN_SKY_SAMPLES",
+    counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
+            "HIDDEN_SKY_SAMPLES",
             "SPHERE_SAMPLES", "FLOOR_RETURN_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
@@ -211,6 +212,10 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     # (stage_probe_main.glsl), prefiltered like the environment. Not under the few-tap bug,
     # which reads the environment itself.
     opts["STAGE_PROBE"] = opts["HAS_GROUND"] and opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False)
+    # A smooth sphere's mirror image of the probe on its floor (stage_bounce.glsl), in place of
+    # the bounce rays' share of its reflection (shade.glsl).
+    opts["BOUNCE_MIRROR_DIRECTIONS"] = (q.bounce_mirror_directions if "BOUNCE_RAYS" in opts and opts["STAGE_PROBE"]
+                                        else 0)
     # A cells-stage sphere's own light back from its floor (floor_return.glsl): the probe's
     # floor is every cell's, without the cell's bounce.
     opts["FLOOR_RETURN"] = q.floor_return and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]

@@ -116,6 +116,7 @@ class Quality:
     ibl_two_lobe: bool = True          # split_sum lookup: a narrower core plus a tail read along N
     ibl_pixel_samples: int = 0
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
+    bounce_mirror_directions: int = 16   # ... and directions of the stage a smooth sphere mirrors onto it
     bounce_texels: int = 8           # ... shaded on a grid of this many texels per sphere radius (0: every pixel)
     hidden_sky_samples: int = 32     # cells stage: reads of the sky the sphere hides from its floor (ao.glsl)
     # The ground's IBL from a table over the view direction, baked once per environment with
@@ -146,7 +147,8 @@ class Quality:
 QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16, sphere_samples_radius=0,
-                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, hidden_sky_samples=8,
+                     ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, bounce_mirror_directions=8,
+                     hidden_sky_samples=8,
                      ground_ibl_size=64, neighbour_light=False),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
