@@ -20,6 +20,15 @@ float pow5_one_minus(float x) {
     return m2 * m2 * m;
 }
 
+// Direction k of `count` spread evenly (equal solid angles: a spiral of golden-angle turns) over
+// the unit sphere above height y_min (-1: all of it).
+vec3 spiral_direction(int k, int count, float y_min) {
+    float y = 1.0 - (float(k) + 0.5) / float(count) * (1.0 - y_min);
+    float r = sqrt(max(1.0 - y * y, 0.0));
+    float phi = GOLDEN_ANGLE * float(k);
+    return vec3(r * cos(phi), y, r * sin(phi));
+}
+
 // Orthonormal basis around n (Duff et al. 2017): no normalize, no singularity except n.z = -1 handled by sign.
 void basis(vec3 n, out vec3 t, out vec3 b) {
     float s = n.z >= 0.0 ? 1.0 : -1.0;

@@ -98,10 +98,7 @@ float light_coverage(ivec2 cell) {
 #if SEE_THROUGH && USE_TEXTURES
     float sum = 0.0;
     for (int k = 0; k < LIGHT_COVERAGE_POINTS; ++k) {
-        float y = 1.0 - (2.0 * float(k) + 1.0) / float(LIGHT_COVERAGE_POINTS);
-        float phi = GOLDEN_ANGLE * float(k);
-        vec3 n = vec3(sqrt(1.0 - y * y) * vec2(cos(phi), sin(phi)), y).xzy;
-        sum += sphere_alpha(cell, n, 0.25 * u_radius);
+        sum += sphere_alpha(cell, spiral_direction(k, LIGHT_COVERAGE_POINTS, -1.0), 0.25 * u_radius);
     }
     return sum / float(LIGHT_COVERAGE_POINTS);
 #elif SEE_THROUGH

@@ -13,13 +13,24 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 
 // A punctual light's f cos, its specular share weighted by `specular` (1, a literal, at every
 // call but the bounce's: stage_bounce.glsl takes the rest of a smooth sphere's reflection of
-// the lights and the environment in closed form).
+// the lights and of the sky in closed form).
 vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
                      float specular) {
     if (specular >= 1.0) return brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
     if (specular <= 0.0) return diffuse_brdf_cos(m, n, v, l);
     return mix(diffuse_brdf_cos(m, n, v, l), brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single), specular);
 }
+
+#if BOUNCE_MIRROR_DIRECTIONS > 0
+// How much of a smooth sphere's reflection towards its floor along a direction with height y
+// stage_bounce.glsl mirrors in closed form (the sky, at infinity), and the rest the bounce rays
+// carry (the floor, near): a ramp across the horizon.
+#define MIRRORED_SKY_RAMP 0.1
+float mirrored_sky_share(float y) {
+    return smoothstep(-MIRRORED_SKY_RAMP, MIRRORED_SKY_RAMP, y);
+}
+
+#endif
 
 // Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
 // lights (shadowed on the ground where shadows are composed in).
@@ -83,9 +94,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     }
 #endif
 #if BOUNCE_MIRROR_DIRECTIONS > 0
-    if (!ground && light_specular < 1.0) {   // the bounce rays: the rest of the reflection is closed-form
+    if (!ground && light_specular < 1.0) {   // the bounce rays: a smooth sphere's mirrored sky is closed-form
         vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);
-        ibl = diffuse_ibl + (ibl - diffuse_ibl) * light_specular;
+        ibl = diffuse_ibl + (ibl - diffuse_ibl) * mix(1.0, light_specular, mirrored_sky_share(reflect(-v, n).y));
     }
 #endif
 #if FLOOR_PARALLAX

@@ -16,7 +16,7 @@
 // The rays carry the smooth part (the diffuse, a rough sphere's reflections); a smooth sphere's
 // reflection of the punctual lights and of the stage -- a few rays would find its tiny
 // highlights or miss them, drawing blobs on the floor -- comes in closed form
-// (sphere_reflected_light, sphere_reflected_environment).
+// (sphere_reflected_light, sphere_reflected_sky).
 #define BOUNCE_RING_X 0.6666667   // Radau's ring, and its weight (the axis has the rest)
 #define BOUNCE_RING_WEIGHT 0.75
 #define BOUNCE_MIN_FF 1e-3   // far floor: the sphere's light is below what 8 bits show
@@ -33,26 +33,28 @@ float bounce_resolves(float alpha) {
 
 #if BOUNCE_MIRROR_DIRECTIONS > 0
 // The irradiance at floor point q (from the sphere's centre) from the sphere of material m
-// mirroring the stage probe (the environment above, the floor below): every direction of it a parallel beam as the
-// lights are, BOUNCE_MIRROR_DIRECTIONS of them spread evenly over the sphere (a spiral, equal
-// solid angles), each the probe averaged over its share (the prefiltered level whose lobe is
-// that wide: alpha^2 ~ share / 4 pi) and seen over the share's width. A few bounce rays read
-// a smooth sphere's mirror image of the studio's boxes at a few points: its floor was 3-5 %
-// dark in front and 3 % bright beside it (polished metal, studio alone); 16, 32 and 64
-// directions measured the same (default chart 0.0289 -> 0.0273 mean FLIP).
-vec3 sphere_reflected_environment(vec3 q, Material m) {
-    float share = 4.0 * PI / float(BOUNCE_MIRROR_DIRECTIONS);
+// mirroring the sky: every direction of the probe above the floor's horizon a parallel beam,
+// as a light is, BOUNCE_MIRROR_DIRECTIONS of them spread evenly over the sky down to the
+// ramp below the horizon where the rays take over (a spiral, equal solid angles), each the
+// probe averaged over its share (the prefiltered level whose lobe is that wide: alpha^2 ~
+// share / 4 pi) and seen over the share's width. A few bounce rays read a polished sphere's
+// mirror image of the studio's boxes at a few points: the floor beside it, under the fill
+// box's image, was 7 % bright (now 3 % dark). The default chart's mean FLIP with 0, 8, 16, 32
+// directions: 0.0289, 0.0278, 0.0277, 0.0276. The floor the sphere mirrors stays with the rays
+// (shade.glsl), whose hit points see it from where they are: as beams from afar, the probe's
+// lit far floor lit a mirror's own umbra at twice the reference's light (read from the mirror
+// point, 1.45x: the probe's floor lacks the cell's own bounce, which lights the floor the
+// sphere mirrors most).
+vec3 sphere_reflected_sky(vec3 q, Material m) {
+    float share = 2.0 * PI * (1.0 + MIRRORED_SKY_RAMP) / float(BOUNCE_MIRROR_DIRECTIONS);
     float lod = sqrt(sqrt(share * (0.25 * INV_PI))) * u_prefiltered_lods;   // r = sqrt(alpha)
     float width = sqrt(share * INV_PI) + m.alpha;   // the share's angular radius, blurred by the lobe
     vec3 sum = vec3(0.0);
     for (int k = 0; k < BOUNCE_MIRROR_DIRECTIONS; ++k) {
-        float cos_z = 1.0 - (2.0 * float(k) + 1.0) / float(BOUNCE_MIRROR_DIRECTIONS);
-        float sin_z = sqrt(max(1.0 - cos_z * cos_z, 0.0));
-        float phi = GOLDEN_ANGLE * float(k);
-        vec3 l = vec3(sin_z * cos(phi), cos_z, sin_z * sin(phi));
+        vec3 l = spiral_direction(k, BOUNCE_MIRROR_DIRECTIONS, -MIRRORED_SKY_RAMP);
         float cos_i;
         float e = mirror_irradiance(q, l, width, cos_i);
-        if (e > 0.0) sum += sphere_fresnel(m, cos_i) * textureLod(u_prefiltered, l, lod).rgb * e;
+        if (e > 0.0) sum += sphere_fresnel(m, cos_i) * textureLod(u_prefiltered, l, lod).rgb * (e * mirrored_sky_share(l.y));
     }
     return sum * share;
 }
@@ -92,7 +94,7 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     if (resolved < 1.0) {
         mirrored = sphere_reflected_light(q, vec3(0.0), sphere_material);
 #if BOUNCE_MIRROR_DIRECTIONS > 0
-        mirrored += sphere_reflected_environment(q, sphere_material);
+        mirrored += sphere_reflected_sky(q, sphere_material);
 #endif
     }
     vec3 reflected = floor_material.base_color_linear * dfg.z * INV_PI * mirrored * (1.0 - resolved);
