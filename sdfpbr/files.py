@@ -85,8 +85,9 @@ def write_group(items: list[tuple[str | Path, Callable[[str], None]]]) -> None:
                 with open(tmp, "rb+") as f:
                     os.fsync(f.fileno())
                 os.chmod(tmp, 0o644)
-            except OSError as exc:
-                raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+            except OSError as exc:   # no strerror: a short write (numpy's), the disk full or the file too large
+                reason = exc.strerror or f"the disk is full or the file too large ({exc})"
+                raise OutputError(f"cannot write {p}: {reason}") from None
         for tmp, p in staged:
             os.replace(tmp, p)
     except BaseException:

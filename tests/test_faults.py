@@ -170,6 +170,12 @@ def test_file_size_limit_is_a_clean_error(tmp_path, cache_dir):
     line = one_line(r.stderr)
     assert r.returncode == 2 and f"cannot write {out}: File too large" in line
     assert listing(tmp_path) == {"chart.png": KEEP}           # no temporary left behind
+    # All or nothing: the PNG fits under the limit, the HDR (24 x 24 x 12 bytes) does not, so
+    # neither is written and the old PNG keeps its bytes.
+    r = subprocess.run([sys.executable, "-c", FULL_DISK_SCRIPT, "chart", "--size", "24x24", "--no-labels",
+                        "-o", str(out), "--hdr", str(tmp_path / "chart.npy")], capture_output=True, text=True)
+    assert r.returncode == 2 and f"cannot write {tmp_path / 'chart.npy'}: the disk is full" in one_line(r.stderr), r.stderr
+    assert listing(tmp_path) == {"chart.png": KEEP}
 
 
 def test_full_disk_is_a_clean_error(tmp_path):
@@ -230,6 +236,28 @@ def test_a_damaged_cache_entry_is_reported_deleted_and_rebuilt(tmp_path, damage)
     assert r.returncode == 0 and "cache entry" not in r.stderr, r.stderr
 
 
+def test_a_damaged_cache_entry_heals_in_a_forced_build(tmp_path):
+    """The same for `build --force`: every IBL and DFG entry damaged, the forced rebuild reports
+    each on one line and writes the image the first build wrote."""
+    cache_dir = tmp_path / "cache"
+    env = {"SDFPBR_CACHE_DIR": str(cache_dir)}
+    (tmp_path / "charts").mkdir()
+    (tmp_path / "charts" / "small.toml").write_text('size = "64x64"\n')
+    r = sdfpbr("build", tmp_path / "charts", "-o", tmp_path / "site", env=env)
+    assert r.returncode == 0, r.stderr
+    first = (tmp_path / "site" / "small.png").read_bytes()
+    entries = _entries(cache_dir)
+    assert entries
+    for path in entries:
+        data = bytearray(path.read_bytes())
+        data[len(data) // 2] ^= 0xFF
+        path.write_bytes(bytes(data))
+    r = sdfpbr("build", tmp_path / "charts", "-o", tmp_path / "site", "--force", env=env)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert len([line for line in r.stderr.splitlines() if "cache entry" in line]) == len(entries), r.stderr
+    assert (tmp_path / "site" / "small.png").read_bytes() == first
+
+
 # ---- environments that would render wrong --------------------------------------------------------
 
 def _npy_header_only(path, shape):
@@ -243,11 +271,13 @@ def _npy_header_only(path, shape):
     (lambda np: np.full((4, 8, 3), 3.4e38, np.float32), "over-1e30"),
     (lambda np: np.ones((4, 8, 3)) + 1j, "real numbers"),
     (lambda np: np.full((4, 8, 3), "x"), "real numbers"),
+    (lambda np: np.zeros((4, 8), [("r", "f4"), ("g", "f4"), ("b", "f4")]), "real numbers"),
     (None, "cannot read environment"),
 ])
 def test_environments_that_cannot_render_right_are_refused(tmp_path, make, message):
-    """Issue 12: values that overflow the bakes, complex or string arrays, and a header that
-    claims 200000 x 200000 x 3 texels: one line, exit 2, no output, nothing allocated."""
+    """Issue 12: values that overflow the bakes, complex, string or structured arrays, and a
+    header that claims 200000 x 200000 x 3 texels: one line, exit 2, no output, nothing
+    allocated."""
     import numpy as np
     env = tmp_path / "env.npy"
     if make is None:
@@ -295,6 +325,40 @@ def test_an_output_that_is_an_input_is_refused(tmp_path):
     assert tex.read_bytes() == before
 
 
+def test_two_outputs_on_one_file_are_refused(tmp_path):
+    """Outputs of one command whose names differ but are one file (a link): one line, exit 2,
+    before anything is rendered or written."""
+    (tmp_path / "h.npy").symlink_to(tmp_path / "a.npz")
+    r = sdfpbr("chart", "--size", "32x32", "--hdr", tmp_path / "h.npy", "--aov", tmp_path / "a.npz",
+               "-o", tmp_path / "c.png")
+    assert r.returncode == 2 and "give each output its own file" in one_line(r.stderr), r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h.npy"]
+
+
+def test_a_chart_killed_while_writing_leaves_its_output_as_it_was(tmp_path):
+    """SIGKILL while `chart` writes its PNG (caught by its temporary appearing beside the output):
+    the old output keeps its bytes, and the next chart into that file replaces it whole and takes
+    the dead writer's temporary away."""
+    import signal
+    import time
+    from sdfpbr.files import TEMP_NAME
+    out = tmp_path / "c.png"
+    out.write_bytes(KEEP)
+    temporaries = lambda: [p for p in tmp_path.iterdir() if TEMP_NAME.match(p.name)]
+    writer = subprocess.Popen([sys.executable, "-m", "sdfpbr", "chart", "--size", "3072x3072", "-o", str(out)],
+                              cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not temporaries() and writer.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    writer.send_signal(signal.SIGKILL)
+    writer.wait()
+    assert writer.returncode == -signal.SIGKILL, "the chart ended before it could be killed while writing"
+    assert temporaries() and out.read_bytes() == KEEP
+    r = sdfpbr("chart", "--size", "32x32", "-o", out, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert not temporaries() and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_an_exr_without_openexr_is_refused_before_anything_is_written(tmp_path):
     """Issue 12: without OpenEXR, `chart -o k.png --hdr k.exr` rendered, replaced k.png, then
     failed. Now it fails first and k.png keeps its bytes."""
@@ -312,28 +376,48 @@ def test_an_exr_without_openexr_is_refused_before_anything_is_written(tmp_path):
 
 # ---- hostile arguments: one line, never a traceback -----------------------------------------------
 
+# Spec files the hostile cases below read (by name in their arguments).
+HOSTILE_SPECS = {
+    "nested.toml": "roughness = " + "[" * 1000 + "0.5" + "]" * 1000 + "\n",
+    "inf-size.toml": "size = [inf, 64]\n",
+    "list-size.toml": "size = [[64], 64]\n",
+}
+# Address-space limits (bytes) some cases run under, whatever memory the machine has.
+MEMORY_LIMITS = {"65536x65536": 8 << 30, "20000x20000": 4 << 30}
+
+
 @pytest.mark.parametrize("args, env, status, message", [
-    (("chart", "--spec", "NESTED"), None, 2, "nested too deeply"),
+    (("chart", "--spec", "nested.toml"), None, 2, "nested too deeply"),
+    (("build", "nested", "-o", "site"), None, 2, "nested too deeply"),
+    (("chart", "--spec", "inf-size.toml"), None, 2, "size width must be a finite number"),
+    (("chart", "--spec", "list-size.toml"), None, 2, "size width must be a number, got [64]"),
     (("stress", "--seed", "-1"), None, 2, "must be in [0, 4294967295]"),
     (("chart", "--frames", "3", "--fps", "0.001", "-o", "s.gif"), None, 2, "fps must be a number in [0.1, 100]"),
+    (("chart", "--frames", "3", "--fps", "0.00001", "-o", "s.webp"), None, 2, "fps must be a number in [0.1, 100]"),
     (("chart", "--size", "65536x65536"), None, 2, "GiB of memory"),
+    (("chart", "--size", "20000x20000"), None, 2, "GiB of memory"),
     (("chart", "--backend", "osmesa", "--size", "32x32"), {"SDFPBR_LIBOSMESA": "libc.so.6"}, 3, "not an OSMesa library"),
     (("chart", "--device-index", "7", "--size", "32x32"), None, 3, "device index 7"),
+    (("chart", "--backend", "egl", "--device-index", "7", "--size", "32x32"), None, 3, "device index 7"),
     (("chart", "--size", "2x2048"), None, 2, "fewer pixels than its 5x5 cells"),   # was a GL traceback
 ])
 def test_hostile_arguments_get_one_line(tmp_path, args, env, status, message):
-    """Issue 12's tracebacks (RecursionError, a negative seed, a GIF delay overflow, a 48 GiB
-    allocation, a library that is not OSMesa) and its silent fallback (a device index that does
-    not exist rendered on OSMesa): each is one line with the documented exit status."""
-    nested = tmp_path / "nested.toml"
-    nested.write_text("roughness = " + "[" * 1000 + "0.5" + "]" * 1000 + "\n")
-    args = [str(nested) if a == "NESTED" else a for a in args]
-    if "65536x65536" in args:   # under an 8 GiB address-space limit, whatever the machine has
+    """Issue 12's tracebacks (RecursionError in chart and build, a size of inf or a list, a
+    negative seed, GIF and WebP delays that overflow, 48 GiB and 4 GiB allocations, a library
+    that is not OSMesa) and its silent fallbacks (a device index that does not exist, rendered
+    on OSMesa or blamed on a missing driver): each is one line with the documented exit status,
+    and nothing written."""
+    for name, text in HOSTILE_SPECS.items():
+        (tmp_path / name).write_text(text)
+    (tmp_path / "nested").mkdir()
+    (tmp_path / "nested" / "nested.toml").write_text(HOSTILE_SPECS["nested.toml"])
+    limit = next((MEMORY_LIMITS[a] for a in args if a in MEMORY_LIMITS), None)
+    if limit is not None:
         import resource
-        limit = lambda: resource.setrlimit(resource.RLIMIT_AS, (8 << 30, 8 << 30))
-        r = subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True,
-                           cwd=tmp_path, preexec_fn=limit)
+        r = subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True, cwd=tmp_path,
+                           preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, (limit, limit)))
     else:
         r = sdfpbr(*args, env=env, cwd=tmp_path)
     assert r.returncode == status and message in one_line(r.stderr), r.stderr
-    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.gif"))
+    written = [p for p in tmp_path.rglob("*") if p.suffix in (".png", ".gif", ".webp", ".json", ".html")]
+    assert not written, written

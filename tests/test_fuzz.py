@@ -19,7 +19,9 @@ from sdfpbr.spec.fields import FIELD_NAMES, FIELDS
 from sdfpbr.spec.chart_spec import (BACKENDS, BRDF_MODELS, CAMERAS, ENV_PRESETS, INTERSECT_METHODS, MATERIAL_PRESETS,
                          QUALITY_PRESETS, SPEC_KEYS, TONEMAPPERS, load_spec)
 
-FUZZ = settings(max_examples=150, deadline=None, database=None,
+# Seeded: derandomize draws every example from the test's own source, so CI runs the same
+# examples each time (a failure reproduces; no example database is kept).
+FUZZ = settings(max_examples=150, deadline=None, database=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 KEEP = b"pre-existing output, must survive"
 PRINTABLE = st.text(st.characters(blacklist_categories=("Cs", "Cc")), max_size=12)
@@ -287,14 +289,20 @@ SHADED = st.fixed_dictionaries({}, optional={
 })
 
 
-@settings(max_examples=80, deadline=None, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+RENDER_FUZZ = settings(FUZZ, max_examples=80)
+OVERHEAD_SUN = {"kind": "directional", "direction": [0.0, 1.0, 0.0], "intensity": 1.0}
+
+
+@RENDER_FUZZ
 @given(doc=SHADED)
 @example(doc={"ground_color": [-1.0, 0.0, 0.0]})
 def test_every_spec_the_validator_accepts_renders_finite_non_negative(session, tmp_path_factory, doc):
-    """The other half of validation: what passes it must render. Environment black and no IBL
+    """The other half of validation: what passes it must render, finite and not all black
+    where something lit is in view: a white sun overhead is added to the fuzzed lights, so a
+    floor or spheres with any colour must give some light back. Environment black and no IBL
     keep each example to one small render (no environment bake)."""
-    doc = {**doc, "env": "black", "ibl": False, "width": 12, "height": 10, "rows": 2, "cols": 2, "quality": "draft"}
+    doc = {**doc, "env": "black", "ibl": False, "width": 12, "height": 10, "rows": 2, "cols": 2, "quality": "draft",
+           "lights": [*doc.get("lights", []), OVERHEAD_SUN]}
     path = tmp_path_factory.mktemp("valid") / "spec.toml"
     path.write_text(toml_doc(doc))
     try:
@@ -303,6 +311,82 @@ def test_every_spec_the_validator_accepts_renders_finite_non_negative(session, t
         return
     res = session.render(spec)
     assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0, doc
+    if max(*spec.base_color, *spec.ground_color) > 1e-3:   # something under the sun reflects it
+        assert res.hdr.max() > 0, doc
+
+
+# ---- standalone textures ----------------------------------------------------------------------
+
+IMAGE_MODES = ["1", "L", "LA", "P", "RGB", "RGBA", "I;16", "I", "F"]
+
+
+@st.composite
+def texture_files(draw):
+    """Bytes of a texture file: a PNG (or TIFF, for the 32-bit modes PNG cannot hold) of any
+    mode and size, or such a file cut short, or bytes that are no image."""
+    from PIL import Image
+    kind = draw(st.sampled_from(["image", "cut", "noise"]))
+    if kind == "noise":
+        return draw(st.binary(max_size=300))
+    mode = draw(st.sampled_from(IMAGE_MODES))
+    w, h = draw(st.integers(1, 40)), draw(st.integers(1, 40))
+    seed = draw(st.integers(0, 2 ** 16))
+    pixels = np.random.default_rng(seed).integers(0, 256, (h, w, 4), dtype=np.uint8)
+    image = Image.fromarray(pixels, "RGBA").convert(mode if mode not in ("I;16", "I", "F") else "L")
+    if mode in ("I;16", "I", "F"):
+        image = image.convert(mode)
+    buf = io.BytesIO()
+    image.save(buf, format="TIFF" if mode in ("I", "F") else "PNG")
+    data = buf.getvalue()
+    return data[: draw(st.integers(0, len(data) - 1))] if kind == "cut" else data
+
+
+@settings(FUZZ, max_examples=40)
+@given(data=texture_files(), which=st.sampled_from(["--base-color-texture", "--orm-texture", "--normal-texture"]))
+def test_standalone_textures_render_or_are_one_line(workdir, tmp_path_factory, data, which):
+    """A texture file from the command line, of any mode, size or damage: it renders (exit 0,
+    an image written) or it is refused with one line and exit 2, the output untouched."""
+    path = tmp_path_factory.mktemp("texture") / "t.png"
+    path.write_bytes(data)
+    out = tmp_path_factory.mktemp("out") / "c.png"
+    status, err, _ = run(["chart", "--size", "16x16", "--rows", "1", "--cols", "1", "--quality", "draft",
+                          which, path, "-o", out])
+    assert "Traceback" not in err
+    if status == 0:
+        assert out.exists()
+    else:
+        assert status == 2 and len(err.strip().splitlines()) == 1, (status, err)
+        assert not out.exists()
+
+
+ENV_VALUES = st.sampled_from([0.0, 1e-30, 0.5, 1.0, 7.0, 1e29, 3.4e38, -1.0, np.nan, np.inf])
+
+
+@settings(FUZZ, max_examples=30)
+@given(shape=st.lists(st.integers(0, 12), min_size=1, max_size=4),
+       dtype=st.sampled_from(["f4", "f8", "f2", "u1", "i4", "c8", "U3", "?"]),
+       values=st.lists(ENV_VALUES, min_size=1, max_size=4), seed=st.integers(0, 2 ** 16))
+def test_environment_files_render_or_are_one_line(workdir, tmp_path_factory, shape, dtype, values, seed):
+    """An environment .npy of any shape, type and values (NaN, Inf, negative, huge), lighting
+    the chart alone: it renders, finite and not all black when its radiance is, or it is one
+    line and exit 2 with nothing written."""
+    d = tmp_path_factory.mktemp("env")
+    array = np.random.default_rng(seed).choice(np.array(values), size=tuple(shape))
+    with np.errstate(all="ignore"):
+        array = array.astype(dtype) if dtype != "U3" else array.astype(str)
+    np.save(d / "env.npy", array)
+    out, hdr = d / "c.png", d / "c.npy"
+    status, err, _ = run(["chart", "--size", "16x16", "--rows", "1", "--cols", "1", "--quality", "draft",
+                          "--lights", "none", "--env", d / "env.npy", "-o", out, "--hdr", hdr])
+    assert "Traceback" not in err
+    if status != 0:
+        assert status == 2 and len(err.strip().splitlines()) == 1, (status, err)
+        assert not out.exists() and not hdr.exists()
+        return
+    radiance = np.load(hdr)
+    assert np.isfinite(radiance).all() and radiance.min() >= 0
+    if np.asarray(array, np.float64).max() > 1e-3:   # a lit environment lights the chart
+        assert radiance.max() > 0
 
 
 @pytest.mark.parametrize("content", [b"not an array", b"", np.zeros((4, 4)), np.zeros((8, 16, 3)) - 1.0,
