@@ -348,21 +348,26 @@ def test_standalone_textures_render_or_are_one_line(workdir, tmp_path_factory, d
     an image written) or it is refused with one line and exit 2, the output untouched."""
     path = tmp_path_factory.mktemp("texture") / "t.png"
     path.write_bytes(data)
-    out = tmp_path_factory.mktemp("out") / "c.png"
+    d = tmp_path_factory.mktemp("out")
+    out, hdr = d / "c.png", d / "c.npy"
     status, err, _ = run(["chart", "--size", "16x16", "--rows", "1", "--cols", "1", "--quality", "draft",
-                          which, path, "-o", out])
+                          "--no-ground", which, path, "-o", out, "--hdr", hdr])
     assert "Traceback" not in err
-    if status == 0:
-        assert out.exists()
+    if status == 0:   # a lit sphere of any map reflects something (its specular, if nothing else)
+        radiance = np.load(hdr)
+        assert out.exists() and np.isfinite(radiance).all() and radiance.min() >= 0 and radiance.max() > 0
     else:
         assert status == 2 and len(err.strip().splitlines()) == 1, (status, err)
-        assert not out.exists()
+        assert not out.exists() and not hdr.exists()
 
 
 ENV_VALUES = st.sampled_from([0.0, 1e-30, 0.5, 1.0, 7.0, 1e29, 3.4e38, -1.0, np.nan, np.inf])
 
 
 @settings(FUZZ, max_examples=30)
+@example(shape=[8, 16, 3], dtype="f4", values=[0.5, 7.0], seed=1)     # lit: it must render, not black
+@example(shape=[4, 8, 4], dtype="u1", values=[1.0, 0.0], seed=2)
+@example(shape=[6, 12, 3], dtype="f2", values=[1e-30, 0.0], seed=3)   # dark, not black: renders
 @given(shape=st.lists(st.integers(0, 12), min_size=1, max_size=4),
        dtype=st.sampled_from(["f4", "f8", "f2", "u1", "i4", "c8", "U3", "?"]),
        values=st.lists(ENV_VALUES, min_size=1, max_size=4), seed=st.integers(0, 2 ** 16))

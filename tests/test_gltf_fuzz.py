@@ -20,7 +20,7 @@ pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_gltf import png_bytes  # noqa: E402
 
-FUZZ = settings(max_examples=150, deadline=None, database=None,
+FUZZ = settings(max_examples=150, deadline=None, database=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
 
