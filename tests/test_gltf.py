@@ -163,6 +163,28 @@ def test_a_base_colour_texture_is_the_png_the_asset_holds(session, tmp_path):
     assert largest_step_from_png(session, glb, img) <= 1
 
 
+@pytest.mark.parametrize("source", ["data URI", "file beside the .gltf"])
+def test_a_gltf_files_image_from_a_data_uri_or_a_file_beside_it(session, tmp_path, source):
+    """The same image given by a .gltf (JSON) as a base64 data URI, or as a PNG file named
+    relative to the .gltf: the chart equals that image as --base-color-texture, as a .glb's
+    buffer view does."""
+    import base64
+    img = pattern(3)
+    data = png_bytes(img)
+    doc = gltf_asset([textured()])
+    if source == "data URI":
+        uri = "data:image/png;base64," + base64.b64encode(data).decode()
+    else:
+        (tmp_path / "maps").mkdir()
+        (tmp_path / "maps" / "colour.png").write_bytes(data)
+        uri = "maps/colour.png"
+    doc.images = [pygltflib.Image(uri=uri)]
+    doc.textures = [pygltflib.Texture(source=0)]
+    path = tmp_path / "asset.gltf"
+    doc.save_json(str(path))
+    assert largest_step_from_png(session, str(path), img) <= 1
+
+
 def test_khr_texture_transform_and_wrap_are_applied(session, tmp_path):
     """scale (2, 1) with repeat wrap: the sphere's u runs twice over the image, so the layer's
     texel i is the image's texels 2i and 2i + 1 averaged (bilinear at their midpoint); offset
