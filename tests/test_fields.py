@@ -435,3 +435,23 @@ def test_huge_lists_are_refused_before_they_are_read_and_quoted_short():
     with pytest.raises(SpecError) as refused:
         make_spec(roughness=[0.5] * 10**6)
     assert len(str(refused.value)) < 200, len(str(refused.value))
+
+
+def test_base_colours_per_row_per_cell_and_the_hue_axis_reach_each_cell():
+    """`base_colors` with one colour per row fills each row with it, one per cell fills the
+    cells row by row; the `base_color_hue` axis turns the base colour's hue across the columns
+    (0 to 300 degrees by default), keeping its saturation and value. A list that is neither is
+    refused with one line naming both counts."""
+    import colorsys
+    rows = make_spec(rows=2, cols=3, base_colors=[(1, 0, 0), (0, 0, 1)]).cell_materials()
+    assert [[m.base_color for m in row] for row in rows] == [[(1.0, 0.0, 0.0)] * 3, [(0.0, 0.0, 1.0)] * 3]
+    six = [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (0, 1, 1), (1, 0, 1)]
+    cells = make_spec(rows=2, cols=3, base_colors=six).cell_materials()
+    assert [m.base_color for row in cells for m in row] == [tuple(map(float, c)) for c in six]
+    hues = make_spec(rows=1, cols=4, x_axis="base_color_hue", base_color=(0.8, 0.2, 0.2)).cell_materials()[0]
+    for m, hue in zip(hues, (0.0, 100.0, 200.0, 300.0)):
+        h, s, v = colorsys.rgb_to_hsv(*m.base_color)
+        assert (h * 360.0 - hue + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-6)
+        assert (s, v) == pytest.approx((0.75, 0.8))
+    with pytest.raises(SpecError, match="lists 4 entries for 2 rows x 3 columns"):
+        make_spec(rows=2, cols=3, base_colors=six[:4]).cell_materials()
