@@ -187,12 +187,15 @@ def test_a_gltf_files_image_from_a_data_uri_or_a_file_beside_it(session, tmp_pat
 
 def test_khr_texture_transform_and_wrap_are_applied(session, tmp_path):
     """scale (2, 1) with repeat wrap: the sphere's u runs twice over the image, so the layer's
-    texel i is the image's texels 2i and 2i + 1 averaged (bilinear at their midpoint); offset
-    (0, 0.25) with clamp shifts v down a quarter and holds the last row. Computed here from the
-    image alone, given as a PNG: the chart must match it."""
+    texel i is the image's texels 2i and 2i + 1 averaged (the sampler sets no minFilter: the
+    mipmapped read, in linear light for a colour map); offset (0, 0.25) with clamp shifts v
+    down a quarter and holds the last row. Computed here from the image alone, given as a PNG:
+    the chart must match it."""
+    from sdfpbr.oracle.display import srgb_eotf, srgb_oetf
     img = pattern(2)
     h = img.shape[0]
-    doubled = (img.astype(np.float64)[:, 0::2] + img[:, 1::2]) / 2.0
+    linear = srgb_eotf(img / 255.0)
+    doubled = 255.0 * srgb_oetf((linear[:, 0::2] + linear[:, 1::2]) / 2.0)
     doubled = np.concatenate([doubled, doubled], 1)
     rows = np.clip(np.arange(h) + h // 4, 0, h - 1)    # v + 0.25 lands exactly a quarter of the rows down
     want_img = np.rint(doubled[rows]).astype(np.uint8)
@@ -200,6 +203,60 @@ def test_khr_texture_transform_and_wrap_are_applied(session, tmp_path):
     sampler = pygltflib.Sampler(wrapS=10497, wrapT=33071)
     glb = textured_glb(tmp_path / "t.glb", [png_bytes(img)], [textured(transform)], [sampler])
     assert largest_step_from_png(session, glb, want_img) <= 1
+
+
+def layer_of(glb: str, kind: str) -> np.ndarray:
+    """The asset's one material's layer of map ``kind`` as the chart uploads it (uint8)."""
+    from sdfpbr.gpu.textures import gltf_set
+    return gltf_set(make_spec(gltf=glb).gltf_maps()).images[kind]
+
+
+@pytest.mark.parametrize("min_filter", [None, 9987, 9984, 9729, 9728])
+def test_a_minified_texture_follows_its_samplers_min_filter(tmp_path, min_filter):
+    """An image three times the layer's size each way (noise: every texel differs). A mipmap
+    mode, or none given, reads each layer texel as the mean of the 3 x 3 image texels under it;
+    NEAREST and LINEAR read level 0 at the texel's centre, which is image texel (3i + 1, 3j + 1)
+    exactly, aliasing as GL does. The base colour (sRGB) is averaged in linear light, as a GL
+    sRGB texture's mipmaps are; the metallic-roughness map (linear data) as it is stored."""
+    from sdfpbr.oracle.display import srgb_eotf, srgb_oetf
+    rng = np.random.default_rng(5)
+    w, h = LAYER[0] * 3, LAYER[1] * 3
+    colour, mr = rng.integers(0, 256, (h, w, 3), dtype=np.uint8), rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    m = textured(metallicRoughnessTexture=pygltflib.TextureInfo(index=1))
+    sampler = pygltflib.Sampler(minFilter=min_filter)
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(colour), png_bytes(mr)], [m], [sampler, sampler])
+    base, orm = layer_of(glb, "base").astype(np.float64), layer_of(glb, "orm").astype(np.float64)
+    def blocks(a):   # (h/3, w/3, 3, 3, c): each layer texel's 3 x 3 image texels
+        return a.reshape(h // 3, 3, w // 3, 3, -1).swapaxes(1, 2)
+    if min_filter in (None, 9987, 9984):
+        want_base = 255.0 * srgb_oetf(srgb_eotf(blocks(colour) / 255.0).mean((2, 3)))
+        want_mr = blocks(mr.astype(np.float64)).mean((2, 3))
+    else:
+        want_base, want_mr = colour[1::3, 1::3], mr[1::3, 1::3]
+    assert np.abs(base[..., :3] - want_base).max() <= 0.5 + 1e-3    # the layer's rounding to 8 bits
+    assert np.abs(orm[..., 1:3] - want_mr[..., 1:3]).max() <= 0.5 + 1e-3
+
+
+@pytest.mark.parametrize("key, value, allowed", [("wrapS", 7, "33071 clamp"), ("magFilter", 9987, "9728, 9729"),
+                                                  ("minFilter", 9730, "9728, 9729, 9984, 9985, 9986, 9987")])
+def test_a_sampler_value_glTF_does_not_define_is_named_with_what_is_allowed(tmp_path, key, value, allowed):
+    img = np.zeros((4, 8, 3), np.uint8)
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(img)], [textured()], [pygltflib.Sampler(**{key: value})])
+    with pytest.raises(SpecError, match=f"baseColorTexture: its sampler's {key} {value} is not a glTF .*{allowed}"):
+        make_spec(gltf=glb).gltf_maps()
+
+
+@pytest.mark.parametrize("min_filter, want", [(None, 188), (9728, 0)])
+def test_a_checker_finer_than_the_layer_renders_as_its_mean_or_as_gl_aliases_it(session, tmp_path, min_filter, want):
+    """A one-texel black-and-white checker at twice the layer's size: mipmapped, each layer
+    texel holds two white texels of four, half the light: sRGB code 188 (not 128, the codes'
+    mean), and the chart equals the chart of a plain code-188 image; NEAREST reads texel
+    (2i + 1, 2j + 1), black on every one: the sphere renders black."""
+    j, i = np.mgrid[:LAYER[1] * 2, :LAYER[0] * 2]
+    checker = np.repeat((255 * ((i + j) % 2)).astype(np.uint8)[..., None], 3, -1)
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(checker)], [textured()], [pygltflib.Sampler(minFilter=min_filter)])
+    plain = np.full((LAYER[1], LAYER[0], 3), want, np.uint8)
+    assert largest_step_from_png(session, glb, plain) <= 1
 
 
 def test_each_cell_reads_its_own_materials_textures(session, tmp_path):

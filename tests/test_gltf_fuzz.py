@@ -53,6 +53,7 @@ indices = st.one_of(st.just(0), st.just(0), st.just(0), st.none(), st.integers(-
 transform = st.fixed_dictionaries({}, optional={
     "offset": st.lists(numbers, max_size=3), "rotation": numbers, "scale": st.lists(numbers, max_size=3)})
 samplers = st.builds(pygltflib.Sampler, magFilter=st.sampled_from([None, 9728, 9729, 5]),
+                     minFilter=st.sampled_from([None, 9728, 9729, 9984, 9987, 9730]),
                      wrapS=st.sampled_from([None, 33071, 33648, 10497, 7]), wrapT=st.sampled_from([None, 10497, -1]))
 
 

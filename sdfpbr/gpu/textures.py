@@ -195,40 +195,71 @@ def _wrap(x: np.ndarray, mode: str) -> np.ndarray:
     return x - np.floor(x)
 
 
-def _sample(img: np.ndarray, u: np.ndarray, v: np.ndarray, ref) -> np.ndarray:
-    """float64 texels of ``img`` at texture coordinates (u, v) as ``ref``'s sampler reads them:
-    its wrap modes, nearest or bilinear (on the stored values)."""
+def _sample(img: np.ndarray, u: np.ndarray, v: np.ndarray, wrap: tuple[str, str], nearest: bool) -> np.ndarray:
+    """float64 texels of ``img`` at texture coordinates (u, v) under the wrap modes, nearest
+    or bilinear (on the stored values)."""
     h, w = img.shape[:2]
-    x, y = _wrap(u, ref.wrap[0]) * w - 0.5, _wrap(v, ref.wrap[1]) * h - 0.5
+    x, y = _wrap(u, wrap[0]) * w - 0.5, _wrap(v, wrap[1]) * h - 0.5
     def index(i, n, mode):
         return np.mod(i, n) if mode == "repeat" else np.clip(i, 0, n - 1)
-    if ref.nearest:
-        return img[index(np.floor(y + 0.5).astype(int), h, ref.wrap[1]),
-                   index(np.floor(x + 0.5).astype(int), w, ref.wrap[0])].astype(np.float64)
+    if nearest:
+        return img[index(np.floor(y + 0.5).astype(int), h, wrap[1]),
+                   index(np.floor(x + 0.5).astype(int), w, wrap[0])].astype(np.float64)
     x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
     fx, fy = (x - x0)[..., None], (y - y0)[..., None]
-    xs = [index(x0, w, ref.wrap[0]), index(x0 + 1, w, ref.wrap[0])]
-    ys = [index(y0, h, ref.wrap[1]), index(y0 + 1, h, ref.wrap[1])]
+    xs = [index(x0, w, wrap[0]), index(x0 + 1, w, wrap[0])]
+    ys = [index(y0, h, wrap[1]), index(y0 + 1, h, wrap[1])]
     top = img[ys[0], xs[0]] * (1 - fx) + img[ys[0], xs[1]] * fx
     bottom = img[ys[1], xs[0]] * (1 - fx) + img[ys[1], xs[1]] * fx
     return top * (1 - fy) + bottom * fy
 
 
-def _on_sphere(ref, size: tuple[int, int]) -> np.ndarray:
+def _area_reduced(img: np.ndarray, factors: tuple[float, float], srgb: bool) -> np.ndarray:
+    """``img`` (uint8 RGBA) shrunk by ``factors`` (x, y) >= 1, each texel the mean of the
+    texels under it (Pillow's box filter, per channel in float), colour averaged in linear light
+    for an sRGB map, as a GL sRGB texture's mipmaps are; float64 codes 0..255."""
+    from PIL import Image
+
+    from ..oracle.display import srgb_eotf, srgb_oetf
+    h, w = img.shape[:2]
+    size = (max(1, round(w / factors[0])), max(1, round(h / factors[1])))
+    out = np.empty((size[1], size[0], img.shape[2]), np.float64)
+    for c in range(img.shape[2]):
+        channel = img[..., c].astype(np.float32)
+        if srgb and c < 3:
+            channel = srgb_eotf(channel / 255.0).astype(np.float32)
+        reduced = np.asarray(Image.fromarray(channel, "F").resize(size, Image.BOX), np.float64)
+        out[..., c] = 255.0 * srgb_oetf(reduced) if srgb and c < 3 else reduced
+    return out
+
+
+def _on_sphere(ref, size: tuple[int, int], srgb: bool) -> np.ndarray:
     """``ref``'s image over the sphere's (u, v) texel centres, (H, W, 4) float64 in 0..255:
     KHR_texture_transform (offset, rotation, scale, with the rotation's sign as glTF-Sample-Viewer
-    and the sample model read it, glTF issue 1563), then the sampler."""
+    and the sample model read it, glTF issue 1563), then the sampler. Where a layer texel
+    covers more than one image texel along an axis (its footprint, from the transform), the
+    sampler minifies: ``nearest`` and ``linear`` read level 0 at the texel's centre (aliasing
+    as GL would), a mipmap mode reads the image averaged over the footprint, per axis."""
     w, h = size
     u, v = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
     (ox, oy), rot, (sx, sy) = ref.transform
     c, s = np.cos(rot), np.sin(rot)
     tu, tv = ox + c * sx * u + s * sy * v, oy - s * sx * u + c * sy * v
-    return _sample(_rgba8(ref.data, ref.what), tu, tv, ref)
+    img = _rgba8(ref.data, ref.what)
+    ih, iw = img.shape[:2]
+    # One layer texel's extent in image texels along the image's x and y (the transform is affine).
+    footprint = ((abs(c * sx) / w + abs(s * sy) / h) * iw, (abs(s * sx) / w + abs(c * sy) / h) * ih)
+    if max(footprint) <= 1.0:
+        return _sample(img, tu, tv, ref.wrap, ref.mag_filter == "nearest")
+    if ref.min_filter != "mipmap":
+        return _sample(img, tu, tv, ref.wrap, ref.min_filter == "nearest")
+    reduced = _area_reduced(img, tuple(max(1.0, f) for f in footprint), srgb)
+    return _sample(reduced, tu, tv, ref.wrap, False)
 
 
 def _normal_layer(ref, size: tuple[int, int]) -> np.ndarray:
     """A tangent-space normal map on the sphere, its XY scaled by glTF's normal scale."""
-    n = _on_sphere(ref, size)[..., :3] / 255.0 * 2.0 - 1.0
+    n = _on_sphere(ref, size, False)[..., :3] / 255.0 * 2.0 - 1.0
     n[..., :2] *= ref.amount
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
     return (n * 0.5 + 0.5) * 255.0
@@ -242,15 +273,15 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
     out[...] = MAPS_BY_NAME[kind].neutral
     def channel(ref, source: int, target: int):   # a texture's channel into the layer's
         if ref:
-            out[..., target] = _on_sphere(ref, size)[..., source]
+            out[..., target] = _on_sphere(ref, size, False)[..., source]
     if kind == "base":
         if tex.base_color:
-            out = _on_sphere(tex.base_color, size)
+            out = _on_sphere(tex.base_color, size, True)
     elif kind == "orm":
         if tex.occlusion:   # occlusion from R, scaled by its strength: 1 + s (o - 1)
-            out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount * (_on_sphere(tex.occlusion, size)[..., 0] / 255.0 - 1.0))
+            out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount * (_on_sphere(tex.occlusion, size, False)[..., 0] / 255.0 - 1.0))
         if tex.metallic_roughness:   # roughness in G, metalness in B
-            out[..., 1:3] = _on_sphere(tex.metallic_roughness, size)[..., 1:3]
+            out[..., 1:3] = _on_sphere(tex.metallic_roughness, size, False)[..., 1:3]
     elif kind == "khr":   # glTF's channels: clearcoat R, its roughness G, specular A, sheen roughness A
         channel(tex.clearcoat, 0, 0)
         channel(tex.clearcoat_roughness, 1, 1)
@@ -263,7 +294,7 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
     else:   # colour maps: RGB as the texture holds it
         ref = {"emissive": tex.emissive, "sheen_color": tex.sheen_color, "specular_color": tex.specular_color}[kind]
         if ref:
-            out[..., :3] = _on_sphere(ref, size)[..., :3]
+            out[..., :3] = _on_sphere(ref, size, MAPS_BY_NAME[kind].srgb)[..., :3]
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 

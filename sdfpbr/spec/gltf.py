@@ -21,20 +21,25 @@ from .checks import quote
 GLTF_SUFFIXES = (".gltf", ".glb")
 CHARTED_EXTENSIONS = ("KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular", "KHR_materials_ior",
                       "KHR_materials_emissive_strength")
-# glTF sampler enums: wrap modes, and the nearest magnification filter.
+# glTF sampler enums: wrap modes and filters. The four mipmap minification modes read as one:
+# the texels under the layer texel's footprint averaged (gpu.textures), which mipmapping with
+# anisotropic filtering approaches; an unset filter is the mipmapped one, as viewers default.
 WRAP_MODES = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
-NEAREST = 9728
+MAG_FILTERS = {9728: "nearest", 9729: "linear"}
+MIN_FILTERS = {9728: "nearest", 9729: "linear", 9984: "mipmap", 9985: "mipmap", 9986: "mipmap", 9987: "mipmap"}
 
 
 @dataclass(frozen=True)
 class TextureRef:
     """One texture of a material, as the sphere samples it. The sphere's (u, v) stands for
     every texCoord set (it has only one); ``transform`` is KHR_texture_transform's (offset,
-    rotation, scale); ``amount`` the normal texture's scale or the occlusion's strength."""
+    rotation, scale); ``amount`` the normal texture's scale or the occlusion's strength;
+    ``mag_filter`` and ``min_filter`` the sampler's (MAG_FILTERS', MIN_FILTERS' names)."""
     data: bytes
     what: str                               # "material 'x' baseColorTexture", for messages
     wrap: tuple[str, str] = ("repeat", "repeat")
-    nearest: bool = False
+    mag_filter: str = "linear"
+    min_filter: str = "mipmap"
     transform: tuple = ((0.0, 0.0), 0.0, (1.0, 1.0))
     amount: float = 1.0
 
@@ -230,7 +235,13 @@ def _texture_ref(doc, base: Path, info, what: str, amount_key: str | None = None
             raise SpecError(f"{what}: its sampler's {key} {quote(mode)} is not a glTF wrap mode "
                             f"({', '.join(f'{k} {v}' for k, v in WRAP_MODES.items())})")
         wrap.append(WRAP_MODES.get(mode, "repeat"))
-    nearest = sampler is not None and sampler.magFilter == NEAREST
+    filters = []
+    for key, modes, unset in (("magFilter", MAG_FILTERS, "linear"), ("minFilter", MIN_FILTERS, "mipmap")):
+        mode = getattr(sampler, key, None) if sampler else None
+        if mode is not None and mode not in modes:
+            raise SpecError(f"{what}: its sampler's {key} {quote(mode)} is not a glTF {key} "
+                            f"({', '.join(str(k) for k in modes)})")
+        filters.append(modes.get(mode, unset))
     extensions = info.extensions if info.extensions is not None else {}
     t = extensions.get("KHR_texture_transform", {}) if isinstance(extensions, dict) else None
     if not isinstance(t, dict):
@@ -241,7 +252,7 @@ def _texture_ref(doc, base: Path, info, what: str, amount_key: str | None = None
     amount = _factor(getattr(info, amount_key, None), 1.0, f"{what} {amount_key}") if amount_key else 1.0
     if not all(math.isfinite(v) for v in (*transform[0], transform[1], *transform[2], amount)):
         raise SpecError(f"{what}: KHR_texture_transform or its {amount_key or 'factor'} holds a non-finite number")
-    return TextureRef(_image_bytes(doc, base, texture.source, what), what, tuple(wrap), nearest, transform, amount)
+    return TextureRef(_image_bytes(doc, base, texture.source, what), what, tuple(wrap), *filters, transform, amount)
 
 
 def _textures(doc, base: Path, index: int, m) -> MaterialTextures:
