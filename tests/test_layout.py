@@ -269,3 +269,18 @@ def test_every_label_is_drawn_inside_its_own_box(shape, grid, transparent):
         covered[box] = True
         assert marked[box].any(), f"no ink for {text!r}"
     assert not (marked & ~covered).any(), "ink outside every label's box"
+
+
+@pytest.mark.parametrize("size", [160, 320, 640])
+def test_cell_names_in_a_row_share_one_baseline(size):
+    """Names with and without ascenders and descenders ("Hd", "ace", "gem") sit on one
+    baseline under their spheres: the ink of the two without descenders ends on the same row
+    and "gem"'s 'g' hangs below it (centring each name's own ink put "ace" higher)."""
+    from sdfpbr.image.layout import name_cells
+    blank = np.zeros((size, 3 * size // 2, 4), np.uint8)
+    blank[..., 3] = 255
+    cells = [Cell(0, c, (c + 0.5) * size / 2, size / 2, size / 5) for c in range(3)]
+    named = name_cells(blank, cells, ["Hd", "ace", "gem"], (0, 0), blank.shape[:2])
+    ink = named[..., :3].max(-1) > 128
+    bottoms = [np.nonzero(ink[:, int(c.cx - size / 5):int(c.cx + size / 5)].any(1))[0].max() for c in cells]
+    assert bottoms[0] == bottoms[1] < bottoms[2]

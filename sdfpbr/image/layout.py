@@ -260,11 +260,12 @@ def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], o
     draw = ImageDraw.Draw(layer)
     xs = sorted({round(c.cx, 3) for c in cells})
     room = min([b - a for a, b in zip(xs, xs[1:])] or [render_shape[1]]) - max(2, style.size // 3)
+    cap_top = _ink(style, "H")[1]   # one baseline for every name, whether it has ascenders or not
     for cell in cells:
         name = names[cell.row * (max(c.col for c in cells) + 1) + cell.col]
         text = _fitted(style, drawable_text(name, style.font), room)
-        left, top, right, bottom = _ink(style, text)
-        baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - top
+        left, _, right, _ = _ink(style, text)
+        baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - cap_top
         draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=style.color,
                   anchor="ls", stroke_width=max(1, style.size // 8), stroke_fill=_OUTLINE)
     return np.array(Image.alpha_composite(Image.fromarray(chart), layer))
