@@ -20,12 +20,18 @@ vec3 prefiltered_radiance(vec3 r_dir, float perceptual_roughness) {
 }
 
 // Irradiance E(n) = integral of L cos (Ramamoorthi & Hanrahan 2001), never negative.
-vec3 sh_irradiance(vec3 n) {
+// The irradiance's bands 1 and 2 scaled by band1 and band2: a lobe about d other than the
+// cosine's (whose mean cosine is 2/3) weighs them so; 1, 1 is the irradiance.
+vec3 sh_irradiance_banded(vec3 d, float band1, float band2) {
     vec3 e = u_sh[0]
-           + u_sh[1] * n.y + u_sh[2] * n.z + u_sh[3] * n.x
-           + u_sh[4] * (n.x * n.y) + u_sh[5] * (n.y * n.z) + u_sh[6] * (3.0 * n.z * n.z - 1.0)
-           + u_sh[7] * (n.x * n.z) + u_sh[8] * (n.x * n.x - n.y * n.y);
+           + band1 * (u_sh[1] * d.y + u_sh[2] * d.z + u_sh[3] * d.x)
+           + band2 * (u_sh[4] * (d.x * d.y) + u_sh[5] * (d.y * d.z) + u_sh[6] * (3.0 * d.z * d.z - 1.0)
+                      + u_sh[7] * (d.x * d.z) + u_sh[8] * (d.x * d.x - d.y * d.y));
     return max(e, vec3(0.0));
+}
+
+vec3 sh_irradiance(vec3 n) {
+    return sh_irradiance_banded(n, 1.0, 1.0);
 }
 
 // Where and how wide the split sum reads the prefiltered map (IBL_DOMINANT_DIR):

@@ -117,7 +117,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     vec3 sky_specular = ibl - ibl_diffuse(m, dfg, n);
 #endif
 #if LAYERED_IBL
-    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl);
+    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl, ibl_diffuse(m, dfg, n));
 #endif
 #if USE_AO
 #if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL

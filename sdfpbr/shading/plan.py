@@ -22,6 +22,7 @@ from .camera import sphere_radius_px
 from .cells import FLOOR_RETURN_G, SpherePlate, cell_sphere_radius_px, sphere_plate, stage
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
+from .sheen import SHEEN_CENTROID_STEPS
 
 # Every shader option, the values it may take, and the switches the bug catalog adds (off
 # unless a plan sets them). The composer checks options against this, so a typo in Python or
@@ -51,12 +52,12 @@ SCHEMA = OptionSchema(
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
             "HIDDEN_SKY_SAMPLES",
-            "SPHERE_SAMPLES", "FLOOR_RETURN_STEPS"),
+            "SPHERE_SAMPLES", "FLOOR_RETURN_STEPS", "SHEEN_CENTROID_MU_STEPS", "SHEEN_CENTROID_R_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
     + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
-       "SPHERE_PLATE_PASS"),
+       "SPHERE_PLATE_PASS", "SHEEN_LEAN"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -256,6 +257,10 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     # The sheen and clearcoat layers over the spheres' environment light (lobes_ibl.glsl).
     if opts["USE_IBL"] and not opts.get("BUG_FEWTAP_IBL", False) and (opts.get("SHEEN") or opts.get("CLEARCOAT")):
         opts["LAYERED_IBL"] = True
+        # The sheen's light read along its lobe's mean direction, not N (shading.sheen).
+        if opts.get("SHEEN") and q.sheen_lean:
+            opts["SHEEN_LEAN"] = True
+            opts["SHEEN_CENTROID_MU_STEPS"], opts["SHEEN_CENTROID_R_STEPS"] = SHEEN_CENTROID_STEPS
     return opts, layout
 
 

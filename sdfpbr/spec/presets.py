@@ -131,6 +131,7 @@ class Quality:
     floor_parallax_size: int = 16
     floor_parallax_samples: int = 512
     sphere_plate: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
+    sheen_lean: bool = True          # the sheen's environment light read along its lobe's mean direction (shading.sheen)
     neighbour_light: bool = True     # shared stage: the nearest spheres' light in each sphere's (2x the draw)
     # ... averaging n x n points of each pixel's box where the sphere is small: n = round(this /
     # its radius in px), 1 to 4 (0: one point). 40: 3 on the 256² chart's 16-px spheres, where
