@@ -405,3 +405,41 @@ def test_a_clearcoat_normal_map_tilts_the_coat(session, tmp_path):
     _, flat = render(False)
     flat_l = np.where(inside, flat.hdr[..., :3].astype(np.float64) @ [0.2126, 0.7152, 0.0722], -1.0)
     assert np.abs(np.array(np.unravel_index(np.argmax(flat_l), flat_l.shape)) - want).max() > 10
+
+
+def test_an_occlusion_texture_and_its_strength_darken_the_environment_light_alone(session, tmp_path):
+    """glTF: occlusion = 1 + strength (texel R - 1), on indirect light only. Under a uniform
+    environment with no lights, floor or AO, each sphere pixel of the occluded material is the
+    plain material's times 1 + 0.6 (64 / 255 - 1) (the layer keeps it to 8 bits: within half a
+    code); with a light and no environment the two are the same pixels."""
+    def materials():
+        plain = pygltflib.Material(name="plain", pbrMetallicRoughness=pbr((0.7, 0.5, 0.3), 0.0, 0.4))
+        occluded = pygltflib.Material(name="occluded", pbrMetallicRoughness=pbr((0.7, 0.5, 0.3), 0.0, 0.4),
+                                      occlusionTexture=pygltflib.OcclusionTextureInfo(index=0, strength=0.6))
+        return [occluded, plain]
+    glb = textured_glb(tmp_path / "ao.glb", [constant_png((64, 200, 30, 255))], materials())
+    kw = dict(gltf=glb, size="192x96", labels=False, ground=False, ao=False, shadows=False)
+    want = 1.0 + 0.6 * (64 / 255 - 1.0)
+    assert layer_of(glb, "orm")[:512, :, 0].astype(float) == pytest.approx(255 * want, abs=0.5)
+    for extra, ratio in ((dict(env="uniform", lights="none"), want), (dict(env="black", ibl=False), 1.0)):
+        res = session.render(make_spec(**kw, **extra))
+        aov, hdr = res.aov, res.hdr.astype(np.float64)[..., :3]
+        a = hdr[(aov["col"] == 0) & (aov["coverage"] == 1)]
+        b = hdr[(aov["col"] == 1) & (aov["coverage"] == 1)]
+        assert a.shape == b.shape and a.size > 1000 and b.max() > 0.05
+        np.testing.assert_allclose(a, b * np.round(255 * want) / 255 if ratio != 1.0 else b, rtol=2e-3, atol=1e-5)
+
+
+def test_a_normal_texture_is_scaled_by_its_scale_on_the_layer(tmp_path):
+    """glTF: the normal texture's XY times its scale, then normalised. A constant texel
+    (200, 128, 255) with scale 0.5 is the tangent-space normal ((200/255 * 2 - 1) / 2,
+    (128/255 * 2 - 1) / 2, 255/255 * 2 - 1) normalised, stored 8-bit: within half a code."""
+    texel = np.array([200, 128, 255])
+    m = pygltflib.Material(name="bumped", pbrMetallicRoughness=pbr((0.5, 0.5, 0.5), 0.0, 0.5),
+                           normalTexture=pygltflib.NormalMaterialTexture(index=0, scale=0.5))
+    glb = textured_glb(tmp_path / "n.glb", [constant_png((*texel, 255))], [m])
+    n = texel / 255.0 * 2.0 - 1.0
+    n[:2] *= 0.5
+    n /= np.linalg.norm(n)
+    layer = layer_of(glb, "normal")[..., :3].astype(float)
+    assert np.abs(layer - 255 * (0.5 + 0.5 * n)).max() <= 0.5 + 1e-6
