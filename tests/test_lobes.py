@@ -215,6 +215,50 @@ def test_a_scene_compiles_only_the_lobes_it_uses():
     assert not dict(render_plan(make_spec(ior=1.5, specular=1.0, clearcoat=0.0)).chart.options).get("KHR_SPECULAR")
 
 
+def sheen_centroid(n_dot_v, sheen_roughness, n=160):
+    """(c_n, c_t) of the sheen lobe (shading.sheen) in float64: a Gauss-Legendre product rule
+    over the hemisphere (theta_l; phi_l over the half on one side of the N-V plane, doubled)."""
+    mu, r = np.broadcast_arrays(np.clip(np.asarray(n_dot_v, np.float64), mirror.MIN_N_DOT_V, 1.0),
+                                np.asarray(sheen_roughness, np.float64))
+    shape = mu.shape
+    mu = mu.ravel()[:, None, None]
+    alpha = np.maximum(r.ravel(), mirror.MIN_PERCEPTUAL_ROUGHNESS)[:, None, None] ** 2
+    x, w = mirror.gauss_legendre01(n)
+    theta, phi = 0.5 * np.pi * x[:, None], np.pi * x[None, :]
+    weight = (0.5 * np.pi * w[:, None]) * np.sin(theta) * (np.pi * w[None, :])
+    n_dot_l, t_dot_l = np.cos(theta), np.sin(theta) * np.cos(phi)
+    sin_v = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
+    n_dot_h = (mu + n_dot_l) / np.sqrt(np.maximum(2.0 + 2.0 * (sin_v * t_dot_l + mu * n_dot_l), 1e-300))
+    f = lobes.d_charlie(n_dot_h, alpha) * lobes.v_sheen(n_dot_l, mu, alpha) * n_dot_l * weight
+    e = f.sum(axis=(1, 2))
+    c = np.stack([(f * n_dot_l).sum(axis=(1, 2)) / e, (f * t_dot_l).sum(axis=(1, 2)) / e], -1)
+    return c.reshape(shape + (2,))
+
+
+def test_the_sheen_centroid_table_is_the_float64_integral():
+    """shading.sheen.SHEEN_CENTROID against the quadrature above (its 5 decimals), and that
+    quadrature against a midpoint sum over the whole sphere of directions at three points
+    (within 2e-3: the sum's own resolution at the Charlie lobe's grazing peak)."""
+    from sdfpbr.shading.sheen import SHEEN_CENTROID, SHEEN_CENTROID_STEPS
+    rows, cols = SHEEN_CENTROID_STEPS
+    x = np.linspace(0.0, 1.0, rows)
+    want = sheen_centroid((1.0 - x * x)[:, None], np.linspace(0.0, 1.0, cols)[None, :])
+    np.testing.assert_allclose(np.array(SHEEN_CENTROID), want, atol=6e-6)
+    m = 400
+    theta, phi = np.meshgrid((np.arange(m) + 0.5) / m * np.pi, (np.arange(2 * m) + 0.5) / m * np.pi, indexing="ij")
+    dirs = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1).reshape(-1, 3)
+    dw = (np.sin(theta) * (np.pi / m) ** 2).reshape(-1)
+    for mu, r in ((0.3, 0.25), (0.6, 0.5), (0.9, 1.0)):
+        v = np.array([np.sqrt(1 - mu * mu), 0.0, mu])          # N = z, T = x
+        h = dirs + v
+        n_dot_h = np.clip(h[:, 2] / np.linalg.norm(h, axis=-1), 0.0, 1.0)
+        n_dot_l = dirs[:, 2]
+        f = np.where(n_dot_l > 0, lobes.d_charlie(n_dot_h, r * r) * lobes.v_sheen(np.maximum(n_dot_l, 1e-9), mu, r * r)
+                     * n_dot_l, 0.0) * dw
+        brute = np.array([np.sum(f * n_dot_l), np.sum(f * dirs[:, 0])]) / np.sum(f)
+        np.testing.assert_allclose(sheen_centroid(mu, r), brute, atol=2e-3)
+
+
 class LinearSky:
     """L(d) = 1 + g . d, grey: SH bands 0 and 1 only. Under it any lobe p gathers exactly
     int p(l) L(l) dl = 1 + g . c, c the lobe's mean direction, which is what the chart's

@@ -18,7 +18,7 @@ from ..shading.camera import cell_sphere_box
 from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
-from ..shading.sheen import sheen_centroid_table
+from ..shading.sheen import sheen_centroid_uniform
 from ..spec.chart_spec import ChartSpec
 from .frame import (AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings,
                     table_texture, tiles)
@@ -146,7 +146,7 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
     environment, ground table and stage probe where the plan has them (cached bakes)."""
     scene = scene_bindings(session.ctx, spec, plan.quality, plan.options["USE_TEXTURES"], session.cache)
     if plan.options.get("SHEEN_LEAN"):   # where the sheen lobe gathers its light (lobes_ibl.glsl)
-        scene.uniforms["u_sheen_centroid"] = sheen_centroid_table()
+        scene.uniforms["u_sheen_centroid"] = sheen_centroid_uniform()
     try:
         dfg = session.ibl.dfg(plan)
         scene.add_texture("u_dfg", dfg)

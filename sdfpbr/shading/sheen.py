@@ -7,47 +7,55 @@ N. Read along N, the irradiance missed it: a sphere's lower half got its floor f
 the sky (1.39-1.59); read along c's axis with c's length, 0.95-1.07 (docs/lobes.md)."""
 from __future__ import annotations
 
-from functools import lru_cache
-
-import numpy as np
-
-from ..oracle.lobes import d_charlie, v_sheen
-from ..oracle.mirror import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, gauss_legendre01
-
 # The table's grid: sqrt(1 - N.V) from 0 to 1 (fine near normal incidence, where a smooth
 # sheen's axis swings from N to the horizon), the sheen's perceptual roughness from 0 to 1.
 SHEEN_CENTROID_STEPS = (17, 9)
 
+# (c_n, c_t) at sqrt(1 - N.V) = i / 16 (rows; N.V clamped to 1e-4) and r = j / 8 (columns; r
+# clamped to 0.045), integrated in float64 over the hemisphere with the oracle's Charlie D and
+# visibility (a 160-point Gauss-Legendre product rule, within 3e-5 of 96 points;
+# tests/test_lobes.py integrates it again).
+SHEEN_CENTROID = (
+    ((0.00814, 0.00000), (0.05678, 0.00000), (0.18071, 0.00000), (0.30419, 0.00000), (0.39769, 0.00000),
+     (0.45981, 0.00000), (0.49963, 0.00000), (0.52660, 0.00000), (0.54788, 0.00000)),
+    ((0.00885, 0.97059), (0.06054, 0.78152), (0.18575, 0.37365), (0.30821, 0.19682), (0.40063, 0.12077),
+     (0.46192, 0.08130), (0.50116, 0.05820), (0.52776, 0.04362), (0.54877, 0.03390)),
+    ((0.00965, 0.98110), (0.06545, 0.86964), (0.19663, 0.58378), (0.31858, 0.35290), (0.40865, 0.22644),
+     (0.46779, 0.15534), (0.50550, 0.11231), (0.53104, 0.08465), (0.55131, 0.06601)),
+    ((0.01053, 0.98377), (0.07065, 0.89130), (0.20863, 0.67154), (0.33210, 0.45496), (0.41997, 0.30793),
+     (0.47645, 0.21681), (0.51206, 0.15904), (0.53608, 0.12090), (0.55523, 0.09478)),
+    ((0.01152, 0.98430), (0.07623, 0.89758), (0.22055, 0.70504), (0.34627, 0.51230), (0.43268, 0.36375),
+     (0.48664, 0.26327), (0.52001, 0.19635), (0.54230, 0.15083), (0.56013, 0.11900)),
+    ((0.01264, 0.98374), (0.08225, 0.89705), (0.23234, 0.71536), (0.35991, 0.53970), (0.44532, 0.39730),
+     (0.49717, 0.29483), (0.52849, 0.22356), (0.54908, 0.17363), (0.56551, 0.13797)),
+    ((0.01393, 0.98236), (0.08878, 0.89220), (0.24404, 0.71395), (0.37258, 0.54855), (0.45699, 0.41368),
+     (0.50712, 0.31323), (0.53671, 0.24106), (0.55577, 0.18920), (0.57084, 0.15141)),
+    ((0.01543, 0.98014), (0.09590, 0.88375), (0.25561, 0.70518), (0.38415, 0.54583), (0.46723, 0.41757),
+     (0.51586, 0.32082), (0.54404, 0.24990), (0.56180, 0.19795), (0.57563, 0.15945)),
+    ((0.01722, 0.97688), (0.10368, 0.87171), (0.26704, 0.69077), (0.39460, 0.53539), (0.47587, 0.41255),
+     (0.52302, 0.31995), (0.55001, 0.25142), (0.56670, 0.20062), (0.57944, 0.16250)),
+    ((0.01939, 0.97217), (0.11223, 0.85558), (0.27827, 0.67135), (0.40391, 0.51920), (0.48284, 0.40102),
+     (0.52840, 0.31255), (0.55432, 0.24699), (0.57012, 0.19810), (0.58192, 0.16114)),
+    ((0.02209, 0.96526), (0.12168, 0.83437), (0.28928, 0.64690), (0.41207, 0.49815), (0.48816, 0.38447),
+     (0.53195, 0.30010), (0.55682, 0.23777), (0.57183, 0.19127), (0.58280, 0.15600)),
+    ((0.02557, 0.95476), (0.13217, 0.80653), (0.30006, 0.61694), (0.41912, 0.47250), (0.49190, 0.36367),
+     (0.53367, 0.28356), (0.55742, 0.22469), (0.57169, 0.18090), (0.58192, 0.14772)),
+    ((0.03019, 0.93793), (0.14381, 0.76959), (0.31034, 0.58050), (0.42472, 0.44201), (0.49373, 0.33889),
+     (0.53326, 0.26351), (0.55581, 0.20842), (0.56935, 0.16763), (0.57890, 0.13684)),
+    ((0.03657, 0.90895), (0.15618, 0.71947), (0.31869, 0.53578), (0.42707, 0.40592), (0.49183, 0.31002),
+     (0.52900, 0.24019), (0.55038, 0.18938), (0.56337, 0.15195), (0.57250, 0.12386)),
+    ((0.04562, 0.85393), (0.16839, 0.64890), (0.32332, 0.47946), (0.42427, 0.36238), (0.48433, 0.27601),
+     (0.51938, 0.21317), (0.54126, 0.16765), (0.55596, 0.13422), (0.56555, 0.10917)),
+    ((0.05895, 0.73558), (0.17795, 0.54317), (0.32089, 0.40503), (0.41427, 0.30820), (0.47239, 0.23573),
+     (0.50978, 0.18251), (0.53541, 0.14355), (0.55306, 0.11467), (0.56333, 0.09295)),
+    ((0.08801, 0.47593), (0.19170, 0.38974), (0.31410, 0.30681), (0.39772, 0.23975), (0.45295, 0.18618),
+     (0.49102, 0.14550), (0.51885, 0.11508), (0.53881, 0.09216), (0.54984, 0.07462)),
+)
 
-def sheen_centroid(n_dot_v, sheen_roughness, n: int = 96) -> np.ndarray:
-    """(c_n, c_t) of the sheen lobe at N.V and sheen roughness (broadcast), float64, by a
-    Gauss-Legendre product rule over the hemisphere (theta_l, and phi_l over the half on V's
-    side's plane of symmetry, doubled)."""
-    mu, r = np.broadcast_arrays(np.clip(np.asarray(n_dot_v, np.float64), MIN_N_DOT_V, 1.0),
-                                np.asarray(sheen_roughness, np.float64))
-    shape = mu.shape
-    mu, alpha = mu.ravel()[:, None, None], np.maximum(r.ravel(), MIN_PERCEPTUAL_ROUGHNESS)[:, None, None] ** 2
-    x, w = gauss_legendre01(n)
-    theta, phi = 0.5 * np.pi * x[:, None], np.pi * x[None, :]
-    weight = (0.5 * np.pi * w[:, None]) * np.sin(theta) * (np.pi * w[None, :])
-    n_dot_l, t_dot_l = np.cos(theta), np.sin(theta) * np.cos(phi)    # l in the frame (T, B, N)
-    sin_v = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
-    half = np.sqrt(np.maximum(2.0 + 2.0 * (sin_v * t_dot_l + mu * n_dot_l), 1e-300))   # |l + v|
-    n_dot_h = (mu + n_dot_l) / half
-    f = d_charlie(n_dot_h, alpha) * v_sheen(n_dot_l, mu, alpha) * n_dot_l * weight
-    e = f.sum(axis=(1, 2))
-    c = np.stack([(f * n_dot_l).sum(axis=(1, 2)) / e, (f * t_dot_l).sum(axis=(1, 2)) / e], -1)
-    return c.reshape(shape + (2,))
 
-
-@lru_cache(maxsize=1)
-def sheen_centroid_table() -> list:
-    """The chart's table (u_sheen_centroid): (c_n, c_t) at sqrt(1 - N.V) = i / (steps - 1) and
-    r = j / (steps - 1), entry i * r_steps + j, two entries a vec4 (a uniform array of vec4
-    takes no padding), padded to an even count."""
-    mu_steps, r_steps = SHEEN_CENTROID_STEPS
-    x = np.linspace(0.0, 1.0, mu_steps)
-    c = sheen_centroid((1.0 - x * x)[:, None], np.linspace(0.0, 1.0, r_steps)[None, :]).reshape(-1, 2)
-    if len(c) % 2:
-        c = np.concatenate([c, np.zeros((1, 2))])
-    return [tuple(q) for q in c.reshape(-1, 4)]
+def sheen_centroid_uniform() -> list:
+    """The table as the shader's u_sheen_centroid: entry i * r_steps + j, two entries a vec4
+    (a uniform array of vec4 takes no padding), padded to an even count."""
+    flat = [value for row in SHEEN_CENTROID for entry in row for value in entry]
+    flat += [0.0] * (-len(flat) % 4)
+    return [tuple(flat[k:k + 4]) for k in range(0, len(flat), 4)]
