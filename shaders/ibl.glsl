@@ -19,9 +19,8 @@ vec3 prefiltered_radiance(vec3 r_dir, float perceptual_roughness) {
     return textureLod(u_prefiltered, r_dir, x).rgb;
 }
 
-// Irradiance E(n) = integral of L cos (Ramamoorthi & Hanrahan 2001), never negative.
-// The irradiance's bands 1 and 2 scaled by band1 and band2: a lobe about d other than the
-// cosine's (whose mean cosine is 2/3) weighs them so; 1, 1 is the irradiance.
+// The irradiance's SH bands 1 and 2 scaled by band1 and band2: a lobe about d other than the
+// cosine's (whose mean cosine is 2/3) weighs them so; never negative.
 vec3 sh_irradiance_banded(vec3 d, float band1, float band2) {
     vec3 e = u_sh[0]
            + band1 * (u_sh[1] * d.y + u_sh[2] * d.z + u_sh[3] * d.x)
@@ -30,6 +29,7 @@ vec3 sh_irradiance_banded(vec3 d, float band1, float band2) {
     return max(e, vec3(0.0));
 }
 
+// Irradiance E(n) = integral of L cos (Ramamoorthi & Hanrahan 2001), never negative.
 vec3 sh_irradiance(vec3 n) {
     return sh_irradiance_banded(n, 1.0, 1.0);
 }
