@@ -224,10 +224,9 @@ def _area_reduced(img: np.ndarray, factors: tuple[float, float], srgb: bool) -> 
     h, w = img.shape[:2]
     size = (max(1, round(w / factors[0])), max(1, round(h / factors[1])))
     out = np.empty((size[1], size[0], img.shape[2]), np.float64)
+    decode = (srgb_eotf(np.arange(256) / 255.0) if srgb else np.arange(256.0)).astype(np.float32)
     for c in range(img.shape[2]):
-        channel = img[..., c].astype(np.float32)
-        if srgb and c < 3:
-            channel = srgb_eotf(channel / 255.0).astype(np.float32)
+        channel = (decode if c < 3 else np.arange(256, dtype=np.float32))[img[..., c]]   # per code, not per texel
         reduced = np.asarray(Image.fromarray(channel, "F").resize(size, Image.BOX), np.float64)
         out[..., c] = 255.0 * srgb_oetf(reduced) if srgb and c < 3 else reduced
     return out
