@@ -81,6 +81,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #else
     vec3 ibl = !ground ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
 #endif
+#if !BUG_FEWTAP_IBL
+    vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);   // the sphere's diffuse share of ibl (the rest is its specular)
+#endif
 #if USE_TEXTURES && !BUG_FEWTAP_IBL
     if (!ground) {
         // A mapped normal can turn the mirror direction below the sphere's own surface, which
@@ -89,13 +92,11 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         // hammered 0.1109 -> 0.0908 mean FLIP, riveted 0.0510 -> 0.0509; a fade as narrow as
         // the lobe (a step for a mirror) measured 0.0860 and 0.0527.
         float horizon = saturate(1.0 + dot(reflect(-v, n), n_geo));
-        vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);
         ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
     }
 #endif
 #if BOUNCE_MIRROR_DIRECTIONS > 0
     if (!ground && light_specular < 1.0) {   // the bounce rays: a smooth sphere's mirrored sky is closed-form
-        vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);
         ibl = diffuse_ibl + (ibl - diffuse_ibl) * mix(1.0, light_specular, mirrored_sky_share(reflect(-v, n).y));
     }
 #endif
@@ -114,10 +115,10 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 #if NEIGHBOUR_LIGHT
     // The base layer's specular share of the sky (without its diffuse), which the neighbours
     // hide by their share of the lobe rather than by the AO's cosine-weighted share.
-    vec3 sky_specular = ibl - ibl_diffuse(m, dfg, n);
+    vec3 sky_specular = ibl - diffuse_ibl;
 #endif
 #if LAYERED_IBL
-    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl, ibl_diffuse(m, dfg, n));
+    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl, diffuse_ibl);
 #endif
 #if USE_AO
 #if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL
