@@ -5,6 +5,7 @@ import subprocess
 import sys
 import time
 
+import moderngl
 import numpy as np
 import pytest
 
@@ -124,3 +125,63 @@ def test_a_cached_environment_is_uploaded_only_when_read_and_then_the_same(sessi
         np.testing.assert_array_equal(fresh.render(shared).hdr, want)
     finally:
         fresh.release()
+
+
+READ_LEVELS = """#version 450
+layout(local_size_x = 1) in;
+layout(std430, binding = 0) buffer Out { vec4 texel[]; };
+uniform samplerCube u_cube;
+uniform int u_levels;
+void main() {
+    // one direction per face, each level read through the mipmapped sampler
+    const vec3 faces[6] = vec3[](vec3(1, 0.1, 0.2), vec3(-1, 0.2, 0.1), vec3(0.1, 1, 0.2),
+                                 vec3(0.2, -1, 0.1), vec3(0.1, 0.2, 1), vec3(0.2, 0.1, -1));
+    for (int f = 0; f < 6; ++f)
+        for (int k = 0; k < u_levels; ++k) texel[f * u_levels + k] = textureLod(u_cube, faces[f], float(k));
+}
+"""
+WRITE_LEVEL = """#version 450
+layout(local_size_x = 4, local_size_y = 4) in;
+layout(rgba32f, binding = 0) uniform writeonly imageCube u_level;
+uniform vec4 u_value;
+void main() { imageStore(u_level, ivec3(gl_GlobalInvocationID), u_value); }
+"""
+
+
+@pytest.mark.parametrize("backend", ["egl", pytest.param("osmesa", marks=pytest.mark.requires_backend("osmesa"))])
+@pytest.mark.parametrize("loader", [True, False], ids=["glTexImage2D", "build_mipmaps"])
+def test_a_cube_chain_allocated_without_mipmap_generation_holds_what_each_level_is_given(backend, loader):
+    """allocate_cube_levels gives a cube the levels a prefiltered chain is written into without
+    glGenerateMipmap (a blit shader's compile on llvmpipe); without a GL loader it falls back to
+    build_mipmaps. Either way each level, written by a compute shader as the IBL cache's upload
+    writes it, reads back through the mipmapped sampler as exactly what was written, with no GL
+    error."""
+    from sdfpbr.gpu.gl import allocate_cube_levels, create_context
+    ctx = create_context(backend)
+    try:
+        with ctx:
+            if not loader:
+                ctx.extra = {**ctx.extra, "gl_function": None}
+            size, levels = 16, 4
+            cube = ctx.texture_cube((size, size), 4, dtype="f4")
+            allocate_cube_levels(ctx, cube, levels)
+            write = ctx.compute_shader(WRITE_LEVEL)
+            for k in range(levels):
+                cube.bind_to_image(0, read=False, write=True, level=k)
+                write["u_value"] = (k + 1.0, 10.0 * k, -1.0, 0.5)
+                write.run((size >> k) // 4 or 1, (size >> k) // 4 or 1, 6)
+                ctx.memory_barrier()
+            cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            read = ctx.compute_shader(READ_LEVELS)
+            out = ctx.buffer(reserve=6 * levels * 16)
+            out.bind_to_storage_buffer(0)
+            cube.use(0)
+            read["u_cube"], read["u_levels"] = 0, levels
+            read.run(1)
+            ctx.memory_barrier()
+            got = np.frombuffer(out.read(), np.float32).reshape(6, levels, 4)
+            assert ctx.error == "GL_NO_ERROR"
+        want = np.array([[k + 1.0, 10.0 * k, -1.0, 0.5] for k in range(levels)], np.float32)
+        np.testing.assert_array_equal(got, np.broadcast_to(want, got.shape))
+    finally:
+        ctx.release()

@@ -63,6 +63,27 @@ def test_furnace_chart_with_hdr_and_aov_from_the_cli(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def subcommands(parser) -> dict:
+    return parser._subparsers._group_actions[0].choices
+
+
+def test_a_command_builds_its_own_parser_alone_and_the_same_one():
+    """`sdfpbr chart` builds the chart's parser only (the other commands' options and modules
+    are start-up time); each command's parser is the same built alone or with the rest, and a
+    name that is no command builds them all, so its error lists every choice."""
+    from sdfpbr.cli.main import build_parser
+    everything = subcommands(build_parser())
+    assert {"chart", "shader", "doctor", "bench", "build", "compare", "reference"} <= set(everything)
+    for name, full in everything.items():
+        alone = subcommands(build_parser(name))
+        assert list(alone) == [name]
+        assert ([a.option_strings for a in alone[name]._actions] == [a.option_strings for a in full._actions])
+        assert alone[name].format_help() == full.format_help()
+    assert set(subcommands(build_parser("chrat"))) == set(everything)
+    r = run("chrat")
+    assert r.returncode == 2 and "chart" in r.stderr and "reference" in r.stderr
+
+
 def test_shader_command_from_another_directory(tmp_path):
     r = run("shader", "--no-ground", "--no-ao", "--lights", "none", cwd=tmp_path)
     assert r.returncode == 0 and r.stdout.startswith("#version 450")

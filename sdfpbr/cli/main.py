@@ -214,12 +214,46 @@ def cmd_doctor(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+BUILTIN_COMMANDS = ("chart", "shader", "doctor")
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The whole parser, or with ``command`` (a command's name) that command's parser alone:
+    six commands add the chart's ~90 options each, and the modules behind them import what
+    they run (~45 ms of a cold `sdfpbr chart`). An unknown name builds them all, so the error
+    lists every choice."""
+    import importlib
+    import pkgutil
+
     from .. import __version__
+    from . import commands
     parser = Parser(prog="sdfpbr", description="Physically based material charts, rendered headless.")
     parser.add_argument("--version", action="version", version=f"sdfpbr {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    modules = sorted(info.name for info in pkgutil.iter_modules(commands.__path__))
+    if command in BUILTIN_COMMANDS or command in modules:
+        wanted = {command}
+    else:
+        wanted = {*BUILTIN_COMMANDS, *modules}
 
+    if "chart" in wanted:
+        add_chart_command(sub)
+    if "shader" in wanted:
+        add_shader_command(sub)
+    if "doctor" in wanted:
+        p = sub.add_parser("doctor", help="try each GL backend and report what it gives")
+        p.add_argument("--device-index", type=int)
+        p.set_defaults(run=cmd_doctor)
+
+    # Further subcommands live one per module in sdfpbr/cli/commands/, named as the command:
+    # each has register(subparsers) that adds its parser and sets run=.
+    for name in modules:
+        if name in wanted:
+            importlib.import_module(f"{commands.__name__}.{name}").register(sub)
+    return parser
+
+
+def add_chart_command(sub) -> None:
     p = sub.add_parser("chart", help="render a labeled roughness x metallic chart")
     p.add_argument("-o", "--output", default="chart.png", help="PNG path (default chart.png)")
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
@@ -229,6 +263,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_chart_options(p)
     p.set_defaults(run=cmd_chart)
 
+
+def add_shader_command(sub) -> None:
     p = sub.add_parser("shader", help="print the composed source of a program a chart runs")
     p.add_argument("--program", default="chart", metavar="NAME",
                    help="chart (default), display, or one of the cells stage's plates the chart uses: "
@@ -237,23 +273,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_chart_options(p)
     p.set_defaults(run=cmd_shader)
 
-    p = sub.add_parser("doctor", help="try each GL backend and report what it gives")
-    p.add_argument("--device-index", type=int)
-    p.set_defaults(run=cmd_doctor)
-
-    # Further subcommands live one per module in sdfpbr/cli/commands/: each has
-    # register(subparsers) that adds its parser and sets run=.
-    import importlib
-    import pkgutil
-    from . import commands
-    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
-        importlib.import_module(f"{commands.__name__}.{info.name}").register(sub)
-    return parser
-
 
 def main(argv: list[str] | None = None) -> int:
     try:
-        args = build_parser().parse_args(argv)
+        argv = sys.argv[1:] if argv is None else list(argv)
+        args = build_parser(argv[0] if argv else None).parse_args(argv)
         return args.run(args)
     except SdfpbrError as exc:
         print(f"sdfpbr: error: {exc}", file=sys.stderr)

@@ -87,10 +87,12 @@ def _create(backend: str, device_index: int) -> moderngl.Context:
     if backend == "osmesa":
         loader = _OSMesaLoader()
         try:
-            return moderngl.create_context(context=loader, standalone=True, require=REQUIRED_GL)
+            ctx = moderngl.create_context(context=loader, standalone=True, require=REQUIRED_GL)
         except Exception as exc:
             loader.release()
             raise GLUnavailable(f"OSMesa backend: {exc}") from exc
+        ctx.extra = {"gl_function": loader.load_opengl_function}
+        return ctx
     raise GLUnavailable(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
 
 
@@ -117,9 +119,55 @@ def create_context(backend: str = "auto", device_index: int = 0) -> moderngl.Con
         # stress`). Every use of a context enters it (`with ctx:`).
         with ctx:
             ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)  # filter across cubemap faces
-        ctx.extra = {"backend": name}
+        ctx.extra = {"backend": name, "gl_function": (ctx.extra or {}).get("gl_function") or _egl_loader()}
         return ctx
     raise GLUnavailable("no OpenGL context: " + "; ".join(failures) + f"; {INSTALL_HINT}")
+
+
+def _egl_loader():
+    """A loader of the GL entry points moderngl does not wrap, for an EGL context."""
+    # The libEGL glcontext loaded (same search, same override); eglGetProcAddress gives core
+    # GL entry points too (EGL 1.5, EGL_KHR_get_all_proc_addresses: Mesa and NVIDIA).
+    name = os.environ.get("GLCONTEXT_LINUX_LIBEGL") or ctypes.util.find_library("EGL")
+    try:
+        egl = ctypes.CDLL(name)
+    except (OSError, TypeError):
+        return None
+    egl.eglGetProcAddress.restype = ctypes.c_void_p
+    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+    return lambda function: egl.eglGetProcAddress(function.encode()) or 0
+
+
+_GL_TEXTURE0, _GL_TEXTURE_CUBE_MAP, _GL_CUBE_FACE0 = 0x84C0, 0x8513, 0x8515
+_GL_BASE_LEVEL, _GL_MAX_LEVEL, _GL_RGBA32F, _GL_RGBA, _GL_FLOAT = 0x813C, 0x813D, 0x8814, 0x1908, 0x1406
+
+
+def allocate_cube_levels(ctx: moderngl.Context, cube: moderngl.TextureCube, levels: int) -> None:
+    """Give an RGBA32F cube levels 0 .. levels - 1, contents undefined, for the caller to write.
+
+    moderngl allocates a chain only through build_mipmaps, which filters level 0 down; on
+    llvmpipe the first such call of a process compiles a blit shader (~110-170 ms of a cold
+    chart). Allocating with glTexImage2D costs nothing; build_mipmaps stays the fallback where
+    no loader answers."""
+    load = (ctx.extra or {}).get("gl_function")
+    addresses = [load(f) if load else 0 for f in ("glActiveTexture", "glBindTexture", "glTexParameteri", "glTexImage2D")]
+    if not all(addresses):
+        cube.build_mipmaps(0, levels - 1)
+        return
+    active = ctypes.CFUNCTYPE(None, ctypes.c_uint)(addresses[0])
+    bind = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint)(addresses[1])
+    parameter = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.c_int)(addresses[2])
+    image = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                             ctypes.c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)(addresses[3])
+    size = cube.size[0]
+    active(_GL_TEXTURE0 + ctx.default_texture_unit)   # where moderngl binds a texture it edits
+    bind(_GL_TEXTURE_CUBE_MAP, cube.glo)
+    for level in range(1, levels):
+        s = max(1, size >> level)
+        for face in range(6):
+            image(_GL_CUBE_FACE0 + face, level, _GL_RGBA32F, s, s, 0, _GL_RGBA, _GL_FLOAT, None)
+    parameter(_GL_TEXTURE_CUBE_MAP, _GL_BASE_LEVEL, 0)
+    parameter(_GL_TEXTURE_CUBE_MAP, _GL_MAX_LEVEL, levels - 1)
 
 
 def renderer_string(ctx: moderngl.Context) -> str:

@@ -16,6 +16,7 @@ from ..errors import SpecError
 from ..shading.compose import ComposedSource
 from ..shading.plan import IBLPlan, RenderPlan, env_option
 from ..spec.chart_spec import ChartSpec
+from .gl import allocate_cube_levels
 from .programs import ProgramCache, set_uniforms
 
 DEFAULT_SUN = (0.55, 0.6, 0.58)
@@ -523,7 +524,7 @@ class IBLBaker:
 
         size = plan.size
         target = ctx.texture_cube((size, size), 4, dtype="f4")
-        target.build_mipmaps(0, levels - 1)   # allocates the chain we overwrite below
+        allocate_cube_levels(ctx, target, levels)   # the chain we overwrite below
         prefilter = self.programs.compute(plan.prefilter)
         source.use(0)
         for k in range(levels):
@@ -563,7 +564,7 @@ class IBLBaker:
     def _cube_from_levels(self, copy: ComposedSource, levels: list[np.ndarray]) -> moderngl.TextureCube:
         size = levels[0].shape[1]
         cube = self.ctx.texture_cube((size, size), 4, dtype="f4")
-        cube.build_mipmaps(0, len(levels) - 1)
+        allocate_cube_levels(self.ctx, cube, len(levels))
         program = self.programs.compute(copy)
         for k, data in enumerate(levels):
             s = data.shape[1]
