@@ -284,3 +284,37 @@ def test_cell_names_in_a_row_share_one_baseline(size):
     ink = named[..., :3].max(-1) > 128
     bottoms = [np.nonzero(ink[:, int(c.cx - size / 5):int(c.cx + size / 5)].any(1))[0].max() for c in cells]
     assert bottoms[0] == bottoms[1] < bottoms[2]
+
+
+REFERENCE_FOOTER_PARTS = ["tone map aces", "exposure +0 EV", "env studio", "BRDF gltf",
+                          "path-traced reference, 16 spp, 4 bounces, rel. stderr 8.66%"]
+
+
+@pytest.mark.parametrize("side", [128, 256, 512, 1024])
+def test_a_long_footer_wraps_and_the_row_axis_title_stays_by_its_labels(side):
+    """A footer wider than the rest of the chart wraps between its parts instead of widening
+    the canvas (the reference's footer under a 256² render set a 702-px canvas), in its parts'
+    order, each line inside the chart; and the rotated row axis title sits beside the row
+    labels whatever widens the margins (it stood 200 px off them)."""
+    from sdfpbr.image.layout import FOOTER_SEPARATOR, label_boxes
+    img, cells = synthetic_render(side, side, 5, 5)
+    values = list(np.linspace(0, 1, 5))
+    footer = FOOTER_SEPARATOR.join(REFERENCE_FOOTER_PARTS)
+    without = compose_chart(img, cells, values, values, TITLE, "")
+    chart = compose_chart(img, cells, values, values, TITLE, footer)
+    boxes = label_boxes(img.shape, cells, values, values, TITLE, footer)
+    lines = [(t, b) for t, b in boxes if any(p in t for p in REFERENCE_FOOTER_PARTS)]
+    assert FOOTER_SEPARATOR.join(t for t, _ in lines) == footer
+    assert all(0 <= b[0] and b[2] <= chart.shape[1] for _, b in lines)
+    widest_part = max([b[2] - b[0] for t, b in lines if FOOTER_SEPARATOR not in t], default=0)
+    if widest_part < without.shape[1] - 2 * 16:          # each part fits the chart as it is
+        assert chart.shape[1] == without.shape[1], (side, chart.shape, without.shape)
+    assert len(lines) > 1 or side >= 1024
+
+    def title_to_labels(footer_text):
+        boxes = label_boxes(img.shape, cells, values, values, TITLE, footer_text)
+        x0 = render_area_offset(img.shape, 5, 5, TITLE, footer_text)[0]
+        (title,) = [b for t, b in boxes if t == "metallic"]
+        rows = [b for t, b in boxes if t in {label_text(v) for v in values} and b[2] < x0]
+        return min(b[0] for b in rows) - title[2]
+    assert title_to_labels(footer) == title_to_labels("") > 0

@@ -13,7 +13,7 @@ from ..shading.cells import stage
 from ..shading.plan import brdf_model
 from ..spec.chart_spec import ChartSpec
 from ..spec.material import axis_param, exposure_axis
-from .layout import Cell, chart_canvas, compose_chart, name_cells
+from .layout import FOOTER_SEPARATOR, Cell, chart_canvas, compose_chart, name_cells
 
 
 def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
@@ -43,7 +43,7 @@ def footer_text(spec: ChartSpec) -> str:
         parts.append(f"quality {spec.quality}")
     if spec.bugs:
         parts.append("BUG: " + ", ".join(spec.bugs))
-    return "  |  ".join(parts)
+    return FOOTER_SEPARATOR.join(parts)
 
 
 def _number(x: float) -> str:

@@ -8,7 +8,8 @@ into a larger canvas whose margins hold every piece of text:
   centred on the mean ``cx`` of its column's spheres;
 * left: the row axis title (rotated 90°) and one label per row, right-aligned
   and centred on the mean ``cy`` of its row's spheres;
-* bottom: a footer line (tone mapper, exposure, environment ...).
+* bottom: a footer (tone mapper, exposure, environment ...), its parts (``FOOTER_SEPARATOR``
+  apart) wrapped onto more lines where one line would be wider than the rest of the chart.
 
 Text is set in the font of :mod:`sdfpbr.image.text`, sized from the render height;
 margins are sized from measured text extents.
@@ -27,10 +28,11 @@ from PIL import Image, ImageDraw, ImageFont
 
 from .text import drawable_text, load_font
 
-__all__ = ["Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset", "label_text", "label_boxes"]
+__all__ = ["FOOTER_SEPARATOR", "Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset", "label_text", "label_boxes"]
 
 DEFAULT_COLUMN_AXIS_TITLE = "roughness r (α = r²)"
 DEFAULT_ROW_AXIS_TITLE = "metallic"
+FOOTER_SEPARATOR = "  |  "   # between a footer's parts; a wrapped footer breaks there
 
 BACKGROUND = (24, 24, 24, 255)   # of charts, sheets and heat maps
 _TRANSPARENT = (0, 0, 0, 0)
@@ -117,7 +119,7 @@ def _baseline(style: _Style, line_top: float) -> float:
 class _Layout:
     styles: dict[str, _Style]
     title: str
-    footer: str
+    footer: tuple[str, ...]   # its lines
     column_axis_title: str
     row_axis_title: str
     pad: int
@@ -130,6 +132,7 @@ class _Layout:
     axis_top: int
     labels_top: int
     footer_top: int
+    row_axis_x: int   # left of the rotated row axis title, beside the widest row label
 
 
 def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Sequence[str],
@@ -157,20 +160,41 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     labels = [drawable_text(t, label.font) for t in row_labels]
     label_w = max(_width(label, t) for t in [_ROW_LABEL_RESERVE, *labels])
     left = pad + (_line_height(axis) + gap if text["row"] else 0) + label_w + gap
-    bottom = (gap + _line_height(styles["footer"]) if text["footer"] else 0) + pad
     right = pad
 
-    # Grow the margins so that centred text (on the render area) never clips.
-    for key in ("title", "col", "footer"):
+    # Grow the margins so that centred text (on the render area) never clips; the footer first
+    # wraps at its separators to the width the rest of the chart takes (a long reference footer
+    # under a small render set a 702-px canvas around a 256-px chart).
+    for key in ("title", "col"):
         half = _width(styles[font_of[key]], text[key]) / 2 + pad - rw / 2
         left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
+    footer = _wrapped(styles["footer"], text["footer"], rw + 2 * (min(left, right) - pad))   # centred on the render
+    for line in footer:
+        half = _width(styles["footer"], line) / 2 + pad - rw / 2
+        left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
+    bottom = (gap + len(footer) * _line_height(styles["footer"]) if footer else 0) + pad
     half = _width(axis, text["row"]) / 2 + pad - rh / 2
     top, bottom = max(top, math.ceil(half)), max(bottom, math.ceil(half))
 
-    return _Layout(styles, text["title"], text["footer"], text["col"], text["row"], pad, gap,
+    return _Layout(styles, text["title"], footer, text["col"], text["row"], pad, gap,
                    x0=left, y0=top, width=left + rw + right, height=top + rh + bottom,
                    title_top=title_top, axis_top=axis_top, labels_top=labels_top,
-                   footer_top=top + rh + gap)
+                   footer_top=top + rh + gap, row_axis_x=left - gap - label_w - gap - _line_height(axis))
+
+
+def _wrapped(style: _Style, text: str, room: float) -> tuple[str, ...]:
+    """``text`` as lines no wider than ``room`` where it can be, broken between its parts (a
+    part wider than ``room`` keeps a line of its own)."""
+    if not text:
+        return ()
+    lines: list[str] = []
+    for part in text.split(FOOTER_SEPARATOR):
+        joined = lines[-1] + FOOTER_SEPARATOR + part if lines else part
+        if lines and _width(style, joined) <= room:
+            lines[-1] = joined
+        else:
+            lines.append(part)
+    return tuple(lines)
 
 
 def _row_labels(row_values: Sequence[float], row_names: Sequence[str] | None) -> list[str]:
@@ -320,7 +344,8 @@ class _Text:
 def _thinned(boxes: Sequence[tuple[float, float]], gap: float) -> list[int]:
     """Indices of the labels to draw along one axis, every k-th with the smallest k for which no
     two drawn labels (their extents along the axis, ``gap`` apart) collide; the last label is
-    drawn too, in place of the one before it when the two would collide."""
+    drawn too, in place of the k-th before it (which stood under k steps from it: "0.96 1" at
+    the end of a 24-column axis read as one crowded label)."""
     n = len(boxes)
 
     def clear(a, b):
@@ -329,7 +354,7 @@ def _thinned(boxes: Sequence[tuple[float, float]], gap: float) -> list[int]:
     for k in range(1, n + 1):
         shown = list(range(0, n, k))
         if shown[-1] != n - 1:
-            shown = shown[:-1] + [n - 1] if not clear(shown[-1], n - 1) and len(shown) > 1 else shown + [n - 1]
+            shown = shown[:-1] + [n - 1] if len(shown) > 1 else shown + [n - 1]
         if all(clear(a, b) for a, b in zip(shown, shown[1:])):
             return shown
     return [0]
@@ -355,8 +380,9 @@ def _placements(lay: _Layout, render_shape, cells, column_values, row_labels) ->
         out.append(centred("title", lay.title, centre_x, _baseline(styles["title"], lay.title_top)))
     if lay.column_axis_title:
         out.append(centred("axis", lay.column_axis_title, centre_x, _baseline(styles["axis"], lay.axis_top)))
-    if lay.footer:
-        out.append(centred("footer", lay.footer, centre_x, _baseline(styles["footer"], lay.footer_top)))
+    for i, line in enumerate(lay.footer):
+        top = lay.footer_top + i * _line_height(styles["footer"])
+        out.append(centred("footer", line, centre_x, _baseline(styles["footer"], top)))
 
     label = styles["label"]
     spacing = max(2, label.size // 3)
@@ -381,7 +407,8 @@ def _placements(lay: _Layout, render_shape, cells, column_values, row_labels) ->
         left, _, right, _ = _ink(axis, lay.row_axis_title)
         w, h = right - left, _line_height(axis)
         top = max(0, round(y0 + rh / 2 - w / 2))
-        out.append(_Text("axis", lay.row_axis_title, lay.pad, top, (lay.pad, top, lay.pad + h, top + w), rotated=True))
+        x = lay.row_axis_x
+        out.append(_Text("axis", lay.row_axis_title, x, top, (x, top, x + h, top + w), rotated=True))
     return out
 
 

@@ -21,7 +21,7 @@ from .. import __version__
 from ..errors import SpecError
 from ..kept import Kept
 from ..image.io import check_writable, png_bytes, write_png
-from ..image.layout import Cell
+from ..image.layout import FOOTER_SEPARATOR, Cell
 from ..image.sheet import (Axes, Box, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
                            sheet_text_size, tile)
 from ..image.chart_labels import axis_title, chart_cells, row_names, footer_text
@@ -474,7 +474,7 @@ def sweep(spec: ChartSpec | str | Path | None, name: str, values: Sequence | Non
               for i, (v, r) in enumerate(zip(values, rendered))]
     grid = [panels[i:i + columns] for i in range(0, len(panels), columns)]
     part = _FOOTER_PART.get(field_name)
-    fixed = "  |  ".join(p for p in footer_text(base).split("  |  ") if not (part and p.startswith(part)))
+    fixed = FOOTER_SEPARATOR.join(p for p in footer_text(base).split(FOOTER_SEPARATOR) if not (part and p.startswith(part)))
     caption = f"The same chart across {field_name}. Everything else: {fixed}."
     title = title or f"{field_name} sweep"
     image = assemble(grid, title=title, caption=caption, text_size=text_size)

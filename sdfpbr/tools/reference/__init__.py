@@ -43,6 +43,7 @@ import math
 import numpy as np
 
 from ...image.chart_labels import default_title, footer_scene_parts, label as chart_label
+from ...image.layout import FOOTER_SEPARATOR
 from ...spec.chart_spec import ChartSpec
 from .integrator import (DEFAULT_MAX_BOUNCES, ReferenceResult, batch_size, cell_reach, relative_error,
                          render_reference, validate_arguments)
@@ -56,7 +57,7 @@ def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
     err = f", rel. stderr {result.error:.2%}" if math.isfinite(result.error) else ""
     parts = footer_scene_parts(spec, spec.brdf) + [
         f"path-traced reference, {result.samples} spp, {result.max_bounces} bounces{err}"]
-    return "  |  ".join(parts)
+    return FOOTER_SEPARATOR.join(parts)
 
 
 def label(spec: ChartSpec, result: ReferenceResult) -> np.ndarray:
