@@ -115,9 +115,10 @@ vec3 ibl_mix(Material m, vec3 dfg, vec3 mean_a, vec3 mean_b, vec3 irradiance_ove
 // Split sum: one prefiltered radiance for the whole lobe, SH9 irradiance for the diffuse.
 // IBL_TWO_LOBE: a rough lobe seen off-normal has more of its weight far from its centre (a
 // heavy tail towards the horizon) than a V = N kernel of the same mean cosine, so the lookup
-// becomes a narrower core plus a share w of the widest level read along N. The core's scale
-// and w are least-squares fits (per roughness, then these ramps) of the float64 lobe average
-// under random three-lobe environments, not the test environment.
+// becomes a narrower core plus a share w of the widest level read along N (lobe_fit below). The
+// core's scale and w are fits of the float64 lobe average under random three-lobe
+// environments, not the test environment: ramps in r, or with IBL_TWO_TAP a table over r and
+// N.V (ibl_lobe_table.glsl) with the core read twice along the lobe's stretch.
 // The sky's irradiance / pi the spheres' diffuse reads (sampled: the r = 1 level, below).
 vec3 ibl_irradiance_over_pi(vec3 n) {
 #if IBL_METHOD == sampled
@@ -132,23 +133,50 @@ vec3 ibl_diffuse(Material m, vec3 dfg, vec3 n) {
     return ibl_mix(m, dfg, vec3(0.0), vec3(0.0), ibl_irradiance_over_pi(n));
 }
 
-// The share of a lobe the two-lobe lookup reads along N at the widest level (0 without it).
-float ibl_tail_share(float perceptual_roughness) {
-#if IBL_TWO_LOBE
-    return clamp(0.55 * (perceptual_roughness - 0.27), 0.0, TAIL_MAX);
-#else
-    return 0.0;
+// How the split sum reads a lobe: the share ``tail`` read along N at the widest level, the
+// core's width (core_scale x the lookup's roughness) and, IBL_TWO_TAP, the offset ``delta`` of
+// the core's two reads either side of its direction in the plane of N and R (a rough lobe seen
+// off-normal is stretched in that plane). Without IBL_TWO_LOBE one read of the whole lobe.
+struct LobeFit { float tail; float core_scale; float delta; };
+
+#if IBL_TWO_TAP
+#include "ibl_lobe_table.glsl"
 #endif
+
+LobeFit lobe_fit(float perceptual_roughness, float n_dot_v) {
+#if IBL_TWO_TAP
+    // The table from r = 0.2 up; below it the one-read ramps' values (no tail, CORE_SCALE),
+    // blended in over r 0.1 .. 0.2 so the polished spheres read as before.
+    LobeFit fit = lobe_table(perceptual_roughness, n_dot_v);
+    float t = smoothstep(0.1, 0.2, perceptual_roughness);
+    return LobeFit(fit.tail * t, mix(CORE_SCALE, fit.core_scale, t), fit.delta * t);
+#elif IBL_TWO_LOBE
+    return LobeFit(clamp(0.55 * (perceptual_roughness - 0.27), 0.0, TAIL_MAX),
+                   mix(CORE_SCALE, 1.0, smoothstep(0.8, 1.0, perceptual_roughness)), 0.0);
+#else
+    return LobeFit(0.0, 1.0, 0.0);
+#endif
+}
+
+// The share of a lobe the lookup reads along N at the widest level (0 without IBL_TWO_LOBE).
+float ibl_tail_share(float perceptual_roughness, float n_dot_v) {
+    return lobe_fit(perceptual_roughness, n_dot_v).tail;
 }
 
 vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     SpecularLookup look = specular_lookup(n, v, n_dot_v, m.perceptual_roughness, m.alpha);
 #if IBL_TWO_LOBE
-    float r = m.perceptual_roughness;
-    float tail = ibl_tail_share(r);
-    float core_scale = mix(CORE_SCALE, 1.0, smoothstep(0.8, 1.0, r));
-    vec3 radiance = mix(prefiltered_radiance(look.direction, look.perceptual_roughness * core_scale),
-                        textureLod(u_prefiltered, n, u_prefiltered_lods).rgb, tail);
+    LobeFit fit = lobe_fit(m.perceptual_roughness, n_dot_v);
+    float core_roughness = look.perceptual_roughness * fit.core_scale;
+#if IBL_TWO_TAP
+    vec3 across = n - look.direction * dot(n, look.direction);   // in the plane of N and R
+    across *= fit.delta * inversesqrt(max(dot(across, across), 1e-12));
+    vec3 core = 0.5 * (prefiltered_radiance(normalize(look.direction + across), core_roughness)
+                     + prefiltered_radiance(normalize(look.direction - across), core_roughness));
+#else
+    vec3 core = prefiltered_radiance(look.direction, core_roughness);
+#endif
+    vec3 radiance = mix(core, textureLod(u_prefiltered, n, u_prefiltered_lods).rgb, fit.tail);
 #else
     vec3 radiance = prefiltered_radiance(look.direction, look.perceptual_roughness);
 #endif

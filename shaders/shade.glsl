@@ -105,7 +105,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     if (!ground) {
         vec3 floor_e = floor_parallax_irradiance(n) * INV_PI;
 #if IBL_METHOD == split_sum
-        vec3 tail = ibl_tail_share(m.perceptual_roughness) * floor_e;
+        vec3 tail = ibl_tail_share(m.perceptual_roughness, n_dot_v) * floor_e;
 #else
         vec3 tail = vec3(0.0);   // each sample of the sampled lobe reads the probe with its own parallax
 #endif

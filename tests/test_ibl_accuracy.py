@@ -8,8 +8,9 @@ the camera, and the oracle integrates f(v, l) L(l) cos over l at that pixel.
 
 Targets (issue 9): NdotV 0.3 - 0.95, mean relative error per cell (roughness x metallic)
 within 5 % for `default` and 1.5 % for `high`. `python tests/test_ibl_accuracy.py` prints the
-table (40 pixels per cell and band). Measured when this was written, worst cell: default 5.7 %
-(metal, r = 0.75; 22.8 % before), high 1.2 % (30.3 % before); mean over cells 2.4 / 0.67 %.
+table (40 pixels per cell and band). Measured when this was written, worst cell: default 5.0 %
+(metal, r = 0.75; 5.6 % with the one-read ramps, 22.8 % before any correction), high 1.2 % (30.3 %
+before); mean over cells 2.26 / 0.69 %.
 """
 import dataclasses
 
@@ -171,15 +172,32 @@ def test_prefiltered_levels_match_float64_prefilter(session, env_path, quality):
 ROUGH_METALS = (slice(2, 3), slice(3, 4))          # metallic 1, r 0.75
 
 
-def test_default_within_target_except_rough_metals(session, env_path, truth):
+def test_default_within_target_on_every_cell(session, env_path, truth):
     err = errors_for(session, env_path, truth, "default")
-    err[ROUGH_METALS] = 0.0
     assert err.max() < TARGET["default"], np.array2string(100 * err, precision=2)
 
 
-# The one cell the default misses its 5 % target in (measured 5.24 % over all 1387 of its
-# pixels, 19.3 % before this work): it must still beat what any single split-sum lookup can do
-# there, a float64 model of one ideally placed and sized lookup, which errs 7.7 %.
+def test_default_rough_metal_within_target_over_all_its_pixels(session, env_path):
+    """The rough metal (r 0.75) is the cell nearest the target, so it is judged on every pixel
+    at N.V 0.3 - 0.95 (1387), not a sample: the one-read ramps measured 5.23 % there, the lobe
+    table with the core read twice 4.46 %."""
+    spec = ibl_spec(env_path)
+    res = session.render(spec)
+    aov = res.aov
+    i, j = 2, 3
+    ys, xs = np.nonzero((aov["row"] == i) & (aov["col"] == j) & (aov["ndotv"] >= 0.3) & (aov["ndotv"] <= 0.95))
+    n = aov["normal"][ys, xs].astype(np.float64)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    v = frame_grid(spec).position - (sphere_centers(spec)[i, j] + spec.sphere_radius * n)
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    want = oracle.ibl_integral(n, v, np.asarray(spec.base_color), spec.material_array("metallic")[i, j],
+                               spec.material_array("roughness")[i, j], ENV)
+    err = np.abs(res.hdr[ys, xs] / want - 1).mean()
+    assert ys.size > 1000 and err < TARGET["default"], (ys.size, 100 * err)
+
+
+# The rough metal must also beat what any single split-sum lookup can do there, a float64
+# model of one ideally placed and sized lookup, which errs 7.7 %.
 SINGLE_LOOKUP_FLOOR = 0.077
 
 
@@ -222,16 +240,19 @@ def test_sampled_path_converges_with_the_sample_count(session, env_path, truth, 
 def test_split_sum_corrections_help_rough_metals(session, env_path, truth, monkeypatch):
     """Each correction of the split-sum lookup, ablated on the metal row at r >= 0.5 where the
     split sum is worst: leaning toward N (Frostbite's lerp, then the moment fit) beats reading
-    along R (measured mean 24 / 9.6 / 4.9 %), and the two-lobe lookup beats one lobe (3.7 %)."""
+    along R (measured mean 24 / 9.6 / 4.9 %), the two-lobe lookup beats one lobe (3.7 %), and
+    its table over r and N.V with the core read twice beats the ramps it replaced."""
     base = QUALITY_PRESETS["default"]
     rough_metal = {}
-    for mode, two_lobe in (("none", False), ("frostbite", False), ("moments", False), ("moments", True)):
-        monkeypatch.setitem(QUALITY_PRESETS, "default",
-                            dataclasses.replace(base, ibl_dominant_dir=mode, ibl_two_lobe=two_lobe))
-        rough_metal[mode, two_lobe] = errors_for(session, env_path, truth, "default")[2, 2:]
-    none, frostbite, moments, two = (rough_metal[k] for k in rough_metal)
+    for mode, two_lobe, two_tap in (("none", False, False), ("frostbite", False, False), ("moments", False, False),
+                                    ("moments", True, False), ("moments", True, True)):
+        monkeypatch.setitem(QUALITY_PRESETS, "default", dataclasses.replace(
+            base, ibl_dominant_dir=mode, ibl_two_lobe=two_lobe, ibl_two_tap=two_tap))
+        rough_metal[mode, two_lobe, two_tap] = errors_for(session, env_path, truth, "default")[2, 2:]
+    none, frostbite, moments, two, table = (rough_metal[k] for k in rough_metal)
     assert (frostbite < none).all() and moments.mean() < frostbite.mean(), rough_metal
     assert two.mean() < moments.mean(), rough_metal
+    assert table.mean() < two.mean(), rough_metal
 
 
 def test_sampled_path_keeps_the_furnace(session):
@@ -307,3 +328,22 @@ def test_ground_table_matches_float64_integral(session, env_path, quality):
     to 8 % low, and SH9 diffuse alone 2 % low)."""
     err, _ = ground_table_errors(session, env_path, quality)
     assert err.max() < TARGET["high"], (err.mean(), err.max())
+
+
+def test_the_lobe_table_is_what_its_fit_writes():
+    """shaders/ibl_lobe_table.glsl is `python -m sdfpbr.oracle.lobe_fit`'s output, not edited by
+    hand: one node fitted again (r 0.5, N.V 0.5; ~30 s of float64) reads the table's values,
+    and on its held-out skies the table beats the one-read ramps it replaced."""
+    import re
+    from sdfpbr.oracle import lobe_fit
+    from sdfpbr.shading.compose import shader_dir
+    text = (shader_dir() / "ibl_lobe_table.glsl").read_text()
+
+    def array(name):
+        return [float(x) for x in re.search(rf"{name}\[\d+\] = float\[\]\(([^)]*)\)", text).group(1).split(",")]
+    i, j = lobe_fit.R_NODES.index(0.5), lobe_fit.MU_NODES.index(0.5)
+    node = lobe_fit.fit_node((i, j, 0.5, 0.5))
+    k = i * len(lobe_fit.MU_NODES) + j
+    got = (array("LOBE_TABLE_DELTA")[k], array("LOBE_TABLE_CORE")[k], array("LOBE_TABLE_TAIL")[k])
+    np.testing.assert_allclose(got, (node["delta"], node["core"], node["tail"]), atol=5e-4)
+    assert node["table"] < node["ramps"], node

@@ -46,7 +46,7 @@ SCHEMA = OptionSchema(
         "EXPOSURE_AXIS": ("none", "x", "y"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
-           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "GROUND_IBL",
+           "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "IBL_TWO_TAP", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
            "FLOOR_RETURN", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
@@ -248,6 +248,8 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
         opts["IBL_METHOD"] = q.ibl_method
         opts["IBL_DOMINANT_DIR"] = q.ibl_dominant_dir
         opts["IBL_TWO_LOBE"] = q.ibl_two_lobe
+        # the table was fitted through the moments lookup (oracle/lobe_fit.py)
+        opts["IBL_TWO_TAP"] = q.ibl_two_lobe and q.ibl_two_tap and q.ibl_dominant_dir == "moments"
         if q.ibl_method == "sampled":
             opts["IBL_PIXEL_SAMPLES"] = max(q.ibl_pixel_samples, 1)
     # The ground reads its IBL from a view-direction table (ground_ibl.glsl) baked from the
@@ -418,7 +420,7 @@ def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
         "STAGE": "shared", "SCENE_SDF": "nearest_cell", "HAS_GROUND": True, "USE_TEXTURES": False, "STAGE_PROBE": False,
         "BRDF_MODEL": chart["BRDF_MODEL"], "MULTISCATTER": chart["MULTISCATTER"],
         "IBL_METHOD": "sampled", "IBL_PIXEL_SAMPLES": q.ground_ibl_samples,
-        "IBL_DOMINANT_DIR": "none", "IBL_TWO_LOBE": False})
+        "IBL_DOMINANT_DIR": "none", "IBL_TWO_LOBE": False, "IBL_TWO_TAP": False})
 
 
 def dfg_source(brdf: str, direct_k_bug: bool = False, sheen: bool = False) -> ComposedSource:

@@ -114,6 +114,8 @@ class Quality:
     ibl_method: str = "split_sum"
     ibl_dominant_dir: str = "moments"   # split_sum lookup: "none" (along R), "frostbite", "moments"
     ibl_two_lobe: bool = True          # split_sum lookup: a narrower core plus a tail read along N
+    ibl_two_tap: bool = True           # ... fitted over roughness and N.V, the core read twice along
+                                       # the lobe's stretch (with ibl_dominant_dir "moments")
     ibl_pixel_samples: int = 0
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
     bounce_mirror_directions: int = 16   # ... and directions of the stage a smooth sphere mirrors onto it
