@@ -264,3 +264,6 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
         path = shaders / module
         path.write_text(path.read_text() + "\n// an edit\n")
         assert (accuracy.reference_key(spec, 64, 0) in keys) == kept, module
+    # Its Python: the integrator and its tables are keyed, its labels are not.
+    names = {p.name for p in accuracy.reference_code_files()}
+    assert {"integrator.py", "tables.py", "__init__.py", "mirror.py"} <= names and "labels.py" not in names

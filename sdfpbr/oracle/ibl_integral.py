@@ -79,7 +79,7 @@ def _frame(n, v):
     return x, y
 
 
-def _specular_terms(n, v, r, env, n_theta, n_phi):
+def specular_terms(n, v, r, env, n_theta, n_phi):
     """S_A = int (1 - Fc) f_spec L cos, S_B = int Fc f_spec L cos (F = 1, f_spec = D Vis),
     per pixel, RGB: (m, 3) each. With L = 1 these are the A, B of the DFG LUT."""
     mu = np.clip(np.sum(n * v, -1), mirror.MIN_N_DOT_V, 1.0)
@@ -162,7 +162,7 @@ def ibl_integral(n, v, base_color, metallic, perceptual_roughness, env: LobeSky,
     SC = np.empty((m, 3))
     for s in range(0, m, chunk):
         sl = slice(s, s + chunk)
-        SA[sl], SB[sl] = _specular_terms(n[sl], v[sl], r[sl], env, o["spec_theta"], o["spec_phi"])
+        SA[sl], SB[sl] = specular_terms(n[sl], v[sl], r[sl], env, o["spec_theta"], o["spec_phi"])
         SC[sl] = _diffuse_term(n[sl], v[sl], env, o["diff_theta"], o["diff_phi"])
     A, B, _ = mirror.dfg_integrate(mu, r)
     e = (A + B)[:, None]

@@ -24,7 +24,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from . import mirror
-from .ibl_integral import _specular_terms, prefiltered
+from .ibl_integral import specular_terms, prefiltered
 
 R_NODES = (0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 MU_NODES = (0.1, 0.3, 0.5, 0.7, 0.9)
@@ -87,7 +87,7 @@ def lookup(n, v, r, lobe_t, lobe_dr):
 def exact_radiance(n, v, r, sky):
     """The lobe's mean radiance as the split sum defines it: (S_A + S_B) / (A + B)."""
     m = len(n)
-    sa, sb = _specular_terms(n, v, np.full(m, r), sky, 48, 96)
+    sa, sb = specular_terms(n, v, np.full(m, r), sky, 48, 96)
     mu = np.clip(np.sum(n * v, -1), mirror.MIN_N_DOT_V, 1.0)
     a, b, _ = mirror.dfg_integrate(mu, np.full(m, r))
     return (sa + sb) / (a + b)[:, None]

@@ -39,20 +39,29 @@ REFERENCE_DEPENDENCIES = ("sdfpbr.gpu.frame", "sdfpbr.shading.camera", "sdfpbr.s
                           "sdfpbr.oracle.lobes", "sdfpbr.oracle.mirror")
 
 
-def _reference_code_digest(spec: ChartSpec) -> str:
-    """The reference's code for this spec: its package's modules, the modules it reads its
-    geometry and tables from, and the programs its plan composes (so an edit of a chart-only
-    shader leaves the bench's references alone, and any edit of what the path tracer runs
-    re-renders them)."""
-    from ...shading.plan import reference_plan
+# The reference package's modules no pixel depends on (its labels), left out of the key.
+REFERENCE_PRESENTATION = ("labels.py",)
+
+
+def reference_code_files() -> list[Path]:
+    """The Python a reference's pixels depend on: its package's modules but its labels, and
+    REFERENCE_DEPENDENCIES."""
     found = importlib.util.find_spec(REFERENCE_MODULE)
     if found.submodule_search_locations:
-        files = sorted(p for d in found.submodule_search_locations for p in Path(d).rglob("*.py"))
+        files = sorted(p for d in found.submodule_search_locations for p in Path(d).rglob("*.py")
+                       if p.name not in REFERENCE_PRESENTATION)
     else:
         files = [Path(found.origin)]
-    files += [Path(importlib.util.find_spec(name).origin) for name in REFERENCE_DEPENDENCIES]
+    return files + [Path(importlib.util.find_spec(name).origin) for name in REFERENCE_DEPENDENCIES]
+
+
+def _reference_code_digest(spec: ChartSpec) -> str:
+    """The reference's code for this spec: reference_code_files and the programs its plan
+    composes (so an edit of a chart-only shader or of the reference's labels leaves the bench's
+    references alone, and any edit of what the path tracer runs re-renders them)."""
+    from ...shading.plan import reference_plan
     h = hashlib.sha256()
-    for p in files:
+    for p in reference_code_files():
         h.update(p.name.encode())
         h.update(p.read_bytes())
     for source in reference_plan(spec).sources():

@@ -38,29 +38,10 @@ independent samples).
 """
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
-from ...image.chart_labels import default_title, footer_scene_parts, label as chart_label
-from ...image.layout import FOOTER_SEPARATOR
-from ...spec.chart_spec import ChartSpec
 from .integrator import (DEFAULT_MAX_BOUNCES, ReferenceResult, batch_size, cell_reach, relative_error,
                          render_reference, validate_arguments)
+from .labels import footer_text, label
 from .tables import compensation_table, environment_cdfs
 
 __all__ = ["DEFAULT_MAX_BOUNCES", "ReferenceResult", "batch_size", "cell_reach", "compensation_table",
            "environment_cdfs", "footer_text", "label", "relative_error", "render_reference", "validate_arguments"]
-
-
-def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
-    err = f", rel. stderr {result.error:.2%}" if math.isfinite(result.error) else ""
-    parts = footer_scene_parts(spec, spec.brdf) + [
-        f"path-traced reference, {result.samples} spp, {result.max_bounces} bounces{err}"]
-    return FOOTER_SEPARATOR.join(parts)
-
-
-def label(spec: ChartSpec, result: ReferenceResult) -> np.ndarray:
-    """The chart's labeled layout around the reference render."""
-    return chart_label(spec, result, title=f"{default_title(spec)} (reference)",
-                       footer=footer_text(spec, result))
