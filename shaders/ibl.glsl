@@ -49,6 +49,7 @@ vec3 sh_irradiance(vec3 n) {
 struct SpecularLookup { vec3 direction; float perceptual_roughness; };
 #define TAIL_MAX 0.22
 #define CORE_SCALE 0.87
+#define LOBE_TAP_FADE 0.05   // sin(3 degrees): the two taps' offset fades out within it of N
 
 #if IBL_DOMINANT_DIR == moments
 float poly3(vec4 c, float x) { return c.x + x * (c.y + x * (c.z + x * c.w)); }
@@ -169,8 +170,10 @@ vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     LobeFit fit = lobe_fit(m.perceptual_roughness, n_dot_v);
     float core_roughness = look.perceptual_roughness * fit.core_scale;
 #if IBL_TWO_TAP
-    vec3 across = n - look.direction * dot(n, look.direction);   // in the plane of N and R
-    across *= fit.delta * inversesqrt(max(dot(across, across), 1e-12));
+    // In the plane of N and R; where the direction nears N (N.V -> 1) that plane is lost to
+    // rounding and the lobe is not stretched, so the offset fades out within 3 degrees of N.
+    vec3 across = n - look.direction * dot(n, look.direction);
+    across *= fit.delta / max(length(across), LOBE_TAP_FADE);
     vec3 core = 0.5 * (prefiltered_radiance(normalize(look.direction + across), core_roughness)
                      + prefiltered_radiance(normalize(look.direction - across), core_roughness));
 #else

@@ -10,7 +10,7 @@ Targets (issue 9): NdotV 0.3 - 0.95, mean relative error per cell (roughness x m
 within 5 % for `default` and 1.5 % for `high`. `python tests/test_ibl_accuracy.py` prints the
 table (40 pixels per cell and band). Measured when this was written, worst cell: default 5.0 %
 (metal, r = 0.75; 5.6 % with the one-read ramps, 22.8 % before any correction), high 1.2 % (30.3 %
-before); mean over cells 2.26 / 0.69 %.
+before); mean over cells 2.21 / 0.69 %.
 """
 import dataclasses
 

@@ -101,12 +101,11 @@ def _points(seed: int, mu: float, count: int):
     return n, mu * n + np.sqrt(1.0 - mu * mu) * t
 
 
-def _reads(n, v, r, sky, lobe_t, lobe_dr):
+def _reads(n, v, r, sky, lobe_t, lobe_dr, fade):
     """Per (delta, core): the core's radiance; and the tail's (the r = 1 level along N)."""
     d, r_look = lookup(n, v, r, lobe_t, lobe_dr)
-    across = n - d * np.sum(n * d, -1, keepdims=True)
-    length = np.linalg.norm(across, axis=-1, keepdims=True)
-    across = np.where(length > 1e-6, across / np.maximum(length, 1e-12), 0.0)
+    across = n - d * np.sum(n * d, -1, keepdims=True)   # ibl.glsl's shade_ibl, LOBE_TAP_FADE
+    across = across / np.maximum(np.linalg.norm(across, axis=-1, keepdims=True), fade)
     cores = {}
     for delta in DELTAS:
         for core in CORES:
@@ -128,12 +127,13 @@ def fit_node(args) -> dict:
     i, j, r, mu = args
     text = _shader_text()
     lobe_t, lobe_dr, core_scale = _glsl_mat4(text, "LOBE_T"), _glsl_mat4(text, "LOBE_DR"), _glsl_define(text, "CORE_SCALE")
+    fade = _glsl_define(text, "LOBE_TAP_FADE")
     err = np.zeros((len(DELTAS), len(CORES), len(TAILS)))
     for s in range(TRAIN_SKIES):
         sky = Sky(100 + s)
         n, v = _points(10_000 * i + 100 * j + s, mu, POINTS)
         exact = exact_radiance(n, v, r, sky)
-        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr)
+        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr, fade)
         for a, delta in enumerate(DELTAS):
             for b, core in enumerate(CORES):
                 for c, tail in enumerate(TAILS):
@@ -150,7 +150,7 @@ def fit_node(args) -> dict:
         exact = exact_radiance(n, v, r, sky)
         d, r_look = lookup(n, v, r, lobe_t, lobe_dr)
         ramp = prefiltered(d, float(np.clip(r_look[0] * ramp_core, 0.0, 1.0)), sky, ORDER, ORDER, kernel="brdf")
-        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr)
+        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr, fade)
         held["table"] += _error(cores[fit["delta"], fit["core"]], tail_radiance, fit["tail"], exact) / HELD_SKIES
         held["ramps"] += _error(ramp, tail_radiance, ramp_tail, exact) / HELD_SKIES
     return dict(r=r, mu=mu, **fit, train=float(err.min()), **held)
