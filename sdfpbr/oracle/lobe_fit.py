@@ -101,20 +101,20 @@ def _points(seed: int, mu: float, count: int):
     return n, mu * n + np.sqrt(1.0 - mu * mu) * t
 
 
-def _reads(n, v, r, sky, lobe_t, lobe_dr, fade):
-    """Per (delta, core): the core's radiance; and the tail's (the r = 1 level along N)."""
+def _reads(n, v, r, sky, lobe_t, lobe_dr, fade, pairs):
+    """Per (delta, core) of ``pairs``: the core's radiance; and the tail's (the r = 1 level
+    along N)."""
     d, r_look = lookup(n, v, r, lobe_t, lobe_dr)
     across = n - d * np.sum(n * d, -1, keepdims=True)   # ibl.glsl's shade_ibl, LOBE_TAP_FADE
     across = across / np.maximum(np.linalg.norm(across, axis=-1, keepdims=True), fade)
     cores = {}
-    for delta in DELTAS:
-        for core in CORES:
-            width = float(np.clip(r_look[0] * core, 0.0, 1.0))   # r_look depends on N.V only
-            if delta == 0.0:
-                cores[delta, core] = prefiltered(d, width, sky, ORDER, ORDER, kernel="brdf")
-            else:
-                cores[delta, core] = 0.5 * sum(prefiltered(mirror.normalize(d + s * delta * across), width, sky,
-                                                           ORDER, ORDER, kernel="brdf") for s in (1.0, -1.0))
+    for delta, core in pairs:
+        width = float(np.clip(r_look[0] * core, 0.0, 1.0))   # r_look depends on N.V only
+        if delta == 0.0:
+            cores[delta, core] = prefiltered(d, width, sky, ORDER, ORDER, kernel="brdf")
+        else:
+            cores[delta, core] = 0.5 * sum(prefiltered(mirror.normalize(d + s * delta * across), width, sky,
+                                                       ORDER, ORDER, kernel="brdf") for s in (1.0, -1.0))
     return cores, prefiltered(n, 1.0, sky, ORDER, ORDER, kernel="brdf")
 
 
@@ -133,7 +133,8 @@ def fit_node(args) -> dict:
         sky = Sky(100 + s)
         n, v = _points(10_000 * i + 100 * j + s, mu, POINTS)
         exact = exact_radiance(n, v, r, sky)
-        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr, fade)
+        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr, fade,
+                                      [(delta, core) for delta in DELTAS for core in CORES])
         for a, delta in enumerate(DELTAS):
             for b, core in enumerate(CORES):
                 for c, tail in enumerate(TAILS):
@@ -141,18 +142,19 @@ def fit_node(args) -> dict:
     a, b, c = np.unravel_index(err.argmin(), err.shape)
     fit = dict(delta=DELTAS[a], core=CORES[b], tail=float(TAILS[c]))
     # The one-read ramps the table replaces (ibl.glsl before it), on skies the fit never saw.
+    # Its lobe_fit's IBL_TWO_LOBE branch: a smoothstep to 1 over r 0.8 .. 1, the tail's ramp.
     x = min(max((r - 0.8) / 0.2, 0.0), 1.0)
-    ramp_core, ramp_tail = core_scale + (1.0 - core_scale) * x * x * (3.0 - 2.0 * x), min(max(0.55 * (r - 0.27), 0.0), 0.22)
+    ramp_core = core_scale + (1.0 - core_scale) * x * x * (3.0 - 2.0 * x)
+    ramp_tail = min(max(0.55 * (r - 0.27), 0.0), _glsl_define(text, "TAIL_MAX"))
     held = {"table": 0.0, "ramps": 0.0}
     for s in range(HELD_SKIES):
         sky = Sky(900 + s)
         n, v = _points(20_000 * i + 100 * j + s, mu, POINTS)
         exact = exact_radiance(n, v, r, sky)
-        d, r_look = lookup(n, v, r, lobe_t, lobe_dr)
-        ramp = prefiltered(d, float(np.clip(r_look[0] * ramp_core, 0.0, 1.0)), sky, ORDER, ORDER, kernel="brdf")
-        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr, fade)
-        held["table"] += _error(cores[fit["delta"], fit["core"]], tail_radiance, fit["tail"], exact) / HELD_SKIES
-        held["ramps"] += _error(ramp, tail_radiance, ramp_tail, exact) / HELD_SKIES
+        table, ramps = (fit["delta"], fit["core"]), (0.0, ramp_core)
+        cores, tail_radiance = _reads(n, v, r, sky, lobe_t, lobe_dr, fade, [table, ramps])
+        held["table"] += _error(cores[table], tail_radiance, fit["tail"], exact) / HELD_SKIES
+        held["ramps"] += _error(cores[ramps], tail_radiance, ramp_tail, exact) / HELD_SKIES
     return dict(r=r, mu=mu, **fit, train=float(err.min()), **held)
 
 
