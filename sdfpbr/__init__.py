@@ -6,7 +6,6 @@ modules load on first use, so ``import sdfpbr`` stays cheap."""
 __version__ = "0.1.0"
 
 from .errors import GLUnavailable, OutputError, SdfpbrError, ShaderCompileError, SpecError  # noqa: E402
-from .spec.chart_spec import ChartSpec, Light, load_spec, make_spec  # noqa: E402
 
 
 def chart(spec=None, **options):
@@ -15,8 +14,11 @@ def chart(spec=None, **options):
     return render_chart(spec, **options)
 
 
-# Public names that need GL or the image stack, resolved when first used.
-_LAZY = {"Chart": "sdfpbr.api", "Session": "sdfpbr.gpu.session", "default_session": "sdfpbr.gpu.session",
+# Public names resolved when first used: the spec needs numpy, the rest GL or the image stack
+# (a command such as a gallery build with nothing to do loads neither).
+_LAZY = {"ChartSpec": "sdfpbr.spec.chart_spec", "Light": "sdfpbr.spec.chart_spec",
+         "load_spec": "sdfpbr.spec.chart_spec", "make_spec": "sdfpbr.spec.chart_spec",
+         "Chart": "sdfpbr.api", "Session": "sdfpbr.gpu.session", "default_session": "sdfpbr.gpu.session",
          "render_reference": "sdfpbr.tools.reference"}
 
 

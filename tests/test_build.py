@@ -407,6 +407,104 @@ def test_remembered_keys_are_the_exact_keys_and_a_bad_memo_is_rebuilt(env):
     assert edited == {item.name: item_key(item, renderers) for item in items} != exact
 
 
+STAMPED = {"plain.toml": SMALL, "sweep.toml": ENTRIES["sweep.toml"], "lit.toml": SMALL + 'env = "env.npy"\n'}
+
+# Run in a fresh process: the manifest, and whether the build loaded the entries' modules.
+STAMP_PROBE = """import json, sys
+from sdfpbr.tools.gallery.build import build
+manifest = build(sys.argv[1], sys.argv[2])
+print(json.dumps([manifest, sorted(m for m in ("numpy", "sdfpbr.spec", "sdfpbr.gpu.session") if m in sys.modules)]))
+"""
+
+
+def probe(charts: Path, out: Path) -> tuple[dict, list]:
+    r = subprocess.run([sys.executable, "-c", STAMP_PROBE, str(charts), str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    manifest, loaded = json.loads(r.stdout)
+    return manifest, loaded
+
+
+def same_build(a: dict, b: dict) -> bool:
+    """The same manifest.json but for the time taken."""
+    return json.dumps({**a, "elapsed_s": 0}) == json.dumps({**b, "elapsed_s": 0})
+
+
+def test_a_rebuild_with_nothing_changed_is_answered_by_its_stamp(env):
+    """The second build reads no entry (no numpy, no spec, no GL) and writes what a full build
+    with nothing to render writes; every kind of input change takes the full build again."""
+    from sdfpbr.tools.gallery.stamp import stamp_path
+    charts = make_charts(env, STAMPED)
+    np.save(charts / "env.npy", np.full((8, 16, 3), 0.5, np.float32))
+    out = env / "out"
+    first = build(charts, out)
+    assert first["rendered"] == 3
+    answered, loaded = probe(charts, out)
+    assert loaded == []                                               # nothing heavy was imported
+    stamp = stamp_path(ImageCache().dir, charts, out, None)
+    stamp.unlink()
+    full = build(charts, out)                                         # the same build, done in full
+    assert full["rendered"] == 0 and same_build(answered, full)
+    again, loaded = probe(charts, out)                                # and stamped again
+    assert loaded == [] and same_build(again, full)
+
+    # A file an entry names, edited to the same size with its mtime put back: read by content.
+    before = images(out)
+    st = (charts / "env.npy").stat()
+    np.save(charts / "env.npy", np.full((8, 16, 3), 2.0, np.float32))
+    os.utime(charts / "env.npy", ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert (charts / "env.npy").stat().st_size == st.st_size
+    manifest, loaded = probe(charts, out)
+    assert "numpy" in loaded and [e["name"] for e in manifest["images"] if not e["cached"]] == ["lit"]
+    assert images(out)["lit.png"] != before["lit.png"]
+    assert probe(charts, out)[1] == []                                # stamped again
+
+    (charts / "plain.toml").write_text(SMALL + "exposure = 0.5\n")        # an entry edited
+    assert [e["name"] for e in probe(charts, out)[0]["images"] if not e["cached"]] == ["plain"]
+    (charts / "new.toml").write_text(SMALL + "ground = false\n")          # an entry added
+    assert [e["name"] for e in probe(charts, out)[0]["images"] if not e["cached"]] == ["new"]
+    shader = env / "shaders" / "tonemap.glsl"                              # a shader module edited
+    shader.write_text(shader.read_text() + "\n// edited\n")
+    assert probe(charts, out)[0]["rendered"] == 4
+    assert probe(charts, out)[1] == []
+
+    good = images(out)
+    (out / "sweep.png").unlink()                                      # an output removed: from the cache
+    manifest, loaded = probe(charts, out)
+    assert manifest["rendered"] == 0 and loaded and images(out) == good
+    key = next(e["key"] for e in manifest["images"] if e["name"] == "plain")
+    ImageCache().path(key).unlink()                                   # a cache entry removed: rendered
+    manifest, loaded = probe(charts, out)
+    assert [e["name"] for e in manifest["images"] if not e["cached"]] == ["plain"] and images(out) == good
+
+    r = subprocess.run([sys.executable, "-c", STAMP_PROBE, str(charts), str(out)], capture_output=True, text=True,
+                       env={**os.environ, "MESA_DEBUG": "silent"})    # a variable that steers GL
+    assert r.returncode == 0 and "numpy" in json.loads(r.stdout)[1]
+
+
+def test_an_input_log_records_what_is_read_by_content(tmp_path):
+    from sdfpbr.tools.gallery.stamp import InputLog, fingerprint
+    (tmp_path / "d").mkdir()
+    read, written, cached = tmp_path / "d" / "in.txt", tmp_path / "out.txt", tmp_path / "cache" / "c.txt"
+    read.write_text("abc")
+    cached.parent.mkdir()
+    cached.write_text("c")
+    with InputLog(tmp_path / "cache") as log:
+        read.read_text()
+        written.write_text("x")
+        cached.read_text()
+        sorted((tmp_path / "d").glob("*"))
+    assert set(log.paths) == {str(read), str(tmp_path / "d")}
+    assert log.paths[str(read)] == fingerprint(str(read)) and log.paths[str(read)][0] == "file"
+    listing = fingerprint(str(tmp_path / "d"))
+    (tmp_path / "d" / "more.txt").write_text("")
+    assert fingerprint(str(tmp_path / "d")) != listing
+    st = read.stat()
+    read.write_text("abd")                                            # same size, mtime put back
+    os.utime(read, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert fingerprint(str(read)) != log.paths[str(read)]
+    assert fingerprint(str(tmp_path / "missing")) is None
+
+
 def test_shards_merge_into_the_gallery_a_single_build_makes(env):
     entries = {k: ENTRIES[k] for k in ("plain.toml", "noground.toml", "noibl.toml", "sweep.toml")}
     charts = make_charts(env, entries)

@@ -13,16 +13,22 @@ import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from ... import __version__
+from ...cache import touch
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from ...workers import cores, process_pool
-from .entries import Item, collect, spec_identity
 from .images import ImageCache, Rendered, checkpoint, render_items, write_file
-from .keys import gl_renderers, item_keys
 from .page import gallery_html
+from .stamp import InputLog, package_files, record, stamp_path, unchanged
+
+if TYPE_CHECKING:     # the entries, their specs and keys (numpy, the glTF parser, GL) load only
+    from .entries import Item    # when a build is not answered by its stamp (stamp.py)
+
+# The entries, their specs and keys (numpy, the glTF parser, GL) load only when a build is not
+# answered by its stamp (stamp.py).
 
 
 def _worker(items: list[Item], keys: list[str]) -> list[Rendered]:
@@ -38,6 +44,7 @@ def work_groups(items: list[Item]) -> list[list[Item]]:
     others. Apart, the bug catalog and the bug comparisons that share its charts were each
     rendered in a worker of their own, and the catalog ran alone at the end for twice its time.
     Largest groups (by specs) first: the longest work starts first."""
+    from .entries import spec_identity
     parent = list(range(len(items)))
 
     def root(i: int) -> int:
@@ -112,16 +119,25 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     start = time.perf_counter()
     say = log or (lambda line: None)
     shard = check_shard(shard)
-    items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
-    out = Path(out_dir)
-    _check_out(out)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 0:
         raise SpecError(f"-j must be a whole number >= 0 (0: one per CPU), got {jobs!r}")
     jobs = jobs or cores()
-
-    renderers = gl_renderers(items)
+    out = Path(out_dir)
     cache = ImageCache()
-    keys = item_keys(items, renderers, cache.dir / "keys.json")
+    stamp_file = stamp_path(cache.dir, chart_dir, out, shard)
+    if not force:
+        manifest = _replay(stamp_file, cache, chart_dir, out, shard, say, verbose, start)
+        if manifest is not None:
+            return manifest
+
+    from .entries import collect
+    from .keys import gl_renderers, item_keys
+    packages = package_files()
+    with InputLog(cache.root) as inputs:
+        items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
+        _check_out(out)
+        renderers = gl_renderers(items)
+        keys = item_keys(items, renderers, cache.dir / "keys.json")
     cache.remove_stale_temps()
     _make_out(out)
     previous = _previous_images(out)
@@ -139,14 +155,17 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
         say(f"[{len(results):{len(str(total))}d}/{total}] {item.name}.png  cached"
             + (f"  {keys[item.name][:12]}" if verbose else ""))
 
+    uncached = []     # images a later build cannot find in the cache: no stamp then
+
     def done(item: Item, rendered: Rendered) -> None:
         key = keys[item.name]
         checkpoint("render")
         if rendered.renderer and rendered.renderer not in renderers.values():
             # Rendered on another GL than the key says: use the image, but do not cache it.
             say(f"warning: {item.name} rendered on {rendered.renderer}, not caching it")
-        else:
-            cache.put(key, rendered.png)
+            uncached.append(item.name)
+        elif not cache.put(key, rendered.png):
+            uncached.append(item.name)
         results[item.name] = Result(item, key, False, rendered.png, rendered.seconds, rendered.timings)
         _write_output(out, item, rendered.png)
         say(f"[{len(results):{len(str(total))}d}/{total}] {item.name}.png  rendered in {rendered.seconds:.2f} s"
@@ -163,6 +182,43 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     if shard is not None:
         manifest["shard"] = list(shard)
     _finish(out, manifest, previous, page=shard is None)
+    if not uncached:
+        record(stamp_file, inputs, packages, _as_unchanged(manifest))
+    return manifest
+
+
+def _as_unchanged(manifest: dict) -> dict:
+    """The manifest a build with nothing to render writes after this one."""
+    images = [{**image, "cached": True, "timings": {"render_s": 0.0}} for image in manifest["images"]]
+    return {**manifest, "images": images, "rendered": 0, "cached": len(images)}
+
+
+def _replay(stamp_file: Path, cache: ImageCache, chart_dir, out: Path, shard, say, verbose: bool,
+            start: float) -> dict | None:
+    """The build as its stamp recorded it, if no input changed, the output directory still
+    holds the recorded images byte for byte and the cache every one of them; else None."""
+    recorded = unchanged(stamp_file)
+    if recorded is None:
+        return None
+    images = recorded["images"]
+    try:
+        written = json.loads((out / "manifest.json").read_text())["images"]
+        if [(e["image"], e["sha256"]) for e in written] != [(e["image"], e["sha256"]) for e in images]:
+            return None
+        for image in images:
+            data = (out / image["image"]).read_bytes()
+            if hashlib.sha256(data).hexdigest() != image["sha256"] or cache.path(image["key"]).read_bytes() != data:
+                return None
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    _make_out(out)
+    cache.remove_stale_temps()
+    total = len(images)
+    for i, image in enumerate(images, start=1):
+        touch(cache.path(image["key"]))        # used now, as a cache hit marks it
+        say(f"[{i:{len(str(total))}d}/{total}] {image['image']}  cached" + (f"  {image['key'][:12]}" if verbose else ""))
+    manifest = {**recorded, "charts": str(chart_dir), "elapsed_s": round(time.perf_counter() - start, 3)}
+    _finish(out, manifest, set(), page=shard is None)
     return manifest
 
 
@@ -196,6 +252,7 @@ def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
     ``chart_dir`` in ``out_dir``: every entry's image must be in exactly one part, with the
     bytes its manifest's sha256 names; the merged manifest and index.html list them in entry
     order. Nothing renders and no GL is needed."""
+    from .entries import collect
     start = time.perf_counter()
     say = log or (lambda line: None)
     items = collect(chart_dir)

@@ -9,14 +9,15 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from ...cache import after_write, cache_max, default_cache_dir, touch
 from ...errors import OutputError
 from ...files import remove_stale_temps, write_bytes
-from ...spec.chart_spec import ChartSpec
-from .entries import Item
-from .keys import gl_renderers, item_key
+
+if TYPE_CHECKING:     # the cache and the writes load without the specs (a build answered by its stamp)
+    from ...spec.chart_spec import ChartSpec
+    from .entries import Item
 
 KEY_FIELD = "sdfpbr:build-key"
 ENTRY_FIELD = "sdfpbr:gallery-entry"
@@ -190,6 +191,7 @@ def ensure_image(item: Item, cache: ImageCache | None = None, force: bool = Fals
                  renderers: dict | None = None) -> tuple[str, bytes, bool]:
     """One item through the cache in this process: (key, PNG bytes, whether it was cached).
     The Sphinx extension uses this."""
+    from .keys import gl_renderers, item_key
     cache = cache or ImageCache()
     key = item_key(item, renderers or gl_renderers([item]))
     data = None if force else cache.get(key)
