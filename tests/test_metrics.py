@@ -8,6 +8,13 @@ from sdfpbr.errors import SpecError
 rng = np.random.default_rng(7)
 
 
+@pytest.fixture(autouse=True)
+def own_cache(tmp_path, monkeypatch):
+    """Measured FLIPs are stored in the cache: each test starts from an empty one, so that what
+    it measures is measured here, not read from an earlier run."""
+    monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
+
+
 def _ref(h=24, w=32):
     return (0.2 + rng.random((h, w, 3))).astype(np.float32)
 
@@ -254,7 +261,7 @@ def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
     other_mean, _ = M.flip_ldr(other, ref)
     assert len(M._kept_flips) == 2 and other_mean > mean
     M._kept_flips.clear()
-    fresh_mean, fresh = M.flip_ldr(test, ref)                          # evaluated anew: the same
+    fresh_mean, fresh = M.flip_ldr(test, ref)                          # from the store: the same
     assert fresh_mean == mean
     np.testing.assert_array_equal(fresh, again)
     mask = np.zeros(ref.shape[:2], bool)
@@ -322,3 +329,44 @@ def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
         np.testing.assert_array_equal(error_map, np.asarray(want_map, np.float32).reshape(r.shape[:2]))
         assert mean == pytest.approx(want_mean, rel=1e-6)
     assert len(M._kept_flips) == len(refs)                             # nothing measured again
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_a_measured_pair_is_stored_on_disk_and_read_back_exactly(tmp_path):
+    """A pair measured once is stored by its content key: a process that has not kept it reads
+    the stored figure and map (bit for bit flip-evaluator's), a batch of stored pairs starts no
+    workers, and a damaged entry is measured anew."""
+    import flip_evaluator
+    from sdfpbr.cache import ArrayCache
+    rng_ = np.random.default_rng(23)
+    refs = [rng_.integers(0, 256, (32, 40, 3), np.uint8) for _ in range(M.BATCH_WORKERS_FROM)]
+    tests = [np.clip(r.astype(int) + rng_.integers(-50, 50, r.shape), 0, 255).astype(np.uint8) for r in refs]
+    M._kept_flips.clear()
+    measured = [M.flip_ldr(t, r) for t, r in zip(tests, refs)]
+    stored = sorted((tmp_path / "cache" / M.FLIP_CACHE_KIND).glob("*.npz"))
+    assert len(stored) == len(refs)
+    M._kept_flips.clear()
+    for (mean, error_map), t, r in zip(measured, tests, refs):
+        again_mean, again = M.flip_ldr(t, r)
+        want_map, _, _ = flip_evaluator.evaluate(r / np.float32(255), t / np.float32(255), "LDR",
+                                                 applyMagma=False, parameters={"ppd": M.DEFAULT_PPD})
+        assert again_mean == mean
+        np.testing.assert_array_equal(again, error_map)
+        np.testing.assert_array_equal(again, np.asarray(want_map, np.float32).reshape(r.shape[:2]))
+
+    M._kept_flips.clear()
+    with M.FlipBatch(len(refs)) as batch:                              # all stored: nothing to measure
+        for t, r in zip(tests, refs):
+            batch.submit(t, r)
+        assert not M._in_flight and batch._pool is None
+    assert len(M._kept_flips) == len(refs)
+
+    key = M._flip_key(refs[0], tests[0], "LDR", {"ppd": M.DEFAULT_PPD})
+    planted = np.full(refs[0].shape[:2], 0.25, np.float32)
+    ArrayCache().put(M.FLIP_CACHE_KIND, M._stored_key(key), {"mean": np.float64(0.25), "map": planted})
+    M._kept_flips.clear()
+    assert M.flip_ldr(tests[0], refs[0])[0] == 0.25                    # read, not measured
+    for path in (tmp_path / "cache" / M.FLIP_CACHE_KIND).glob("*.npz"):
+        path.write_bytes(path.read_bytes()[:100])                      # damaged: measured anew
+    M._kept_flips.clear()
+    assert M.flip_ldr(tests[0], refs[0])[0] == measured[0][0]
