@@ -221,6 +221,26 @@ def test_a_kept_layout_labels_every_render_alike_and_is_not_changed_by_its_chart
     np.testing.assert_array_equal(fresh[~inside], third[~inside])  # the same margins, text and all
 
 
+def test_a_label_drawn_once_serves_every_layout_that_shows_it():
+    """Text patches are kept by all that decides their pixels: a chart whose title alone differs
+    takes its axis values from the kept patches, pixel for pixel what drawing them from nothing
+    gives, and a kept patch cannot be written into."""
+    from sdfpbr.image import layout
+    cells = [Cell(r, c, 20.0 + 40 * c, 20.0 + 40 * r, 15.0) for r in range(2) for c in range(3)]
+    render = np.zeros((80, 120, 4), np.uint8) + np.array([30, 60, 90, 255], np.uint8)
+    forget_layouts()
+    compose_chart(render, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)
+    drawn = layout._text_patch.cache_info().misses
+    kept = compose_chart(render, cells, [0, 0.5, 1], [0, 1], "Another title", FOOTER)
+    assert layout._text_patch.cache_info().misses == drawn + 1     # the new title alone was drawn
+    forget_layouts()
+    fresh = compose_chart(render, cells, [0, 0.5, 1], [0, 1], "Another title", FOOTER)
+    np.testing.assert_array_equal(kept, fresh)
+    style = layout._styles(120)["label"]
+    patch = layout._text_patch(style, "0.5", 0, (30, 20), (2.0, 15.0))
+    assert patch[..., 3].any() and not patch.flags.writeable
+
+
 def _overlap(a, b):
     return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
 

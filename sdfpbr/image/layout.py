@@ -303,8 +303,10 @@ _labels: dict[tuple, "_Labels"] = {}
 
 
 def forget_layouts() -> None:
-    """Drop the kept label layers (the next chart of each layout draws its labels again)."""
+    """Drop the kept label layers and text patches (the next chart of each layout draws its
+    labels from nothing)."""
     _labels.clear()
+    _text_patch.cache_clear()
 
 
 @dataclass(frozen=True)
@@ -422,6 +424,28 @@ def label_boxes(render_shape: Sequence[int], cells: Sequence[Cell], column_value
     return [(t.text, t.box) for t in _placements(lay, render_shape, cells, column_values, row_labels)]
 
 
+# Label patches by all that decides their pixels: the charts of a gallery's bug pages differ
+# in title and footer only, and drawing every axis value again was 0.8 s of a build.
+@functools.lru_cache(maxsize=4096)
+def _text_patch(style: _Style, text: str, stroke: int, size: tuple[int, int] | None,
+                origin: tuple[float, float] | None) -> np.ndarray:
+    """``text`` drawn on a transparent patch (read-only RGBA): ``size`` with the text's origin at
+    ``origin``, or (both None) on a strip as tall as a line and turned a quarter left."""
+    if size is None:
+        left, _, right, _ = _ink(style, text)
+        strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
+        ImageDraw.Draw(strip).text((-left, _baseline(style, 0)), text, font=style.font, fill=style.color,
+                                   anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
+        patch = np.asarray(strip.transpose(Image.Transpose.ROTATE_90))
+    else:
+        layer = Image.new("RGBA", size, _TRANSPARENT)
+        ImageDraw.Draw(layer).text(origin, text, font=style.font, fill=style.color,
+                                   anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
+        patch = np.asarray(layer)
+    patch.setflags(write=False)
+    return patch
+
+
 def _draw_labels(render_shape, cells, column_values, row_values, title, footer, row_names, transparent,
                  column_axis_title, row_axis_title) -> _Labels:
     """Every label of the layout drawn on its own patch, at the same sub-pixel position as on
@@ -435,17 +459,11 @@ def _draw_labels(render_shape, cells, column_values, row_values, title, footer, 
         style = lay.styles[t.style]
         stroke = style.stroke if transparent else 0
         if t.rotated:
-            left, _, right, _ = _ink(style, t.text)
-            strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
-            ImageDraw.Draw(strip).text((-left, _baseline(style, 0)), t.text, font=style.font, fill=style.color,
-                                       anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
-            x, y, patch = int(t.x), int(t.baseline), np.asarray(strip.transpose(Image.Transpose.ROTATE_90))
+            x, y, patch = int(t.x), int(t.baseline), _text_patch(style, t.text, stroke, None, None)
         else:   # the ink box and a pixel of slack each side
             x, y = math.floor(t.box[0]) - 1, math.floor(t.box[1]) - 1
-            layer = Image.new("RGBA", (math.ceil(t.box[2]) + 1 - x, math.ceil(t.box[3]) + 1 - y), _TRANSPARENT)
-            ImageDraw.Draw(layer).text((t.x - x, t.baseline - y), t.text, font=style.font, fill=style.color,
-                                       anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
-            patch = np.asarray(layer)
+            size = (math.ceil(t.box[2]) + 1 - x, math.ceil(t.box[3]) + 1 - y)
+            patch = _text_patch(style, t.text, stroke, size, (t.x - x, t.baseline - y))
         # Clipped to the chart: a label is placed inside it, its slack may not be.
         x1, y1 = min(x + patch.shape[1], width), min(y + patch.shape[0], height)
         patch = patch[max(0, -y):y1 - y, max(0, -x):x1 - x]
