@@ -48,7 +48,10 @@ vec3 sh_irradiance(vec3 n) {
 //   where it passes 1 and the chain clamps it anyway).
 struct SpecularLookup { vec3 direction; float perceptual_roughness; };
 #define TAIL_MAX 0.22
+#define TAIL_SLOPE 0.55       // the one-read ramps: tail = SLOPE (r - FROM), to TAIL_MAX ...
+#define TAIL_FROM 0.27
 #define CORE_SCALE 0.87
+#define CORE_FULL_FROM 0.8    // ... and a core scaled by CORE_SCALE, to 1 over r FULL_FROM .. 1
 #define LOBE_TAP_FADE 0.05   // sin(3 degrees): the two taps' offset fades out within it of N
 
 #if IBL_DOMINANT_DIR == moments
@@ -152,8 +155,8 @@ LobeFit lobe_fit(float perceptual_roughness, float n_dot_v) {
     float t = smoothstep(0.1, 0.2, perceptual_roughness);
     return LobeFit(fit.tail * t, mix(CORE_SCALE, fit.core_scale, t), fit.delta * t);
 #elif IBL_TWO_LOBE
-    return LobeFit(clamp(0.55 * (perceptual_roughness - 0.27), 0.0, TAIL_MAX),
-                   mix(CORE_SCALE, 1.0, smoothstep(0.8, 1.0, perceptual_roughness)), 0.0);
+    return LobeFit(clamp(TAIL_SLOPE * (perceptual_roughness - TAIL_FROM), 0.0, TAIL_MAX),
+                   mix(CORE_SCALE, 1.0, smoothstep(CORE_FULL_FROM, 1.0, perceptual_roughness)), 0.0);
 #else
     return LobeFit(0.0, 1.0, 0.0);
 #endif

@@ -142,10 +142,13 @@ def fit_node(args) -> dict:
     a, b, c = np.unravel_index(err.argmin(), err.shape)
     fit = dict(delta=DELTAS[a], core=CORES[b], tail=float(TAILS[c]))
     # The one-read ramps the table replaces (ibl.glsl before it), on skies the fit never saw.
-    # Its lobe_fit's IBL_TWO_LOBE branch: a smoothstep to 1 over r 0.8 .. 1, the tail's ramp.
-    x = min(max((r - 0.8) / 0.2, 0.0), 1.0)
+    # Its lobe_fit's IBL_TWO_LOBE branch (the ramps' constants read from ibl.glsl): the core
+    # scale's smoothstep to 1 over r CORE_FULL_FROM .. 1, the tail's ramp.
+    full_from = _glsl_define(text, "CORE_FULL_FROM")
+    x = min(max((r - full_from) / (1.0 - full_from), 0.0), 1.0)
     ramp_core = core_scale + (1.0 - core_scale) * x * x * (3.0 - 2.0 * x)
-    ramp_tail = min(max(0.55 * (r - 0.27), 0.0), _glsl_define(text, "TAIL_MAX"))
+    ramp_tail = min(max(_glsl_define(text, "TAIL_SLOPE") * (r - _glsl_define(text, "TAIL_FROM")), 0.0),
+                    _glsl_define(text, "TAIL_MAX"))
     held = {"table": 0.0, "ramps": 0.0}
     for s in range(HELD_SKIES):
         sky = Sky(900 + s)
