@@ -62,6 +62,7 @@ one output directory at the same time are not coordinated beyond that (the last 
 Modules
 -------
 ``entries`` (entry files -> ``Item``), ``keys`` (what a key covers), ``images`` (the image
-cache, rendering one item, the kill-point test hook), ``build`` (the build: outputs,
-manifest, parallel workers) and ``page`` (the static ``index.html``).
+cache, rendering one item, the kill-point test hook), ``stamp`` (a build's inputs, so that a
+build with nothing changed is answered without reading its entries), ``build`` (the build:
+outputs, manifest, parallel workers) and ``page`` (the static ``index.html``).
 """
