@@ -221,3 +221,31 @@ def test_textured_spheres_compose_with_the_few_tap_ibl_bug(session):
     spec = make_spec(rows=1, cols=2, width=64, height=32, labels=False, textures="hammered", bugs=("fewtap-ibl",))
     hdr = session.render(spec).hdr
     assert np.isfinite(hdr).all() and hdr[..., :3].max() > 0
+
+
+@pytest.mark.parametrize("mode", list(PROCEDURAL_MAPS))
+def test_a_shared_set_is_uploaded_once_per_context_and_draws_as_uploaded_anew(session, mode, tmp_path):
+    """A procedural set's GL textures are kept on the context (the gallery's textured pages
+    render it again and again): a second render reuses them and draws what a render with a
+    fresh upload draws; a set of the spec's own PNGs is uploaded for its render alone."""
+    from sdfpbr.gpu.textures import KEPT_UPLOADS
+    spec = make_spec(FURNACE, textures=mode, labels=False)
+    kept = session.ctx.extra.setdefault("uploaded_maps", {})
+    for entry in kept.values():
+        for tex in entry[1].values():
+            tex.release()
+    kept.clear()
+    first = session.render(spec).image
+    (maps, textures), = kept.values()
+    assert maps is texture_set(spec) and maps.shared
+    second = session.render(spec).image
+    assert len(kept) == 1 and all(a is b for a, b in zip(next(iter(kept.values()))[1].values(), textures.values()))
+    for tex in textures.values():
+        tex.release()
+    kept.clear()                                                  # drawn again from a fresh upload
+    np.testing.assert_array_equal(second, first)
+    np.testing.assert_array_equal(session.render(spec).image, first)
+    own = make_spec(spec, base_color_texture=_png(tmp_path / "c.png", (200, 90, 40)))
+    assert not texture_set(own).shared
+    session.render(own)
+    assert len(kept) == 1 <= KEPT_UPLOADS                          # its own PNG set was not kept

@@ -226,10 +226,11 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
         bindings.add_texture("u_env_map", env.texture, owned=True)
     bindings.add_texture("u_cell_materials", upload_materials(ctx, spec.cell_materials()), owned=True)
     if uses_textures:
-        from .textures import texture_set, upload
+        from .textures import texture_set, upload, upload_kept
         maps = texture_set(spec, cache)
-        for name, tex in upload(ctx, maps).items():
-            bindings.add_texture(name, tex, owned=True)
+        kept = upload_kept(ctx, maps)
+        for name, tex in (kept if kept is not None else upload(ctx, maps)).items():
+            bindings.add_texture(name, tex, owned=kept is None)
         bindings.uniforms["u_map_layers"] = maps.layers
     return bindings
 

@@ -8,7 +8,7 @@ increasing u and +Y up (OpenGL), +Z out of the surface. The sphere's u runs once
 vertical axis, v from the top pole (0) to the bottom (1)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -27,9 +27,12 @@ class TextureSet:
     """The maps a spec composes in, by name (shading.maps): (H, W, 4) uint8 images, sRGB or
     linear as the table says; a map left out is absent (the factors stand alone).
     ``layers`` > 1: each map holds that many sphere maps stacked top to bottom, one per cell
-    (a glTF asset's materials; textures.glsl reads the cell's layer)."""
+    (a glTF asset's materials; textures.glsl reads the cell's layer). ``shared``: one object
+    every render of it reuses (a procedural set, a glTF asset's bake), whose GL textures are
+    kept on the context (upload_kept)."""
     images: dict
     layers: int = 1
+    shared: bool = False
 
 
 @lru_cache(maxsize=1)
@@ -121,9 +124,9 @@ def procedural_maps(name: str, cache=None) -> TextureSet:
             key = content_key(Path(__file__).read_bytes(), name, PROCEDURAL_SIZE)
             stored = cache.get("textures", key)
             if stored is not None and all(a.dtype == np.uint8 for a in stored.values()):
-                _made[name] = TextureSet(stored)
+                _made[name] = TextureSet(stored, shared=True)
                 return _made[name]
-        _made[name] = PROCEDURAL_SETS[name]()
+        _made[name] = replace(PROCEDURAL_SETS[name](), shared=True)
         if key is not None:
             cache.put("textures", key, dict(_made[name].images))
     return _made[name]
@@ -310,7 +313,7 @@ def gltf_set(materials) -> TextureSet:
     size = GLTF_LAYER_SIZE if len(materials.textures) <= 16 else GLTF_LAYER_SIZE_MANY
     images = {kind: np.concatenate([_layer(kind, tex, size) for tex in materials.textures])
               for kind, present in materials.has_textures.items() if present}
-    baked = TextureSet(images, layers=len(materials.textures))
+    baked = TextureSet(images, layers=len(materials.textures), shared=True)
     _last_gltf_set[:] = [(materials, baked)]
     return baked
 
@@ -321,10 +324,13 @@ def texture_set(spec, cache=None) -> TextureSet:
     glTF asset's own."""
     if spec.gltf:
         return gltf_set(spec.gltf_maps())
+    own = [(name, field) for name, field in (("base", "base_color_texture"), ("orm", "orm_texture"),
+                                             ("normal", "normal_texture")) if getattr(spec, field)]
+    if spec.textures in PROCEDURAL_SETS and not own:
+        return procedural_maps(spec.textures, cache)     # the kept set itself: its upload is kept too
     images = dict(procedural_maps(spec.textures, cache).images) if spec.textures in PROCEDURAL_SETS else {}
-    for name, field in (("base", "base_color_texture"), ("orm", "orm_texture"), ("normal", "normal_texture")):
-        if getattr(spec, field):
-            images[name] = _load_png(getattr(spec, field), field)
+    for name, field in own:
+        images[name] = _load_png(getattr(spec, field), field)
     return TextureSet(images)
 
 
@@ -353,3 +359,25 @@ def upload(ctx, maps: TextureSet) -> dict:
         tex.repeat_x, tex.repeat_y = True, False
         out[kind.uniform] = tex
     return out
+
+
+# Shared sets' GL textures kept on their context, the most recently used last: the gallery's
+# textured bug pages uploaded the same procedural set with its mipmaps for every render
+# (0.33 s of a build). A set of the spec's own PNGs is read for each render and uploaded anew.
+KEPT_UPLOADS = 4
+
+
+def upload_kept(ctx, maps: TextureSet) -> dict:
+    """upload(ctx, maps) for a shared set, done once per context and kept there (the caller
+    does not release them); None where the context keeps nothing (then upload and release)."""
+    if not maps.shared or not isinstance(getattr(ctx, "extra", None), dict):
+        return None
+    kept = ctx.extra.setdefault("uploaded_maps", {})
+    hit = kept.pop(id(maps), None)
+    if hit is None or hit[0] is not maps:
+        hit = (maps, upload(ctx, maps))
+    kept[id(maps)] = hit
+    while len(kept) > KEPT_UPLOADS:
+        for tex in kept.pop(next(iter(kept)))[1].values():
+            tex.release()
+    return hit[1]

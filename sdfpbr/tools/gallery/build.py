@@ -27,9 +27,6 @@ from .stamp import InputLog, package_files, record, stamp_path, unchanged
 if TYPE_CHECKING:     # the entries, their specs and keys (numpy, the glTF parser, GL) load only
     from .entries import Item    # when a build is not answered by its stamp (stamp.py)
 
-# The entries, their specs and keys (numpy, the glTF parser, GL) load only when a build is not
-# answered by its stamp (stamp.py).
-
 
 def _worker(items: list[Item], keys: list[str]) -> list[Rendered]:
     rendered: dict[str, Rendered] = {}
@@ -197,19 +194,23 @@ def _replay(stamp_file: Path, cache: ImageCache, chart_dir, out: Path, shard, sa
             start: float) -> dict | None:
     """The build as its stamp recorded it, if no input changed, the output directory still
     holds the recorded images byte for byte and the cache every one of them; else None."""
-    recorded = unchanged(stamp_file)
+    recorded, why = unchanged(stamp_file)
     if recorded is None:
+        if verbose:
+            say(f"full build: {why}")
         return None
     images = recorded["images"]
     try:
         written = json.loads((out / "manifest.json").read_text())["images"]
         if [(e["image"], e["sha256"]) for e in written] != [(e["image"], e["sha256"]) for e in images]:
-            return None
+            raise ValueError
         for image in images:
             data = (out / image["image"]).read_bytes()
             if hashlib.sha256(data).hexdigest() != image["sha256"] or cache.path(image["key"]).read_bytes() != data:
-                return None
+                raise ValueError
     except (OSError, ValueError, KeyError, TypeError):
+        if verbose:
+            say(f"full build: {out} or the cache does not hold the last build's images")
         return None
     _make_out(out)
     cache.remove_stale_temps()

@@ -25,6 +25,8 @@ STAMP_FORMAT = "sdfpbr-build-stamp-1"
 ENV_PREFIXES = ("SDFPBR_", "MESA_", "LIBGL_", "GALLIUM_", "LP_", "EGL_", "__EGL_", "__GLX_", "__GL_",
                 "GLCONTEXT_", "CUDA_", "NVIDIA_", "LD_LIBRARY_PATH", "LD_PRELOAD", "DISPLAY", "WAYLAND_DISPLAY")
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]     # the sdfpbr package directory
+# Kernel views, not inputs: their content changes from one read to the next.
+PSEUDO_FILESYSTEMS = ("/proc/", "/sys/", "/dev/")
 
 _WRITE_FLAGS = os.O_WRONLY | os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_TRUNC
 HASHED_MAX = 8 << 20     # files up to this size are compared by content, larger ones by mtime
@@ -70,14 +72,14 @@ def _audit(event: str, args: tuple) -> None:
 class InputLog:
     """Inside ``with InputLog(exclude) as log:``, every file this process opens for reading
     and every directory it lists is recorded with its fingerprint, taken before the read;
-    paths under ``exclude`` (the cache, which builds write) are left out."""
+    paths under ``exclude`` (the cache, which builds write) and kernel views are left out."""
 
     def __init__(self, exclude: Path):
         self.exclude = os.path.abspath(exclude) + os.sep
         self.paths: dict[str, list | None] = {}
 
     def see(self, path: str) -> None:
-        if path not in self.paths and not path.startswith(self.exclude):
+        if path not in self.paths and not path.startswith((self.exclude, *PSEUDO_FILESYSTEMS)):
             self.paths[path] = None          # first: fingerprint's own open comes back here
             self.paths[path] = fingerprint(path)
 
@@ -148,15 +150,21 @@ def record(path: Path, log: InputLog, packages: dict, manifest: dict) -> None:
         pass
 
 
-def unchanged(path: Path) -> dict | None:
-    """The manifest the stamp at ``path`` recorded if every input is as it was, else None."""
+def unchanged(path: Path) -> tuple[dict | None, str]:
+    """(the manifest the stamp at ``path`` recorded, "") if every input is as it was, else
+    (None, what differs first)."""
     try:
         stamp = json.loads(path.read_text())
         if stamp.get("format") != STAMP_FORMAT:
-            return None
-        same = (all(stamp[k] == v for k, v in _environment().items())
-                and all(fingerprint(p, print_ is None or print_[0] != "stat") == print_
-                        for p, print_ in stamp["paths"].items()))
-        return stamp["manifest"] if same else None
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return None
+            return None, "no stamp of this version"
+        for key, value in _environment().items():
+            if stamp[key] != value:
+                return None, f"the {'interpreter' if key == 'python' else 'environment'} changed"
+        for p, print_ in stamp["paths"].items():
+            if fingerprint(p, print_ is None or print_[0] != "stat") != print_:
+                return None, f"{p} changed"
+        return stamp["manifest"], ""
+    except OSError:
+        return None, "no stamp"
+    except (ValueError, KeyError, TypeError, AttributeError):
+        return None, "an unreadable stamp"
