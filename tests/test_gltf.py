@@ -443,3 +443,28 @@ def test_a_normal_texture_is_scaled_by_its_scale_on_the_layer(tmp_path):
     n /= np.linalg.norm(n)
     layer = layer_of(glb, "normal")[..., :3].astype(float)
     assert np.abs(layer - 255 * (0.5 + 0.5 * n)).max() <= 0.5 + 1e-6
+
+
+def test_an_image_edited_beside_a_gltf_is_read_again_and_rekeys_its_gallery_image(session, tmp_path, monkeypatch):
+    """A .gltf's image may be a file beside it: editing that file alone (the .gltf untouched)
+    gives the new image in the same process, and the gallery renders the entry again (its key
+    covers the images the asset samples, not only the asset's own bytes)."""
+    from sdfpbr.tools.gallery.build import build
+    monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
+    (tmp_path / "maps").mkdir()
+    image = tmp_path / "maps" / "colour.png"
+    image.write_bytes(png_bytes(pattern(4)))
+    doc = gltf_asset([textured()])
+    doc.images = [pygltflib.Image(uri="maps/colour.png")]
+    doc.textures = [pygltflib.Texture(source=0)]
+    doc.save_json(str(tmp_path / "asset.gltf"))
+    spec = make_spec(gltf=str(tmp_path / "asset.gltf"), size="96x96")
+    first_chart = session.render(spec).image
+    charts = tmp_path / "charts"
+    charts.mkdir()
+    (charts / "asset.toml").write_text('gltf = "../asset.gltf"\nsize = "96x96"\n')
+    first = build(charts, tmp_path / "out")
+    image.write_bytes(png_bytes(pattern(5)))
+    assert not np.array_equal(session.render(spec).image, first_chart)
+    again = build(charts, tmp_path / "out")
+    assert again["rendered"] == 1 and again["images"][0]["key"] != first["images"][0]["key"]

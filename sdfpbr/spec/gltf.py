@@ -67,6 +67,7 @@ class GltfMaterials:
     materials: tuple[dict, ...]   # Material keywords, one per material
     ignored: tuple[str, ...]      # "material: what was not charted"
     textures: tuple = ()          # MaterialTextures, one per material
+    files: tuple = ()             # the files beside the asset that it names (images, buffers)
 
     @property
     def has_textures(self) -> dict[str, bool]:
@@ -279,20 +280,40 @@ def _textures(doc, base: Path, index: int, m) -> MaterialTextures:
         ext_ref("KHR_materials_specular", "specularColorTexture"))
 
 
+# The last asset read: (path, its stat, names) -> (GltfMaterials, the stats of the files beside
+# it that it names), so that an image edited beside a .gltf is read again too.
 _memo: dict = {}
+
+
+def _beside(doc, base: Path) -> tuple:
+    """(path, mtime, size) of every file the asset names beside it (images, buffers)."""
+    from urllib.parse import unquote
+    uris = [i.uri for i in doc.images or []] + [b.uri for b in doc.buffers or []]
+    return tuple((str(base / unquote(u)), *_stat(base / unquote(u)))
+                 for u in uris if isinstance(u, str) and not u.startswith("data:"))
+
+
+def _stat(path: Path) -> tuple:
+    try:
+        st = path.stat()
+    except OSError:
+        return (None, None)
+    return (st.st_mtime_ns, st.st_size)
 
 
 def gltf_materials(path: str, names: tuple[str, ...] = ()) -> GltfMaterials:
     """The materials of the asset at ``path`` (those named in ``names``, in that order; all
-    without names), read once per file version."""
+    without names), read once per version of the asset and of the files beside it."""
     p = Path(path)
     try:
         stat = p.stat()
     except OSError:
         raise SpecError(f"gltf file {path} does not exist") from None
     key = (str(p.resolve()), stat.st_mtime_ns, stat.st_size, tuple(names))
-    if key not in _memo:
+    hit = _memo.get(key)
+    if hit is None or any(_stat(Path(f)) != (mtime, size) for f, mtime, size in hit[1]):
         doc = _load(str(p))
+        beside = _beside(doc, p.parent)     # before the images are read
         read = [(_material(i, m), _ignored(i, m), _textures(doc, p.parent, i, m))
                 for i, m in enumerate(doc.materials or [])]
         if not read:
@@ -305,9 +326,9 @@ def gltf_materials(path: str, names: tuple[str, ...] = ()) -> GltfMaterials:
                                 f"it has: {', '.join(by_name)}")
             read = [by_name[n] for n in names]
         _memo.clear()
-        _memo[key] = GltfMaterials(tuple(m for m, _, _ in read), tuple(i for _, ig, _ in read for i in ig),
-                                   tuple(tx for _, _, tx in read))
-    return _memo[key]
+        _memo[key] = (GltfMaterials(tuple(m for m, _, _ in read), tuple(i for _, ig, _ in read for i in ig),
+                                    tuple(tx for _, _, tx in read), tuple(f for f, _, _ in beside)), beside)
+    return _memo[key][0]
 
 
 def grid_for(count: int) -> tuple[int, int]:

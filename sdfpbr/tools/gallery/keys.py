@@ -3,6 +3,7 @@ the Python that makes images, the GL renderer), hashed."""
 from __future__ import annotations
 
 import hashlib
+import os
 import re
 from pathlib import Path
 from typing import Sequence
@@ -39,12 +40,16 @@ def _file_digest(path: str) -> str:
 
 
 def _spec_for_key(spec: ChartSpec) -> dict:
-    """to_dict, with each named file (env, textures, glTF asset) replaced by its content hash, so
-    the key follows what a file holds, not where the checkout lives."""
+    """to_dict, with each named file (env, textures, glTF asset and the files beside it that
+    it names: its images may be there) replaced by its content hash, so the key follows what a
+    file holds, not where the checkout lives. Every one is read here, memo or not, which is how
+    a build's stamp sees them (stamp.py)."""
     out = {}
     for k, v in spec.to_dict().items():
         if names_file(k, v) and Path(v).is_file():
-            v = "sha256:" + _file_digest(v)
+            beside = spec.gltf_maps().files if k == "gltf" else ()
+            v = " ".join([f"sha256:{_file_digest(v)}"] + [f"{os.path.relpath(f, Path(v).parent)}:{_file_digest(f)}"
+                                                        for f in beside if Path(f).is_file()])
         out[k] = v
     return out
 
