@@ -6,12 +6,13 @@ A full build records every input it reads while it collects the entries and make
 each file opened for reading and each directory listed (a Python audit hook; the fingerprint
 taken before the read), the package's sources and shader modules, the shared libraries mapped
 into the process (the GL driver among them; /proc/self/maps), the environment variables that
-steer them and the interpreter. With the manifest it wrote, that is the build's stamp, one file per
-(chart directory, output directory, shard) in the image cache. The next build compares the
-stamp before it imports anything heavy: every input as recorded, the output directory holding
-the manifest's images byte for byte, and every image still in the cache, gives the recorded
-result without reading an entry; any difference (or anything unreadable) takes the full
-build, which records a new stamp."""
+steer them and the interpreter. With the manifest it wrote, that is the build's stamp, one
+file per (chart directory, output directory, shard) in the image cache. The next build
+compares the stamp before it imports anything heavy: every input as recorded, the output
+directory holding the manifest's images byte for byte, and every image still in the cache,
+gives the recorded result without reading an entry; any difference (or anything unreadable)
+takes the full build, which records a new stamp. An input a process memo spares the build
+from reading must still be read for its key (keys._spec_for_key hashes every named file)."""
 from __future__ import annotations
 
 import hashlib
