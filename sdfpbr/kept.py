@@ -13,6 +13,7 @@ class Kept:
         self.budget = budget
         self._size = size
         self._values: dict = {}
+        self._total = 0      # the sizes of the values kept, summed as they come and go
 
     def get(self, key: Hashable):
         """The value kept under ``key`` (now the most recently used), or None."""
@@ -22,10 +23,12 @@ class Kept:
         return value
 
     def put(self, key: Hashable, value) -> None:
-        self._values.pop(key, None)
+        if key in self._values:
+            self._total -= self._size(self._values.pop(key))
         self._values[key] = value
-        while len(self._values) > 1 and sum(map(self._size, self._values.values())) > self.budget:
-            self._values.pop(next(iter(self._values)))
+        self._total += self._size(value)
+        while len(self._values) > 1 and self._total > self.budget:
+            self._total -= self._size(self._values.pop(next(iter(self._values))))
 
     def __contains__(self, key) -> bool:
         return key in self._values
@@ -35,3 +38,4 @@ class Kept:
 
     def clear(self) -> None:
         self._values.clear()
+        self._total = 0

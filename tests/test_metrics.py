@@ -370,3 +370,24 @@ def test_a_measured_pair_is_stored_on_disk_and_read_back_exactly(tmp_path):
         path.write_bytes(path.read_bytes()[:100])                      # damaged: measured anew
     M._kept_flips.clear()
     assert M.flip_ldr(tests[0], refs[0])[0] == measured[0][0]
+
+
+def test_kept_results_stay_within_their_byte_budget():
+    """The least recently used go first once the sizes pass the budget; a value put again under
+    its key counts once; the newest stays whatever its size; clear starts from nothing."""
+    from sdfpbr.kept import Kept
+    kept = Kept(10, len)
+    kept.put("a", "xxxx")
+    kept.put("b", "xxxx")
+    assert kept.get("a") == "xxxx"                                     # a is now the most recent
+    kept.put("b", "xx")                                                # b again: 4 + 2 bytes
+    kept.put("c", "xxxx")                                              # 10: all three fit
+    assert len(kept) == 3
+    kept.put("d", "x")                                                 # 11: the oldest (a) goes
+    assert "a" not in kept and len(kept) == 3
+    kept.put("e", "x" * 50)                                            # over budget alone: kept, the rest go
+    assert len(kept) == 1 and kept.get("e")
+    kept.clear()
+    kept.put("f", "x" * 10)
+    kept.put("g", "x" * 0)
+    assert len(kept) == 2

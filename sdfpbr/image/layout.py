@@ -26,6 +26,7 @@ from typing import Sequence
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from ..kept import Kept
 from .text import drawable_text, load_font
 
 __all__ = ["FOOTER_SEPARATOR", "Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset", "label_text", "label_boxes"]
@@ -306,7 +307,7 @@ def forget_layouts() -> None:
     """Drop the kept label layers and text patches (the next chart of each layout draws its
     labels from nothing)."""
     _labels.clear()
-    _text_patch.cache_clear()
+    _text_patches.clear()
 
 
 @dataclass(frozen=True)
@@ -425,12 +426,26 @@ def label_boxes(render_shape: Sequence[int], cells: Sequence[Cell], column_value
 
 
 # Label patches by all that decides their pixels: the charts of a gallery's bug pages differ
-# in title and footer only, and drawing every axis value again was 0.8 s of a build.
-@functools.lru_cache(maxsize=4096)
+# in title and footer only, and drawing every axis value again was 0.8 s of a build. Kept
+# within a byte budget (an 8192² chart's title alone is megabytes).
+TEXT_PATCH_BYTES = 32 << 20
+_text_patches = Kept(TEXT_PATCH_BYTES, lambda patch: patch.nbytes)
+
+
 def _text_patch(style: _Style, text: str, stroke: int, size: tuple[int, int] | None,
                 origin: tuple[float, float] | None) -> np.ndarray:
     """``text`` drawn on a transparent patch (read-only RGBA): ``size`` with the text's origin at
     ``origin``, or (both None) on a strip as tall as a line and turned a quarter left."""
+    key = (style, text, stroke, size, origin)
+    patch = _text_patches.get(key)
+    if patch is None:
+        patch = _drawn_text_patch(style, text, stroke, size, origin)
+        _text_patches.put(key, patch)
+    return patch
+
+
+def _drawn_text_patch(style: _Style, text: str, stroke: int, size: tuple[int, int] | None,
+                      origin: tuple[float, float] | None) -> np.ndarray:
     if size is None:
         left, _, right, _ = _ink(style, text)
         strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
