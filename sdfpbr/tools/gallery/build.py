@@ -73,6 +73,11 @@ class Result:
     timings: dict = field(default_factory=dict)
 
 
+def progress_line(done: int, total: int, image: str, what: str, key: str = "") -> str:
+    """"[ 3/12] name.png  rendered in 0.41 s", with the key's first 12 digits when given."""
+    return f"[{done:{len(str(total))}d}/{total}] {image}  {what}" + (f"  {key[:12]}" if key else "")
+
+
 def check_shard(shard) -> tuple[int, int] | None:
     """(i, n) with 1 <= i <= n, or None."""
     if shard is None:
@@ -149,8 +154,7 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
             continue
         results[item.name] = Result(item, keys[item.name], True, data)
         _write_output(out, item, data)
-        say(f"[{len(results):{len(str(total))}d}/{total}] {item.name}.png  cached"
-            + (f"  {keys[item.name][:12]}" if verbose else ""))
+        say(progress_line(len(results), total, f"{item.name}.png", "cached", keys[item.name] if verbose else ""))
 
     uncached = []     # images a later build cannot find in the cache: no stamp then
 
@@ -165,8 +169,8 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
             uncached.append(item.name)
         results[item.name] = Result(item, key, False, rendered.png, rendered.seconds, rendered.timings)
         _write_output(out, item, rendered.png)
-        say(f"[{len(results):{len(str(total))}d}/{total}] {item.name}.png  rendered in {rendered.seconds:.2f} s"
-            + (f"  {key[:12]}" if verbose else ""))
+        say(progress_line(len(results), total, f"{item.name}.png", f"rendered in {rendered.seconds:.2f} s",
+                          key if verbose else ""))
 
     groups = work_groups(todo)
     workers = min(jobs, len(groups))
@@ -217,7 +221,7 @@ def _replay(stamp_file: Path, cache: ImageCache, chart_dir, out: Path, shard, sa
     total = len(images)
     for i, image in enumerate(images, start=1):
         touch(cache.path(image["key"]))        # used now, as a cache hit marks it
-        say(f"[{i:{len(str(total))}d}/{total}] {image['image']}  cached" + (f"  {image['key'][:12]}" if verbose else ""))
+        say(progress_line(i, total, image["image"], "cached", image["key"] if verbose else ""))
     manifest = {**recorded, "charts": str(chart_dir), "elapsed_s": round(time.perf_counter() - start, 3)}
     _finish(out, manifest, set(), page=shard is None)
     return manifest
@@ -292,7 +296,7 @@ def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
     previous = _previous_images(out)
     for i, item in enumerate(items, start=1):
         _write_output(out, item, found[item.name][1])
-        say(f"[{i:{len(str(len(items)))}d}/{len(items)}] {item.name}.png  from {found[item.name][2]}")
+        say(progress_line(i, len(items), f"{item.name}.png", f"from {found[item.name][2]}"))
     images = [found[n][0] for n in names]
     manifest = {
         "sdfpbr": __version__,
