@@ -52,7 +52,6 @@ def _cell_flip(session, correct, buggy):
 
 
 @pytest.mark.parametrize("name", list(BUGS))
-@pytest.mark.requires_extra("flip_evaluator")
 def test_bug_changes_the_image(session, name):
     bug = BUGS[name]
     cells = _cell_flip(session, bug.correct(BASE), bug.apply(BASE))
@@ -67,7 +66,6 @@ def _flips(session, correct, buggy):
 
 
 @pytest.mark.parametrize("name", list(BUGS))
-@pytest.mark.requires_extra("flip_evaluator")
 def test_every_bug_is_visible_in_its_own_scene(session, name):
     """On the default chart at 256 px plus what the bug requires (its scene), the bug differs
     from the correct render at least as much as a change a person sees side by side in that

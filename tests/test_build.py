@@ -62,7 +62,6 @@ def images(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(out.glob("*.png"))}
 
 
-@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 def test_rebuild_with_no_change_renders_nothing(env):
     charts = make_charts(env)
     out = env / "out"
@@ -88,7 +87,6 @@ def modules_of(spec) -> set[str]:
     return set(render_plan(spec).chart.modules) | set(render_plan(spec).display.modules)
 
 
-@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 @pytest.mark.parametrize("module", ["shadow.glsl", "ao.glsl"])
 def test_editing_a_shader_module_rerenders_exactly_its_users(env, module):
     charts = make_charts(env)
@@ -123,7 +121,6 @@ def test_program_sources_cover_every_program_a_render_compiles(session, tmp_path
             assert compiled and compiled <= allowed, spec
 
 
-@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 def test_manifest_and_index_list_every_image_escaped(env):
     charts = make_charts(env)
     out = env / "out"
@@ -172,7 +169,6 @@ def test_manifest_and_index_list_every_image_escaped(env):
     assert "unsquared-roughness" in text and "exposure" in text
 
 
-@pytest.mark.requires_extra("flip_evaluator")   # the env's charts include a [compare] entry (FLIP)
 def test_png_metadata_specs_are_the_keyed_specs(env):
     """Every spec a sheet says it rendered (PNG metadata) is one the key covers."""
     charts = make_charts(env)
@@ -213,7 +209,6 @@ def test_a_removed_entry_loses_its_image_only(env):
     assert sorted(p.name for p in out.glob("*.png")) == ["notes.png", "plain.png"]
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_comparisons_measured_beside_other_entries_are_the_images_each_makes_alone(env):
     """The build renders the comparisons' pairs first and measures their FLIPs in workers while
     the other entries render (images.render_items); every image is still the one its entry

@@ -49,7 +49,6 @@ def background_far_from_spheres(spec, margin_px):
     return dist > margin_px
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_identical_specs_give_a_zero_difference_and_exact_panels():
     spec = make_spec(**SMALL)
     sheet = compare_specs(spec, spec, labels=("left", "right"))
@@ -76,7 +75,6 @@ def test_identical_specs_give_a_zero_difference_and_exact_panels():
     assert "same spec" in sheet.caption
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_exposure_difference_is_large_on_spheres_and_nil_far_from_them():
     """+3 EV over a black, groundless scene: every lit sphere changes a lot, the black
     background (identical in both) does not, beyond the reach of FLIP's filters."""
@@ -93,7 +91,6 @@ def test_exposure_difference_is_large_on_spheres_and_nil_far_from_them():
     assert d.mean == pytest.approx(flip_ldr(display(brighter), display(spec))[0], abs=1e-6)
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
     spec = make_spec(**{**SMALL, "width": 160, "height": 160})
     test = make_spec(spec, tonemap="clamp")
@@ -117,7 +114,6 @@ def test_numbers_on_the_spheres_are_the_per_cell_means_of_the_map():
         assert (patch.min(axis=-1) > 200).any()
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_bug_comparison_is_captioned_and_differs_where_alpha_changes():
     """unsquared-roughness uses r instead of r^2: identical at r = 1, different in between.
     With nothing else in the spheres' reflections: no floor (the bug roughens it too) and no
@@ -149,7 +145,6 @@ def test_bug_pair_for_a_spec_that_already_has_the_bug():
     assert correct.bugs == () and buggy.bugs == ("clamp-tonemap",)
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_sheet_saves_png_with_specs_and_digests(tmp_path):
     spec = make_spec(**SMALL)
     sheet = compare_bug(spec, "clamp-tonemap")
@@ -170,7 +165,6 @@ def test_sheet_saves_png_with_specs_and_digests(tmp_path):
     assert not (tmp_path / "cmp.jpg").exists()
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_contact_sheet_is_a_grid_of_cards_quoting_the_figures_compare_quotes():
     spec = make_spec(**SMALL)
     names = ["clamp-tonemap", "double-gamma", "no-cosine"]
@@ -191,7 +185,6 @@ def test_contact_sheet_is_a_grid_of_cards_quoting_the_figures_compare_quotes():
         bug_contact_sheet(spec, ["clamp-tonemap", "no-such-bug"])
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_contact_sheet_shows_small_panels_of_bigger_measured_renders():
     """Panels shown at 64 px, figures measured at 128 px: the numbers are the bigger render's."""
     spec = make_spec(**{**SMALL, "width": 128, "height": 128})
@@ -277,7 +270,6 @@ def test_bad_output_suffix_is_refused(tmp_path, args):
     assert not list(tmp_path.iterdir())
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_compare_and_sweep_commands_write_sheets(tmp_path):
     a, b = tmp_path / "a.toml", tmp_path / "b.toml"
     a.write_text('size = "64x64"\nquality = "draft"\n')
@@ -297,7 +289,6 @@ def test_compare_and_sweep_commands_write_sheets(tmp_path):
                                                         "compare-double-gamma.png", "sweep.png"]
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_sheets_keep_their_renders_read_only_and_frames_are_not_kept():
     """The sheets render a spec once per process (the catalog's correct chart, a gallery's
     per-bug pages): a kept render is the same object, its arrays read-only; a render with AOVs

@@ -89,7 +89,6 @@ def _ldr(h=48, w=64):
     return (rng.random((h, w, 3)) * 255).astype(np.uint8)
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_ldr_identical_is_zero_and_alpha_is_ignored():
     a = _ldr()
     rgba = np.concatenate([a, np.zeros(a.shape[:2] + (1,), np.uint8)], axis=2)
@@ -98,7 +97,6 @@ def test_flip_ldr_identical_is_zero_and_alpha_is_ignored():
     assert emap.shape == a.shape[:2] and emap.dtype == np.float32
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_ldr_black_vs_white_is_large_and_grows_with_the_difference():
     black = np.zeros((32, 32, 3), np.uint8)
     white = np.full((32, 32, 3), 255, np.uint8)
@@ -110,7 +108,6 @@ def test_flip_ldr_black_vs_white_is_large_and_grows_with_the_difference():
     assert emap.min() >= 0.0 and emap.max() <= 1.0
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_mask_mean_is_the_mean_of_the_map_over_the_mask():
     a, b = _ldr(), _ldr()
     mask = np.zeros(a.shape[:2], bool)
@@ -243,7 +240,6 @@ def test_apply_colormap_ends_and_monotone_luminance():
     assert np.all(np.diff(lum) >= -1.0)
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
     """A pair measured again (a gallery's per-bug page and its catalog card) is not evaluated
     again: the same figure and map; writing into a returned map changes no later result; another
@@ -269,7 +265,6 @@ def test_a_repeated_flip_is_the_kept_result_and_a_new_pair_is_measured():
     assert M.flip_ldr(test, ref, mask=mask)[0] == pytest.approx(fresh[mask].mean(), rel=1e-6)
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_read_only_pairs_are_known_by_identity_and_writeable_ones_by_content():
     """A pair of read-only arrays (the sheets' kept renders) is looked up by the arrays
     themselves the second time; a writeable array may change between calls, so it is hashed
@@ -297,14 +292,12 @@ def test_read_only_pairs_are_known_by_identity_and_writeable_ones_by_content():
     assert held() is None                                              # the arrays are not kept alive
 
 
-@pytest.mark.requires_extra("flip_evaluator")
-def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
-    """Pairs submitted to a batch are measured (in worker processes, one thread each, where
-    there is more than one core) and kept: flip_ldr of a pair still in flight takes its worker's
-    result, and flip_ldr of each afterwards takes the kept result
-    without measuring again, and it is flip-evaluator's own figure and map for that pair (the
-    map per pixel exactly; the mean up to the summation order of a different thread count)."""
-    import flip_evaluator
+def test_a_flip_batch_measures_each_pair_as_flip_ldr_does():
+    """Pairs submitted to a batch are measured (in worker processes where there is more than
+    one core) and kept: flip_ldr of a pair still in flight takes its worker's result, and
+    flip_ldr of each afterwards takes the kept result without measuring again, and it is the
+    very map image.flip gives for that pair in this process."""
+    from sdfpbr.image.flip import ldr_flip
     from sdfpbr.workers import cores
     rng = np.random.default_rng(11)
     refs = [rng.integers(0, 256, (40, 56, 3), np.uint8) for _ in range(M.BATCH_WORKERS_FROM)]
@@ -323,21 +316,19 @@ def test_a_flip_batch_measures_each_pair_as_flip_evaluator_does():
     assert len(M._kept_flips) == len(refs)
     assert M.flip_ldr(tests[1], refs[1])[0] == early_mean
     for t, r in zip(tests, refs):
-        want_map, want_mean, _ = flip_evaluator.evaluate(r / np.float32(255), t / np.float32(255), "LDR",
-                                                         applyMagma=False, parameters={"ppd": M.DEFAULT_PPD})
+        want_map = ldr_flip(r, t, M.DEFAULT_PPD)
         mean, error_map = M.flip_ldr(t, r)
-        np.testing.assert_array_equal(error_map, np.asarray(want_map, np.float32).reshape(r.shape[:2]))
-        assert mean == pytest.approx(want_mean, rel=1e-6)
+        np.testing.assert_array_equal(error_map, want_map)
+        assert mean == want_map.mean(dtype=np.float64)
     assert len(M._kept_flips) == len(refs)                             # nothing measured again
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_a_measured_pair_is_stored_on_disk_and_read_back_exactly(tmp_path):
     """A pair measured once is stored by its content key: a process that has not kept it reads
-    the stored figure and map (bit for bit flip-evaluator's), a batch of stored pairs starts no
-    workers, and a damaged entry is measured anew."""
-    import flip_evaluator
+    the stored figure and map (bit for bit a fresh measurement's), a batch of stored pairs
+    starts no workers, and a damaged entry is measured anew."""
     from sdfpbr.cache import ArrayCache
+    from sdfpbr.image.flip import ldr_flip
     rng_ = np.random.default_rng(23)
     refs = [rng_.integers(0, 256, (32, 40, 3), np.uint8) for _ in range(M.BATCH_WORKERS_FROM)]
     tests = [np.clip(r.astype(int) + rng_.integers(-50, 50, r.shape), 0, 255).astype(np.uint8) for r in refs]
@@ -348,11 +339,9 @@ def test_a_measured_pair_is_stored_on_disk_and_read_back_exactly(tmp_path):
     M._kept_flips.clear()
     for (mean, error_map), t, r in zip(measured, tests, refs):
         again_mean, again = M.flip_ldr(t, r)
-        want_map, _, _ = flip_evaluator.evaluate(r / np.float32(255), t / np.float32(255), "LDR",
-                                                 applyMagma=False, parameters={"ppd": M.DEFAULT_PPD})
         assert again_mean == mean
         np.testing.assert_array_equal(again, error_map)
-        np.testing.assert_array_equal(again, np.asarray(want_map, np.float32).reshape(r.shape[:2]))
+        np.testing.assert_array_equal(again, ldr_flip(r, t, M.DEFAULT_PPD))
 
     M._kept_flips.clear()
     with M.FlipBatch(len(refs)) as batch:                              # all stored: nothing to measure

@@ -2,9 +2,11 @@
 
 * ``rel_rmse``: relative RMSE in linear HDR (Rousselle et al. 2011's relMSE, square-rooted),
   over sphere pixels or any mask; ``per_cell_rel_rmse`` per sphere of the chart.
-* ``flip_ldr`` / ``flip_hdr``: NVIDIA's FLIP through the ``flip-evaluator`` package (extra
-  ``metrics``). Its Python API calls ``sys.exit`` on bad arguments and aborts on a black HDR
-  reference, so every input is checked here first and a bad one raises SpecError instead.
+* ``flip_ldr``: NVIDIA's LDR-FLIP, computed by ``image/flip.py`` (numpy; flip-evaluator's map
+  within a stated tolerance at a fifth of its CPU time). ``flip_hdr``: HDR-FLIP through the
+  ``flip-evaluator`` package (extra ``metrics``), whose Python API calls ``sys.exit`` on bad
+  arguments and aborts on a black HDR reference, so every input is checked here first and a
+  bad one raises SpecError instead.
 * ``per_cell_mean``: the mean of any per-pixel error map per sphere cell.
 * ``heatmap_image``: an error map as an RGBA image with a labeled colour bar (numpy + Pillow);
   ``heatmap`` also says where in that image it put the map.
@@ -158,13 +160,13 @@ def per_cell_mean(error_map, aov_row, aov_col, rows: int, cols: int) -> np.ndarr
 
 
 # ---------------------------------------------------------------------------------------------
-# FLIP (flip-evaluator, lazily imported).
+# FLIP: LDR in numpy (image/flip.py), HDR through flip-evaluator (lazily imported).
 
 def _flip_module():
     try:
         import flip_evaluator
     except ImportError:
-        raise SdfpbrError("FLIP needs the flip-evaluator package: pip install 'sdfpbr[metrics]'") from None
+        raise SdfpbrError("HDR-FLIP needs the flip-evaluator package: pip install 'sdfpbr[metrics]'") from None
     return flip_evaluator
 
 
@@ -183,25 +185,27 @@ KEPT_FLIP_BYTES = 64 << 20
 _kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mean, error map)
 
 
-# Measured pairs are also stored on disk by the same content key (the cache's "flip" kind, with
-# flip-evaluator's version): a gallery whose renders did not change re-measures none of its 22
-# bug pairs (0.35 s each at 512² on one core, 40 % of a full build's CPU time) when only the
-# Python that lays out its pages did. The map is stored as measured (float32): a stored pair
-# gives the very image a fresh measurement gives.
+# Measured pairs are also stored on disk by the same content key (the cache's "flip" kind; the
+# key names the implementation that measures): a gallery whose renders did not change
+# re-measures none of its 22 bug pairs when only the Python that lays out its pages did. The map
+# is stored as measured (float32): a stored pair gives the very image a fresh measurement gives.
 FLIP_CACHE_KIND = "flip"
 
 
-@functools.lru_cache(maxsize=1)
-def _flip_version() -> str:
+@functools.lru_cache(maxsize=2)
+def _implementation(mode: str) -> str:
+    if mode == "LDR":
+        from .flip import implementation_id
+        return implementation_id()
     from importlib.metadata import PackageNotFoundError, version
     try:
-        return version("flip-evaluator")
+        return f"flip-evaluator {version('flip-evaluator')}"
     except PackageNotFoundError:
-        return "unknown"
+        return "flip-evaluator unknown"
 
 
 def _stored_key(key: str) -> str:
-    return hashlib.sha256(f"{key} flip-evaluator {_flip_version()}".encode()).hexdigest()
+    return hashlib.sha256(key.encode()).hexdigest()
 
 
 def _stored(key: str) -> tuple[float, np.ndarray] | None:
@@ -245,12 +249,16 @@ def _flip_key(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) ->
     for array in (ref, test):
         digest.update(repr((array.shape, array.dtype.str)).encode())
         digest.update(np.ascontiguousarray(array).data)
-    return f"{digest.hexdigest()} {mode} {sorted(parameters.items())}"
+    return f"{digest.hexdigest()} {mode} {sorted(parameters.items())} {_implementation(mode)}"
 
 
 def _evaluate(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) -> tuple[float, np.ndarray]:
-    """flip-evaluator on checked inputs: (mean, (H, W) float32 error map). Module level: a
-    FlipBatch's workers run it."""
+    """FLIP of checked inputs: (mean, (H, W) float32 error map). Module level: a FlipBatch's
+    workers run it."""
+    if mode == "LDR":
+        from .flip import ldr_flip
+        error_map = ldr_flip(ref, test, parameters["ppd"])
+        return float(error_map.mean(dtype=np.float64)), error_map
     ref, test = (a.astype(np.float32) / 255.0 if a.dtype == np.uint8 else a for a in (ref, test))
     error_map, mean, _ = _flip_module().evaluate(ref, test, mode, inputsRGB=(mode == "LDR"), applyMagma=False,
                                                  computeMeanError=True, parameters=parameters)
@@ -313,12 +321,13 @@ def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, ma
     return _flip(ref, test, "HDR", parameters, mask)
 
 
-# flip-evaluator's own OpenMP threads gain 1.4x from two cores (512²: 0.42 -> 0.29 s a pair,
-# 0.58 CPU-s); a worker process per core at one thread each measured 22 pairs in 4.75 s
-# against 6.1 s in-process, and runs beside the renders of the next pairs. Starting the
-# workers costs ~0.3 s, so a batch of fewer pairs, or a machine of one core, measures in-process.
+# A 512² pair takes ~0.12 s of one core (image/flip.py). Worker processes measure the pairs
+# beside the renders of the next ones: a thread cannot, as the GL calls hold the GIL while
+# llvmpipe draws (22 pairs measured in a thread lagged the renders by 2-2.6 s; in 2 processes by
+# 0.2 s, and `compare --bugs all` took 7.2-8.2 s against 8.9-9.3). Starting the workers costs
+# ~0.3 s, so a batch of fewer pairs, or a machine of one core, measures in-process.
 BATCH_WORKERS_FROM = 4
-BATCH_WORKERS_MAX = 8   # each worker holds numpy and flip-evaluator (~80 MB)
+BATCH_WORKERS_MAX = 8   # each worker holds numpy (~40 MB)
 
 
 # Pairs an open FlipBatch is measuring in its workers: key -> future. flip_ldr of such a pair
@@ -373,7 +382,6 @@ class FlipBatch:
         test = _image(test_srgb8, "test image", ldr=True)
         ref = _image(ref_srgb8, "reference image", ldr=True)
         _same_size(test, ref)
-        _flip_module()                     # a missing package says so now, not in a worker
         args = (ref, test, "LDR", {"ppd": ppd})
         key = _flip_key(*args)
         _remember_key(test_srgb8, ref_srgb8, ppd, key)
@@ -387,7 +395,7 @@ class FlipBatch:
             try:
                 if self._pool is None:
                     from ..workers import process_pool
-                    self._pool = process_pool(self._workers, environ={"OMP_NUM_THREADS": "1"})
+                    self._pool = process_pool(self._workers)
                 _in_flight[key] = self._futures[key] = self._pool.submit(_evaluate, *args)
                 return
             except (OSError, RuntimeError):   # no processes to be had: measure here

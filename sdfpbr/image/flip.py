@@ -1,0 +1,184 @@
+"""LDR-FLIP (Andersson et al., "FLIP: A Difference Evaluator for Alternating Images", HPG 2020)
+in numpy: the pipeline, constants and float32 separable filters of flip-evaluator's C++ (its
+version 1.2+ separated convolutions, clamped at the image's edges), here at a quarter of its CPU
+time. A gallery build measures 22 bug pairs: 0.7 CPU-s each through flip-evaluator at 512²
+(half the build's CPU), ~0.15 here. tests/test_flip.py holds it to flip-evaluator's own map.
+
+The steps (paper, section 3; constants from its table 1):
+  sRGB -> linear RGB -> XYZ (D65) -> YCxCz; each opponent channel filtered by its contrast
+  sensitivity (a Gaussian, a sum of two for Cz, each separable); back to linear RGB, clamped to
+  [0, 1]; CIELab with the Hunt adjustment (a, b scaled by L / 100); HyAB distance, raised to
+  q_c = 0.7 and remapped piecewise to [0, 1] (p_c = 0.4, p_t = 0.95).
+  Features: the normalised luminance's edges (1st Gaussian derivative) and points (2nd), sigma
+  = 0.5 * w * ppd; their difference f = (max(|edge_r - edge_t|, |point_r - point_t|) / sqrt 2)^0.5.
+  Error = colour_difference ^ (1 - f).
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+_F32 = np.float32
+
+# The contrast sensitivity functions' Gaussians per opponent channel (Y, Cx, Cz): a1, b1 and a
+# second lobe a2, b2 (Cz only).
+_A1 = (1.0, 1.0, 34.1)
+_B1 = (0.0047, 0.0053, 0.04)
+_A2 = (0.0, 0.0, 13.5)
+_B2 = (1e-5, 1e-5, 0.025)
+_W = 0.082                      # feature filter width, degrees
+_QC, _PC, _PT, _QF = 0.7, 0.4, 0.95, 0.5
+
+# linear sRGB -> XYZ (D65), as exact ratios, and the D65 white the opponent spaces divide by.
+_RGB_TO_XYZ = np.array([[10135552 / 24577794, 8788810 / 24577794, 4435075 / 24577794],
+                        [2613072 / 12288897, 8788810 / 12288897, 887015 / 12288897],
+                        [1425312 / 73733382, 8788810 / 73733382, 70074185 / 73733382]])
+_WHITE = np.array([0.950428545, 1.0, 1.088900371])
+# XYZ/white -> (Y, Cx, Cz) without the -16 on Y: rows 116 y, 500 (x - y), 200 (y - z).
+_OPPONENT = np.array([[0.0, 116.0, 0.0], [500.0, -500.0, 0.0], [0.0, 200.0, -200.0]])
+
+
+def implementation_id() -> str:
+    """What decides this module's maps (its source): stored maps are keyed by it."""
+    return "sdfpbr.image.flip " + hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+
+
+@functools.lru_cache(maxsize=8)
+def _spatial_filters(ppd: float) -> tuple[np.ndarray, ...]:
+    """1-D filters (Y, Cx, Cz's two lobes): Y and Cx each sum to 1; the two Cz lobes' 2-D
+    outer products sum to 1 together (each 1-D factor is the square root of its lobe)."""
+    radius = int(np.ceil(3.0 * np.sqrt(max(_B1 + _B2) / (2.0 * np.pi ** 2)) * ppd))
+    x2 = ((np.arange(2 * radius + 1) - radius) / ppd) ** 2
+
+    def lobe(a, b):
+        return np.sqrt(a * np.sqrt(np.pi / b)) * np.exp(-np.pi ** 2 * x2 / b)
+    y, cx = lobe(_A1[0], _B1[0]), lobe(_A1[1], _B1[1])
+    cz1, cz2 = lobe(_A1[2], _B1[2]), lobe(_A2[2], _B2[2])
+    cz_norm = 1.0 / np.hypot(cz1.sum(), cz2.sum())
+    return tuple(k.astype(_F32) for k in (y / y.sum(), cx / cx.sum(), cz1 * cz_norm, cz2 * cz_norm))
+
+
+@functools.lru_cache(maxsize=8)
+def _feature_filters(ppd: float) -> tuple[np.ndarray, ...]:
+    """Gaussian (sums to 1), its 1st and 2nd derivatives (positive and negative weights each
+    sum to 1 and -1), in pixels."""
+    sigma = 0.5 * _W * ppd
+    radius = int(np.ceil(3.0 * sigma))
+    x = np.arange(2 * radius + 1, dtype=np.float64) - radius
+    g = np.exp(-x * x / (2.0 * sigma * sigma))
+
+    def balanced(k):
+        return np.where(k > 0, k / k[k > 0].sum(), k / k[k < 0].sum() * -1.0)
+    return tuple(k.astype(_F32) for k in (g / g.sum(), balanced(-x * g), balanced((x * x / (sigma * sigma) - 1.0) * g)))
+
+
+@functools.lru_cache(maxsize=1)
+def _srgb8_to_linear() -> np.ndarray:
+    c = np.arange(256) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(_F32)
+
+
+def _linear(srgb: np.ndarray) -> np.ndarray:
+    if srgb.dtype == np.uint8:
+        return _srgb8_to_linear()[srgb]
+    c = srgb.astype(_F32)
+    return np.where(c <= 0.04045, c / _F32(12.92), ((c + _F32(0.055)) / _F32(1.055)) ** _F32(2.4))
+
+
+def _filter_rows(stack: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """Correlate each (H, W) image of ``stack`` (N, H, W) with ``kernel`` down its columns,
+    clamping at the top and bottom edges. Kernels here are symmetric or antisymmetric: taps
+    i and 2r - i share one multiply."""
+    r = len(kernel) // 2
+    n = stack.shape[1]
+    p = np.concatenate([np.repeat(stack[:, :1], r, 1), stack, np.repeat(stack[:, -1:], r, 1)], 1)
+    symmetric = kernel[0] == kernel[-1]
+    out = p[:, r:r + n] * kernel[r] if symmetric else np.zeros_like(stack)
+    pair = np.empty_like(stack)
+    for i in range(r):
+        (np.add if symmetric else np.subtract)(p[:, i:i + n], p[:, 2 * r - i:2 * r - i + n], out=pair)
+        pair *= kernel[i]
+        out += pair
+    return out
+
+
+def _separable(stack: np.ndarray, down: np.ndarray, across: np.ndarray) -> np.ndarray:
+    """``stack`` (N, H, W) filtered by ``down`` along H, then transposed to (N, W, H) and filtered
+    by ``across`` (along the original W): the result stays transposed (each pixel's own maths
+    does not care), saving a copy per filter."""
+    return _filter_rows(_transposed(_filter_rows(stack, down)), across)
+
+
+def _transposed(stack: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(stack.transpose(0, 2, 1))
+
+
+def _lab_hunt(linear_rgb: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    """CIELab (D65) with the Hunt adjustment, from linear RGB channels clamped to [0, 1]."""
+    m = (_RGB_TO_XYZ / _WHITE[:, None]).astype(_F32)
+    delta = 6.0 / 29.0
+    f = []
+    for row in m:
+        t = row[0] * linear_rgb[0] + row[1] * linear_rgb[1] + row[2] * linear_rgb[2]
+        f.append(np.where(t > _F32(delta ** 3), np.cbrt(t), t * _F32(1.0 / (3 * delta * delta)) + _F32(4.0 / 29.0)))
+    lightness = _F32(116.0) * f[1] - _F32(16.0)
+    hunt = _F32(0.01) * lightness
+    return lightness, hunt * (_F32(500.0) * (f[0] - f[1])), hunt * (_F32(200.0) * (f[1] - f[2]))
+
+
+@functools.lru_cache(maxsize=1)
+def _max_colour_distance() -> float:
+    """HyAB between green and blue (Hunt-adjusted), ^ q_c: the largest colour difference."""
+    green, blue = (_lab_hunt(tuple(np.array([c], _F32) for c in rgb)) for rgb in ((0, 1, 0), (0, 0, 1)))
+    hyab = abs(green[0] - blue[0]) + np.hypot(green[1] - blue[1], green[2] - blue[2])
+    return float(hyab[0]) ** _QC
+
+
+def ldr_flip(reference_srgb: np.ndarray, test_srgb: np.ndarray, ppd: float) -> np.ndarray:
+    """The (H, W) float32 LDR-FLIP map of two sRGB-encoded images (H, W, 3): uint8, or floats in
+    [0, 1]. Inputs are not checked here (metrics.flip_ldr does)."""
+    h, w = reference_srgb.shape[:2]
+    to_opponent = (_OPPONENT @ (_RGB_TO_XYZ / _WHITE[:, None])).astype(_F32)
+    opponent = []      # per image: (Y, Cx, Cz) planes
+    for image in (reference_srgb, test_srgb):
+        lin = _linear(image)
+        planes = [lin[..., 0], lin[..., 1], lin[..., 2]]
+        opponent.append([m[0] * planes[0] + m[1] * planes[1] + m[2] * planes[2] for m in to_opponent])
+        opponent[-1][0] -= _F32(16.0)
+
+    # Colour: each channel through its contrast sensitivity filter, back to clamped linear RGB.
+    k_y, k_cx, k_cz1, k_cz2 = _spatial_filters(float(ppd))
+    y = _separable(np.stack([opponent[0][0], opponent[1][0]]), k_y, k_y)
+    cx = _separable(np.stack([opponent[0][1], opponent[1][1]]), k_cx, k_cx)
+    cz_in = np.stack([opponent[0][2], opponent[1][2]])
+    cz = _separable(cz_in, k_cz1, k_cz1) + _separable(cz_in, k_cz2, k_cz2)
+    # (Y, Cx, Cz) -> XYZ -> linear RGB is affine: X = (Y + 16) / 116 + Cx / 500, Z = ... - Cz / 200.
+    from_opponent = (np.linalg.inv(_RGB_TO_XYZ) * _WHITE[None, :]) @ np.linalg.inv(_OPPONENT)
+    offset = (np.linalg.inv(_RGB_TO_XYZ) * _WHITE[None, :]) @ (np.linalg.inv(_OPPONENT) @ np.array([16.0, 0.0, 0.0]))
+    labs = []
+    for i in range(2):
+        rgb = tuple(np.clip(_F32(m[0]) * y[i] + _F32(m[1]) * cx[i] + _F32(m[2]) * cz[i] + _F32(o), 0.0, 1.0)
+                    for m, o in zip(from_opponent, offset))
+        labs.append(_lab_hunt(rgb))
+    (l_r, a_r, b_r), (l_t, a_t, b_t) = labs
+    colour = (np.abs(l_r - l_t) + np.hypot(a_r - a_t, b_r - b_t)) ** _F32(_QC)
+    c_max = _max_colour_distance()
+    knee = _PC * c_max
+    colour = np.where(colour < knee, colour * _F32(_PT / knee),
+                      _F32(_PT) + (colour - _F32(knee)) * _F32((1.0 - _PT) / (c_max - knee)))
+
+    # Features of the normalised luminance (Y + 16) / 116, both images at once.
+    k_g, k_d1, k_d2 = _feature_filters(float(ppd))
+    gray = (np.stack([opponent[0][0], opponent[1][0]]) + _F32(16.0)) * _F32(1.0 / 116.0)
+    smooth_down = _transposed(_filter_rows(gray, k_g))
+    d1_x, d2_x = _filter_rows(smooth_down, k_d1), _filter_rows(smooth_down, k_d2)
+    d1_y = _filter_rows(_transposed(_filter_rows(gray, k_d1)), k_g)
+    d2_y = _filter_rows(_transposed(_filter_rows(gray, k_d2)), k_g)
+    edge = np.hypot(d1_x, d1_y)
+    point = np.hypot(d2_x, d2_y)
+    feature = (np.maximum(np.abs(edge[0] - edge[1]), np.abs(point[0] - point[1])) * _F32(1.0 / np.sqrt(2.0))) ** _F32(_QF)
+    error = colour ** (_F32(1.0) - feature)
+    return np.ascontiguousarray(error.T).reshape(h, w)

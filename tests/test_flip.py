@@ -1,0 +1,164 @@
+"""LDR-FLIP in numpy (sdfpbr.image.flip) against the paper's equations worked in float64 with
+textbook constants, and against flip-evaluator (the reference implementation) on renders,
+noise, edges and odd sizes."""
+import numpy as np
+import pytest
+
+from sdfpbr.image.flip import ldr_flip
+
+PPD = 67.0
+
+# How far apart two FLIP programs may be: float32 rounding differs (their filters sum in
+# another order; sums of 21 taps of values up to 100 round at ~1e-5), and pow(., 0.7) and
+# pow(., 0.5) amplify it near 0. A map is shown as an 8-bit heat map and its mean printed with
+# three decimals: agreeing within half a heat-map level per pixel and a tenth of the printed
+# digit on the mean, the two programs give the same picture and the same figure.
+MAP_TOLERANCE = 0.5 / 255
+MEAN_TOLERANCE = 1e-4
+
+
+# --- the paper's equations in float64, textbook constants ----------------------------------------
+
+SRGB_TO_XYZ = np.array([[0.4124564, 0.3575761, 0.1804375],       # IEC 61966-2-1, D65
+                        [0.2126729, 0.7151522, 0.0721750],
+                        [0.0193339, 0.1191920, 0.9503041]])
+D65 = np.array([0.95047, 1.0, 1.08883])
+
+
+def _lab_hunt(rgb8):
+    c = np.asarray(rgb8, float) / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    t = SRGB_TO_XYZ @ linear / D65
+    d = 6 / 29
+    f = np.where(t > d ** 3, np.cbrt(t), t / (3 * d * d) + 4 / 29)
+    L, a, b = 116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])
+    return np.array([L, 0.01 * L * a, 0.01 * L * b])                 # Hunt: chroma scaled by L / 100
+
+
+def _hyab(p, q):
+    return abs(p[0] - q[0]) + np.hypot(p[1] - q[1], p[2] - q[2])
+
+
+def _flat_flip(rgb_ref, rgb_test):
+    """FLIP of two flat images: no features, the filters keep a constant, so the error is the
+    remapped colour difference (paper eq. 3-4: q_c = 0.7, p_c = 0.4, p_t = 0.95), with the
+    largest difference that of green and blue."""
+    c_max = _hyab(_lab_hunt((0, 255, 0)), _lab_hunt((0, 0, 255))) ** 0.7
+    c = _hyab(_lab_hunt(rgb_ref), _lab_hunt(rgb_test)) ** 0.7
+    knee = 0.4 * c_max
+    return c * 0.95 / knee if c < knee else 0.95 + (c - knee) / (c_max - knee) * 0.05
+
+
+def test_published_lab_of_green_and_blue_give_the_largest_difference():
+    """The textbook sRGB primaries in CIELab (green 87.735, -86.183, 83.179; blue 32.303,
+    79.197, -107.864) agree with the float64 equations above, which the flat tests use."""
+    for rgb, lab in (((0, 255, 0), (87.735, -86.183, 83.179)), ((0, 0, 255), (32.303, 79.197, -107.864))):
+        L, a, b = lab
+        np.testing.assert_allclose(_lab_hunt(rgb), [L, 0.01 * L * a, 0.01 * L * b], atol=0.01)
+
+
+@pytest.mark.parametrize("ref, test", [((0, 0, 0), (255, 255, 255)), ((128, 128, 128), (120, 128, 128)),
+                                       ((200, 40, 30), (190, 60, 30)), ((0, 255, 0), (0, 0, 255)),
+                                       ((90, 90, 200), (90, 90, 200))])
+def test_flat_images_match_the_closed_form(ref, test):
+    h, w = 24, 37
+    a = np.full((h, w, 3), ref, np.uint8)
+    b = np.full((h, w, 3), test, np.uint8)
+    error = ldr_flip(a, b, PPD)
+    assert error.shape == (h, w) and error.dtype == np.float32
+    # The textbook constants differ from FLIP's in the fifth digit (D65's X 0.95047 against
+    # 0.9504285); a difference of two nearby colours magnifies that up to tenfold.
+    np.testing.assert_allclose(error, _flat_flip(ref, test), rtol=1e-3, atol=1e-6)
+
+
+def test_identical_images_are_zero_and_order_does_not_matter_for_flat_colours():
+    rng = np.random.default_rng(5)
+    a = rng.integers(0, 256, (33, 20, 3), np.uint8)
+    assert not ldr_flip(a, a, PPD).any()
+    flat_a, flat_b = np.full((8, 8, 3), 40, np.uint8), np.full((8, 8, 3), 90, np.uint8)
+    np.testing.assert_allclose(ldr_flip(flat_a, flat_b, PPD), ldr_flip(flat_b, flat_a, PPD), rtol=1e-6)
+
+
+def test_an_edge_adds_the_feature_term():
+    """A step of luminance moved by one pixel: the colour term alone (blurred by the CSF) is
+    small, the edge term raises the error on the step (error = colour ^ (1 - feature))."""
+    a = np.full((32, 32, 3), 60, np.uint8)
+    a[:, 16:] = 200
+    b = np.full((32, 32, 3), 60, np.uint8)
+    b[:, 17:] = 200
+    error = ldr_flip(a, b, PPD)
+    assert error[:, 16].min() > 0.3 and error[:, :8].max() < 1e-3 and error[:, 26:].max() < 1e-3
+
+
+def test_float_input_is_the_uint8_input_scaled():
+    rng = np.random.default_rng(9)
+    a, b = (rng.integers(0, 256, (20, 24, 3), np.uint8) for _ in range(2))
+    np.testing.assert_allclose(ldr_flip(a / np.float32(255), b / np.float32(255), PPD), ldr_flip(a, b, PPD),
+                               atol=1e-5)
+
+
+# --- flip-evaluator, the reference implementation ------------------------------------------------
+
+def _evaluator(ref, test, ppd=PPD):
+    import flip_evaluator
+    error_map, mean, _ = flip_evaluator.evaluate(ref.astype(np.float32) / 255, test.astype(np.float32) / 255, "LDR",
+                                                 inputsRGB=True, applyMagma=False, computeMeanError=True,
+                                                 parameters={"ppd": ppd})
+    return float(mean), np.asarray(error_map, np.float32).reshape(ref.shape[:2])
+
+
+def _render_pair(bug: str, **options):
+    from sdfpbr.api import chart
+    from sdfpbr.spec.chart_spec import make_spec
+    spec = make_spec(width=160, height=120, labels=False, quality="draft", **options)
+    return tuple(chart(s).image[..., :3] for s in (spec, make_spec(spec, bugs=(bug,))))
+
+
+def _pairs():
+    rng = np.random.default_rng(17)
+    noise = rng.integers(0, 256, (40, 56, 3), np.uint8)
+    yield "noise", noise, np.clip(noise.astype(int) + rng.integers(-60, 60, noise.shape), 0, 255).astype(np.uint8)
+    smooth = np.linspace(0, 255, 64 * 48 * 3).reshape(64, 48, 3).astype(np.uint8)
+    yield "gradient vs shifted", smooth, np.roll(smooth, 3, axis=1)
+    tiny = rng.integers(0, 256, (3, 5, 3), np.uint8)                  # smaller than the filters' radius
+    yield "3x5", tiny, tiny[::-1].copy()
+    yield "one row", noise[:1], noise[1:2]
+    disc = np.zeros((61, 47, 3), np.uint8)
+    yy, xx = np.mgrid[:61, :47]
+    disc[(yy - 30) ** 2 + (xx - 23) ** 2 < 200] = (250, 180, 40)
+    yield "disc vs half-tone disc", disc, (disc // 2)
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+@pytest.mark.parametrize("case", list(_pairs()), ids=lambda case: case[0])
+def test_agrees_with_flip_evaluator(case):
+    _, ref, test = case
+    want_mean, want = _evaluator(ref, test)
+    got = ldr_flip(ref, test, PPD)
+    assert np.abs(got - want).max() <= MAP_TOLERANCE
+    assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+@pytest.mark.parametrize("bug, options", [("unsquared-roughness", {}), ("gamma-2.2", {}),
+                                          ("normal-map-green-flip", {"textures": "hammered"})])
+def test_agrees_with_flip_evaluator_on_bug_renders(bug, options, cache_dir):
+    """The pairs the gallery and `compare` measure: a chart and the same chart with a bug."""
+    ref, test = _render_pair(bug, **options)
+    want_mean, want = _evaluator(ref, test)
+    got = ldr_flip(ref, test, PPD)
+    assert want_mean > 0.005                                          # a pair that differs
+    assert np.abs(got - want).max() <= MAP_TOLERANCE
+    assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_agrees_with_flip_evaluator_at_another_viewing_distance():
+    rng = np.random.default_rng(3)
+    a = rng.integers(0, 256, (30, 30, 3), np.uint8)
+    b = np.clip(a.astype(int) + 25, 0, 255).astype(np.uint8)
+    for ppd in (20.0, 110.0):
+        want_mean, want = _evaluator(a, b, ppd)
+        got = ldr_flip(a, b, ppd)
+        assert np.abs(got - want).max() <= MAP_TOLERANCE
+        assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE
