@@ -27,7 +27,7 @@ from sdfpbr.gpu.session import Session
 EXTRAS = {
     "imageio_ffmpeg": "imageio-ffmpeg (pip install 'sdfpbr[video]')",
     "OpenEXR": "OpenEXR (pip install 'sdfpbr[exr]')",
-    "flip_evaluator": "flip-evaluator (pip install 'sdfpbr[metrics]')",
+    "flip_evaluator": "flip-evaluator (pip install 'sdfpbr[test]')",
     "matplotlib": "matplotlib (pip install 'sdfpbr[metrics]')",
     "tqdm": "tqdm (pip install 'sdfpbr[progress]')",
     "sphinx": "sphinx (pip install 'sdfpbr[docs]')",

@@ -35,7 +35,7 @@ def quick_report(tmp_path_factory, cache_dir):
     return out, json.loads(out.read_text()), proc.stdout
 
 
-@pytest.mark.requires_extra("matplotlib", "flip_evaluator")   # the quick run plots and computes FLIP
+@pytest.mark.requires_extra("matplotlib")   # the quick run plots and computes FLIP
 def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report):
     path, report, stdout = quick_report
     cfg = suite.BenchConfig.quick()
@@ -68,7 +68,7 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
 
 
 @needs_seed
-@pytest.mark.requires_extra("matplotlib", "flip_evaluator")   # through quick_report
+@pytest.mark.requires_extra("matplotlib")   # through quick_report
 def test_quick_baseline_row(quick_report):
     _, report, _ = quick_report
     (row,) = [r for r in report["rows"] if r["preset"] == "baseline"]

@@ -1,10 +1,10 @@
-"""LDR-FLIP in numpy (sdfpbr.image.flip) against the paper's equations worked in float64 with
+"""LDR- and HDR-FLIP in numpy (sdfpbr.image.flip) against the paper's equations worked in float64 with
 textbook constants, and against flip-evaluator (the reference implementation) on renders,
 noise, edges and odd sizes."""
 import numpy as np
 import pytest
 
-from sdfpbr.image.flip import ldr_flip
+from sdfpbr.image.flip import hdr_exposures, hdr_flip, ldr_flip
 
 PPD = 67.0
 
@@ -162,3 +162,89 @@ def test_agrees_with_flip_evaluator_at_another_viewing_distance():
         got = ldr_flip(a, b, ppd)
         assert np.abs(got - want).max() <= MAP_TOLERANCE
         assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE
+
+
+# --- HDR-FLIP ------------------------------------------------------------------------------------
+
+def test_hdr_exposures_put_the_brightest_and_the_median_pixel_at_0_85():
+    """Start: the exposure at which ACES maps the reference's brightest luminance to 0.85; stop:
+    its median's (HDR-FLIP, Andersson et al. 2021). ACES here is FLIP's fit with the 0.6
+    pre-exposure cancelled, solved for 0.85 by bisection in float64."""
+    def aces(x):
+        x = 0.6 * x
+        return x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14)
+    lo, hi = 0.0, 100.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if aces(mid) < 0.85 else (lo, mid)
+    x_085 = 0.5 * (lo + hi)
+    lum = np.array([[0.5, 2.0, 0.25], [8.0, 1.0, 0.125]], np.float32)     # grey pixels: luminance = value
+    image = np.repeat(lum[..., None], 3, axis=2)
+    start, stop = hdr_exposures(image)
+    assert start == pytest.approx(np.log2(x_085 / 8.0), abs=1e-4)
+    assert stop == pytest.approx(np.log2(x_085 / 1.0), abs=1e-4)       # the upper median of six
+    assert hdr_exposures(np.zeros((4, 4, 3), np.float32)) == (0.0, 0.0)
+    mostly_black = np.zeros((4, 4, 3), np.float32)
+    mostly_black[0, 0] = 2.0
+    assert np.isfinite(hdr_exposures(mostly_black)).all()             # median 0: the least non-zero stands in
+
+
+def test_hdr_flip_of_a_scaled_copy_is_the_ldr_flip_at_each_exposure():
+    """Identical images: 0. One exposure range given: the map is the per-pixel largest of the
+    LDR-FLIPs of the tone-mapped pair at each exposure, at least two."""
+    rng = np.random.default_rng(2)
+    a = (rng.random((24, 30, 3)) ** 2 * 3).astype(np.float32)
+    assert not hdr_flip(a, a, PPD)[0].any()
+    b = a * np.float32(1.2)
+    error, used = hdr_flip(a, b, PPD, exposures=(-1.0, 1.0))
+    assert used["numExposures"] == 2
+    def aces(x):
+        x = 0.6 * x.astype(np.float64)
+        return np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0, 1)
+    def srgb8(linear):
+        c = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
+        return c.astype(np.float32)
+    each = [ldr_flip(srgb8(aces(a * 2.0 ** e)), srgb8(aces(b * 2.0 ** e)), PPD) for e in (-1.0, 1.0)]
+    np.testing.assert_allclose(error, np.maximum(*each), atol=MAP_TOLERANCE)
+
+
+def _hdr_pairs():
+    rng = np.random.default_rng(21)
+    sky = (rng.random((40, 52, 3)) ** 3 * 4).astype(np.float32)
+    sky[10:18, 20:30] = 60.0                                              # a sun: many stops above the median
+    yield "noise with a sun", sky, (sky * np.float32(1.15)).astype(np.float32)
+    ramp = np.linspace(0, 20, 33 * 29 * 3, dtype=np.float32).reshape(33, 29, 3)
+    yield "ramp vs blurred ramp", ramp, np.roll(ramp, 2, axis=0)
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+@pytest.mark.parametrize("case", list(_hdr_pairs()), ids=lambda case: case[0])
+def test_hdr_agrees_with_flip_evaluator(case):
+    import flip_evaluator
+    _, ref, test = case
+    want_map, want_mean, used = flip_evaluator.evaluate(ref, test, "HDR", applyMagma=False, computeMeanError=True,
+                                                        parameters={"ppd": PPD})
+    want_map = np.asarray(want_map, np.float32).reshape(ref.shape[:2])
+    got, ours = hdr_flip(ref, test, PPD)
+    assert ours["numExposures"] == used["numExposures"]
+    assert ours["startExposure"] == pytest.approx(used["startExposure"], abs=1e-5)
+    assert ours["stopExposure"] == pytest.approx(used["stopExposure"], abs=1e-5)
+    assert np.abs(got - want_map).max() <= MAP_TOLERANCE
+    assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE
+
+
+@pytest.mark.requires_extra("flip_evaluator")
+def test_hdr_agrees_with_flip_evaluator_on_a_render_and_its_draft(cache_dir):
+    """What the bench measures: a chart's linear radiance against a noisier render of it."""
+    from sdfpbr.api import chart
+    from sdfpbr.spec.chart_spec import make_spec
+    import flip_evaluator
+    spec = make_spec(width=128, height=96, labels=False)
+    ref = np.maximum(chart(spec, hdr=True).hdr[..., :3], 0).astype(np.float32)
+    test = np.maximum(chart(make_spec(spec, quality="draft"), hdr=True).hdr[..., :3], 0).astype(np.float32)
+    want_map, want_mean, _ = flip_evaluator.evaluate(ref, test, "HDR", applyMagma=False, computeMeanError=True,
+                                                     parameters={"ppd": PPD})
+    got, _ = hdr_flip(ref, test, PPD)
+    assert want_mean > 0.001
+    assert np.abs(got - np.asarray(want_map, np.float32).reshape(ref.shape[:2])).max() <= MAP_TOLERANCE
+    assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE

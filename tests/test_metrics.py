@@ -118,7 +118,6 @@ def test_flip_mask_mean_is_the_mean_of_the_map_over_the_mask():
     assert whole == pytest.approx(float(emap.mean()), rel=1e-4)
 
 
-@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_hdr_identical_zero_different_positive_black_reference_survives():
     r = _ref() * 4.0
     assert M.flip_hdr(r, r)[0] == 0.0
@@ -153,7 +152,6 @@ def test_flip_ldr_guard_raises_one_clear_line(test, ref, match):
     (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"mask": np.zeros((8, 8), bool)}, "no pixels"),
     (np.ones((8, 8, 3), np.float32), np.ones((8, 8, 3), np.float32), {"mask": np.ones((4, 4), bool)}, "mask has shape"),
 ])
-@pytest.mark.requires_extra("flip_evaluator")
 def test_flip_hdr_guard(test, ref, kwargs, match):
     with pytest.raises(SpecError, match=match):
         M.flip_hdr(test, ref, **kwargs)

@@ -2,11 +2,9 @@
 
 * ``rel_rmse``: relative RMSE in linear HDR (Rousselle et al. 2011's relMSE, square-rooted),
   over sphere pixels or any mask; ``per_cell_rel_rmse`` per sphere of the chart.
-* ``flip_ldr``: NVIDIA's LDR-FLIP, computed by ``image/flip.py`` (numpy; flip-evaluator's map
-  within a stated tolerance at a fifth of its CPU time). ``flip_hdr``: HDR-FLIP through the
-  ``flip-evaluator`` package (extra ``metrics``), whose Python API calls ``sys.exit`` on bad
-  arguments and aborts on a black HDR reference, so every input is checked here first and a
-  bad one raises SpecError instead.
+* ``flip_ldr`` / ``flip_hdr``: NVIDIA's LDR- and HDR-FLIP, computed by ``image/flip.py`` (numpy;
+  flip-evaluator's maps within a stated tolerance at a fifth of its CPU time). Every input is
+  checked here first: a bad one raises SpecError in one line.
 * ``per_cell_mean``: the mean of any per-pixel error map per sphere cell.
 * ``heatmap_image``: an error map as an RGBA image with a labeled colour bar (numpy + Pillow);
   ``heatmap`` also says where in that image it put the map.
@@ -21,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SdfpbrError, SpecError
+from ..errors import SpecError
 from ..kept import Kept
 
 DEFAULT_EPS = 1e-2          # relMSE's guard against division by ~0 (Rousselle et al. use 0.01)
@@ -160,15 +158,7 @@ def per_cell_mean(error_map, aov_row, aov_col, rows: int, cols: int) -> np.ndarr
 
 
 # ---------------------------------------------------------------------------------------------
-# FLIP: LDR in numpy (image/flip.py), HDR through flip-evaluator (lazily imported).
-
-def _flip_module():
-    try:
-        import flip_evaluator
-    except ImportError:
-        raise SdfpbrError("HDR-FLIP needs the flip-evaluator package: pip install 'sdfpbr[metrics]'") from None
-    return flip_evaluator
-
+# FLIP (image/flip.py).
 
 def _ppd(pixels_per_degree) -> float:
     if pixels_per_degree is None:
@@ -192,16 +182,9 @@ _kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mea
 FLIP_CACHE_KIND = "flip"
 
 
-@functools.lru_cache(maxsize=2)
-def _implementation(mode: str) -> str:
-    if mode == "LDR":
-        from .flip import implementation_id
-        return implementation_id()
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return f"flip-evaluator {version('flip-evaluator')}"
-    except PackageNotFoundError:
-        return "flip-evaluator unknown"
+def _implementation() -> str:
+    from .flip import implementation_id
+    return implementation_id()
 
 
 def _stored_key(key: str) -> str:
@@ -249,20 +232,19 @@ def _flip_key(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) ->
     for array in (ref, test):
         digest.update(repr((array.shape, array.dtype.str)).encode())
         digest.update(np.ascontiguousarray(array).data)
-    return f"{digest.hexdigest()} {mode} {sorted(parameters.items())} {_implementation(mode)}"
+    return f"{digest.hexdigest()} {mode} {sorted(parameters.items())} {_implementation()}"
 
 
 def _evaluate(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) -> tuple[float, np.ndarray]:
     """FLIP of checked inputs: (mean, (H, W) float32 error map). Module level: a FlipBatch's
     workers run it."""
+    from .flip import hdr_flip, ldr_flip
     if mode == "LDR":
-        from .flip import ldr_flip
         error_map = ldr_flip(ref, test, parameters["ppd"])
-        return float(error_map.mean(dtype=np.float64)), error_map
-    ref, test = (a.astype(np.float32) / 255.0 if a.dtype == np.uint8 else a for a in (ref, test))
-    error_map, mean, _ = _flip_module().evaluate(ref, test, mode, inputsRGB=(mode == "LDR"), applyMagma=False,
-                                                 computeMeanError=True, parameters=parameters)
-    return mean, np.asarray(error_map, np.float32).reshape(ref.shape[:2])
+    else:
+        exposures = (parameters["startExposure"], parameters["stopExposure"]) if "startExposure" in parameters else None
+        error_map, _ = hdr_flip(ref, test, parameters["ppd"], exposures)
+    return float(error_map.mean(dtype=np.float64)), error_map
 
 
 def _flip(ref: np.ndarray | None, test: np.ndarray | None, mode: str, parameters: dict, mask,
@@ -315,8 +297,8 @@ def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, ma
     _same_size(test, ref)
     parameters = {"ppd": _ppd(pixels_per_degree)}
     if not (ref.max() > 0.0):
-        # FLIP derives its exposures from the reference luminance; a black reference would make
-        # them infinite and the library aborts the process. Compare at one exposure instead.
+        # FLIP derives its exposures from the reference luminance, infinite for a black one
+        # (flip-evaluator aborts the process): compare at one exposure instead.
         parameters.update(startExposure=0.0, stopExposure=0.0)
     return _flip(ref, test, "HDR", parameters, mask)
 
