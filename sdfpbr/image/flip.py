@@ -1,8 +1,9 @@
 """LDR-FLIP (Andersson et al., "FLIP: A Difference Evaluator for Alternating Images", HPG 2020)
-and HDR-FLIP (Eurographics 2021) in numpy: the pipeline, constants and float32 separable filters of flip-evaluator's C++ (its
-version 1.2+ separated convolutions, clamped at the image's edges), here at a quarter of its CPU
-time. A gallery build measures 22 bug pairs: 0.7 CPU-s each through flip-evaluator at 512²
-(half the build's CPU), ~0.15 here. tests/test_flip.py holds it to flip-evaluator's own map.
+and HDR-FLIP (Eurographics 2021) in numpy: the pipeline, constants and float32 separable
+filters of flip-evaluator's C++ (its separated convolutions, clamped at the image's edges), at a
+fifth of its CPU time. A gallery build measures 22 bug pairs: 0.7 CPU-s each through
+flip-evaluator at 512² (half the build's CPU), 0.12 here. tests/test_flip.py holds both maps to
+flip-evaluator's.
 
 The steps (paper, section 3; constants from its table 1):
   sRGB -> linear RGB -> XYZ (D65) -> YCxCz; each opponent channel filtered by its contrast
@@ -39,8 +40,14 @@ _RGB_TO_XYZ = np.array([[10135552 / 24577794, 8788810 / 24577794, 4435075 / 2457
 _WHITE = np.array([0.950428545, 1.0, 1.088900371])
 # XYZ/white -> (Y, Cx, Cz) without the -16 on Y: rows 116 y, 500 (x - y), 200 (y - z).
 _OPPONENT = np.array([[0.0, 116.0, 0.0], [500.0, -500.0, 0.0], [0.0, 200.0, -200.0]])
+_TO_NORMALISED_XYZ = (_RGB_TO_XYZ / _WHITE[:, None]).astype(_F32)     # linear RGB -> XYZ / white
+_TO_OPPONENT = (_OPPONENT @ (_RGB_TO_XYZ / _WHITE[:, None])).astype(_F32)
+# (Y, Cx, Cz) -> XYZ -> linear RGB is affine: X = (Y + 16) / 116 + Cx / 500, Z = ... - Cz / 200.
+_FROM_OPPONENT = (np.linalg.inv(_RGB_TO_XYZ) * _WHITE[None, :]) @ np.linalg.inv(_OPPONENT)
+_FROM_OPPONENT_OFFSET = _FROM_OPPONENT @ np.array([16.0, 0.0, 0.0])
 
 
+@functools.lru_cache(maxsize=1)
 def implementation_id() -> str:
     """What decides this module's maps (its source): stored maps are keyed by it."""
     return "sdfpbr.image.flip " + hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
@@ -118,10 +125,9 @@ def _transposed(stack: np.ndarray) -> np.ndarray:
 
 def _lab_hunt(linear_rgb: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
     """CIELab (D65) with the Hunt adjustment, from linear RGB channels clamped to [0, 1]."""
-    m = (_RGB_TO_XYZ / _WHITE[:, None]).astype(_F32)
     delta = 6.0 / 29.0
     f = []
-    for row in m:
+    for row in _TO_NORMALISED_XYZ:
         t = row[0] * linear_rgb[0] + row[1] * linear_rgb[1] + row[2] * linear_rgb[2]
         f.append(np.where(t > _F32(delta ** 3), np.cbrt(t), t * _F32(1.0 / (3 * delta * delta)) + _F32(4.0 / 29.0)))
     lightness = _F32(116.0) * f[1] - _F32(16.0)
@@ -193,11 +199,10 @@ def _aces(x: np.ndarray) -> np.ndarray:
 def _flip_linear(reference_linear: np.ndarray, test_linear: np.ndarray, ppd: float) -> np.ndarray:
     """LDR-FLIP of two linear RGB images in [0, 1] (float32)."""
     h, w = reference_linear.shape[:2]
-    to_opponent = (_OPPONENT @ (_RGB_TO_XYZ / _WHITE[:, None])).astype(_F32)
     opponent = []      # per image: (Y, Cx, Cz) planes
     for lin in (reference_linear, test_linear):
         planes = [lin[..., 0], lin[..., 1], lin[..., 2]]
-        opponent.append([m[0] * planes[0] + m[1] * planes[1] + m[2] * planes[2] for m in to_opponent])
+        opponent.append([m[0] * planes[0] + m[1] * planes[1] + m[2] * planes[2] for m in _TO_OPPONENT])
         opponent[-1][0] -= _F32(16.0)
 
     # Colour: each channel through its contrast sensitivity filter, back to clamped linear RGB.
@@ -206,13 +211,10 @@ def _flip_linear(reference_linear: np.ndarray, test_linear: np.ndarray, ppd: flo
     cx = _separable(np.stack([opponent[0][1], opponent[1][1]]), k_cx, k_cx)
     cz_in = np.stack([opponent[0][2], opponent[1][2]])
     cz = _separable(cz_in, k_cz1, k_cz1) + _separable(cz_in, k_cz2, k_cz2)
-    # (Y, Cx, Cz) -> XYZ -> linear RGB is affine: X = (Y + 16) / 116 + Cx / 500, Z = ... - Cz / 200.
-    from_opponent = (np.linalg.inv(_RGB_TO_XYZ) * _WHITE[None, :]) @ np.linalg.inv(_OPPONENT)
-    offset = (np.linalg.inv(_RGB_TO_XYZ) * _WHITE[None, :]) @ (np.linalg.inv(_OPPONENT) @ np.array([16.0, 0.0, 0.0]))
     labs = []
     for i in range(2):
         rgb = tuple(np.clip(_F32(m[0]) * y[i] + _F32(m[1]) * cx[i] + _F32(m[2]) * cz[i] + _F32(o), 0.0, 1.0)
-                    for m, o in zip(from_opponent, offset))
+                    for m, o in zip(_FROM_OPPONENT, _FROM_OPPONENT_OFFSET))
         labs.append(_lab_hunt(rgb))
     (l_r, a_r, b_r), (l_t, a_t, b_t) = labs
     colour = (np.abs(l_r - l_t) + np.hypot(a_r - a_t, b_r - b_t)) ** _F32(_QC)

@@ -182,11 +182,6 @@ _kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mea
 FLIP_CACHE_KIND = "flip"
 
 
-def _implementation() -> str:
-    from .flip import implementation_id
-    return implementation_id()
-
-
 def _stored_key(key: str) -> str:
     return hashlib.sha256(key.encode()).hexdigest()
 
@@ -228,11 +223,12 @@ def _remember_key(test, ref, ppd: float, key: str) -> None:
 
 
 def _flip_key(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) -> str:
+    from .flip import implementation_id
     digest = hashlib.sha256()
     for array in (ref, test):
         digest.update(repr((array.shape, array.dtype.str)).encode())
         digest.update(np.ascontiguousarray(array).data)
-    return f"{digest.hexdigest()} {mode} {sorted(parameters.items())} {_implementation()}"
+    return f"{digest.hexdigest()} {mode} {sorted(parameters.items())} {implementation_id()}"
 
 
 def _evaluate(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) -> tuple[float, np.ndarray]:
@@ -241,9 +237,8 @@ def _evaluate(ref: np.ndarray, test: np.ndarray, mode: str, parameters: dict) ->
     from .flip import hdr_flip, ldr_flip
     if mode == "LDR":
         error_map = ldr_flip(ref, test, parameters["ppd"])
-    else:
-        exposures = (parameters["startExposure"], parameters["stopExposure"]) if "startExposure" in parameters else None
-        error_map, _ = hdr_flip(ref, test, parameters["ppd"], exposures)
+    else:     # a black reference is measured at one exposure (flip.hdr_exposures)
+        error_map, _ = hdr_flip(ref, test, parameters["ppd"])
     return float(error_map.mean(dtype=np.float64)), error_map
 
 
@@ -295,12 +290,7 @@ def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, ma
     test = _image(test_linear, "test image")
     ref = _image(ref_linear, "reference image")
     _same_size(test, ref)
-    parameters = {"ppd": _ppd(pixels_per_degree)}
-    if not (ref.max() > 0.0):
-        # FLIP derives its exposures from the reference luminance, infinite for a black one
-        # (flip-evaluator aborts the process): compare at one exposure instead.
-        parameters.update(startExposure=0.0, stopExposure=0.0)
-    return _flip(ref, test, "HDR", parameters, mask)
+    return _flip(ref, test, "HDR", {"ppd": _ppd(pixels_per_degree)}, mask)
 
 
 # A 512² pair takes ~0.12 s of one core (image/flip.py). Worker processes measure the pairs
