@@ -26,8 +26,18 @@ def can_spawn() -> bool:
     return main is None or os.path.exists(main)
 
 
+_worker = False     # whether this process is one of a pool's workers
+
+
+def in_worker() -> bool:
+    """Whether this process is a worker of a process_pool (its parent's pool has the cores)."""
+    return _worker
+
+
 def _init(parent: int, environ: dict, then) -> None:
     import signal
+    global _worker
+    _worker = True
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ.update(environ)
 

@@ -339,6 +339,38 @@ def test_the_project_gallery_covers_the_issue_list():
     assert all(max(s.width, s.height) <= 1024 for i in items.values() for s in i.specs)
 
 
+def test_comparisons_composed_in_workers_are_the_images_each_makes_alone(env):
+    """With a core to spare, each comparison is composed (its FLIP measured, its page laid out
+    and encoded) in a worker process from the renders this process made, the catalog last
+    (images.render_items); every image is the one its entry makes alone in a fresh process's
+    state, pixel for pixel, and this process measured none of their FLIPs."""
+    import io
+
+    from sdfpbr.image import metrics
+    from sdfpbr.tools import compare
+    from sdfpbr.tools.gallery.images import SHEET_WORKERS_FROM, render_item, sheet_workers
+    bugs = ["metal-diffuse", "double-gamma", "unsquared-roughness", "gamma-2.2"]
+    if not sheet_workers(len(bugs) + 1):
+        pytest.skip("one core (or no worker processes here): the comparisons are composed in-process")
+    assert len(bugs) + 1 >= SHEET_WORKERS_FROM
+    entries = {f"bug-{name}.toml": f'[compare]\nbug = "{name}"\n[spec]\n' + SMALL for name in bugs}
+    entries["sheet.toml"] = f"[compare]\nbugs = {json.dumps(bugs)}\n[spec]\n" + SMALL
+    entries["plain.toml"] = ENTRIES["plain.toml"]
+    charts = make_charts(env, entries)
+    metrics._kept_flips.clear()
+    compare._kept.clear()
+    manifest = build(charts, env / "out")
+    assert len(metrics._kept_flips) == 0          # every FLIP was measured in a worker
+    assert manifest["rendered"] == len(entries)
+    for entry in manifest["images"]:
+        item = next(i for i in collect(charts) if i.name == entry["name"])
+        metrics._kept_flips.clear()
+        compare._kept.clear()
+        alone = render_item(item, entry["key"]).png
+        got = np.asarray(Image.open(env / "out" / entry["image"]))
+        np.testing.assert_array_equal(got, np.asarray(Image.open(io.BytesIO(alone))), err_msg=entry["name"])
+
+
 def test_items_that_share_a_chart_go_to_one_worker_together():
     """A parallel build hands a worker the items that render a spec in common, so the renders
     and FLIP maps it keeps serve them all: the bug catalog with the bug comparisons (the same

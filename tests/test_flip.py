@@ -248,3 +248,24 @@ def test_hdr_agrees_with_flip_evaluator_on_a_render_and_its_draft(cache_dir):
     assert want_mean > 0.001
     assert np.abs(got - np.asarray(want_map, np.float32).reshape(ref.shape[:2])).max() <= MAP_TOLERANCE
     assert abs(float(got.mean(dtype=np.float64)) - want_mean) <= MEAN_TOLERANCE
+
+
+def test_a_kept_reference_gives_the_map_a_fresh_one_gives():
+    """ldr_flip keeps a reference's half of the work by its content (a catalog measures a dozen
+    bugs against one correct chart): each map equals the one measured with nothing kept, also
+    after the reference array is changed in place and at another viewing distance."""
+    from sdfpbr.image import flip
+    rng = np.random.default_rng(7)
+    ref = rng.integers(0, 256, (40, 56, 3), dtype=np.uint8)
+    tests = [rng.integers(0, 256, ref.shape, dtype=np.uint8) for _ in range(2)]
+
+    def fresh(r, t, ppd):
+        return flip._flip_linear(flip._linear(r), flip._linear(t), ppd)
+    for t in tests:
+        np.testing.assert_array_equal(ldr_flip(ref, t, 67.0), fresh(ref, t, 67.0))
+    np.testing.assert_array_equal(ldr_flip(ref, tests[0], 30.0), fresh(ref, tests[0], 30.0))
+    before = ldr_flip(ref, tests[1], 67.0)
+    ref[5, 7] = 255 - ref[5, 7]                   # the same array, one pixel changed
+    after = ldr_flip(ref, tests[1], 67.0)
+    np.testing.assert_array_equal(after, fresh(ref, tests[1], 67.0))
+    assert not np.array_equal(after, before)

@@ -302,6 +302,16 @@ BATCH_WORKERS_FROM = 4
 BATCH_WORKERS_MAX = 8   # each worker holds numpy (~40 MB)
 
 
+_batch_workers = True   # False: a FlipBatch measures in this process (measure_in_process)
+
+
+def measure_in_process() -> None:
+    """Every FlipBatch of this process measures here: a worker composing sheets beside others
+    (gallery.images) would otherwise start workers of its own for a pair not yet stored."""
+    global _batch_workers
+    _batch_workers = False
+
+
 # Pairs an open FlipBatch is measuring in its workers: key -> future. flip_ldr of such a pair
 # waits for its worker rather than measuring it again.
 _in_flight: dict = {}
@@ -334,7 +344,7 @@ class FlipBatch:
     def __init__(self, expected: int):
         from ..workers import can_spawn, cores
         workers = min(cores(), expected, BATCH_WORKERS_MAX)
-        self._workers = workers if expected >= BATCH_WORKERS_FROM and workers > 1 and can_spawn() else 0
+        self._workers = workers if expected >= BATCH_WORKERS_FROM and workers > 1 and _batch_workers and can_spawn() else 0
         self._pool = None
         self._futures: dict = {}    # key -> the pair's result from a worker
 

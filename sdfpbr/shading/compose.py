@@ -81,8 +81,9 @@ class ComposedSource:
     modules: tuple[str, ...]      # files in inclusion order
     options: tuple[tuple[str, Value], ...]
 
-    @property
+    @functools.cached_property
     def digest(self) -> str:
+        """sha256 of the text, hashed once (a program is looked up by it at every render)."""
         return hashlib.sha256(self.text.encode()).hexdigest()
 
     def locate(self, message: str) -> str:

@@ -325,13 +325,30 @@ def bug_pair(spec: ChartSpec, bug_name: str) -> tuple[Any, ChartSpec, ChartSpec]
     return bug, correct, bug.apply(correct)
 
 
-def submit_bug_pairs(spec: ChartSpec, names: Sequence[str], batch) -> None:
-    """Render each named bug's correct and buggy charts of ``spec`` (kept, as compare_bug and
-    bug_contact_sheet render them) and submit their FLIP to ``batch`` (an open FlipBatch):
-    a build measures them while it renders other images."""
+def bug_renders(spec: ChartSpec, names: Sequence[str]) -> list[tuple[RenderedChart, RenderedChart]]:
+    """Each named bug's (correct, buggy) renders of ``spec``, kept, as compare_bug and
+    bug_contact_sheet render them."""
+    pairs = []
     for name in names:
         _, correct, buggy = bug_pair(spec, name)
-        rc, rb = render_chart(correct, aovs=True, keep=True), render_chart(buggy, keep=True)
+        pairs.append((render_chart(correct, aovs=True, keep=True), render_chart(buggy, keep=True)))
+    return pairs
+
+
+def keep_renders(rendered: Sequence[RenderedChart]) -> None:
+    """Renders made in another process (kept there, then pickled), kept here as render_chart
+    keeps its own: a worker process composes sheets from them without a GL context."""
+    for r in rendered:
+        for array in [r.result.image, *r.result.aov.values(), r.display]:
+            array.setflags(write=False)
+        _kept.put((r.spec, bool(r.result.aov)), r)
+
+
+def submit_bug_pairs(spec: ChartSpec, names: Sequence[str], batch) -> None:
+    """Render each named bug's correct and buggy charts of ``spec`` (bug_renders) and submit
+    their FLIP to ``batch`` (an open FlipBatch): a build measures them while it renders other
+    images."""
+    for rc, rb in bug_renders(spec, names):
         batch.submit(rb.display, rc.display)
 
 

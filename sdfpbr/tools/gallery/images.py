@@ -7,6 +7,7 @@ import zlib
 import signal
 import time
 from collections import Counter
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
@@ -160,20 +161,31 @@ def flip_pairs(item: Item) -> list[tuple[ChartSpec, str]]:
     return []
 
 
-def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, Rendered], None]) -> None:
-    """Render ``items`` on this process's GL context, calling ``done`` with each. The pairs
-    the comparisons measure are rendered first and their FLIPs handed to worker processes
-    (metrics.FlipBatch), which measure them while the other images render here: measured one
-    after the other, the catalog's 22 FLIPs were a third of a gallery build's time on 2 cores."""
+def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, Rendered], None],
+                 pool=None) -> None:
+    """Render ``items`` on this process's GL context, calling ``done`` with each (in order of
+    completion). The pairs the comparisons measure are rendered first; where worker processes
+    can start (``pool``, from sheet_pool; else one started here), each comparison is handed to
+    one with its renders as soon as they are made and composed there (its FLIP measured, its
+    page laid out and encoded) while this process goes on drawing, the catalog last; else their
+    FLIPs alone go to workers (metrics.FlipBatch) and the pages are composed here. Composed
+    here, the bug pages and the catalog were the last third of a gallery build, on one core."""
     pairs = list(dict.fromkeys(pair for item in items for pair in flip_pairs(item)))
+    measuring = sorted((item for item in items if flip_pairs(item)), key=lambda item: len(flip_pairs(item)))
+    others = [item for item in items if not flip_pairs(item)]
     if not pairs:
         for item in items:
             done(item, render_item(item, keys[item.name]))
         return
+    if pool is not None:
+        _compose_in_workers(measuring, others, keys, done, pool)
+        return
+    with sheet_pool(measuring) as pool:
+        if pool is not None:
+            _compose_in_workers(measuring, others, keys, done, pool)
+            return
     from ...image.metrics import FlipBatch
     from ..compare import submit_bug_pairs
-    measuring = sorted((item for item in items if flip_pairs(item)), key=lambda item: len(flip_pairs(item)))
-    others = [item for item in items if not flip_pairs(item)]
     with FlipBatch(len(pairs)) as batch:
         start = time.perf_counter()
         for base, name in pairs:
@@ -185,6 +197,104 @@ def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, 
             rendered = render_item(item, keys[item.name])
             rendered.seconds += share
             done(item, rendered)
+
+
+# Sheets composed in worker processes: a page costs ~0.3 s of one core (its FLIP, layout and
+# PNG), the drawing here ~0.2 s; fewer sheets than this are composed here (a worker's start
+# costs ~0.5 s of a core).
+SHEET_WORKERS_FROM = 4
+
+
+def sheet_workers(sheets: int) -> int:
+    """Worker processes that compose ``sheets`` comparison sheets (0: compose them here): one
+    per core (the drawing here leaves its core part idle: one worker on 2 cores built the
+    gallery in 13.2 s, two in 12.5); none on one core, in a worker (its parent's pool has the
+    cores) or where none can start."""
+    from ...workers import can_spawn, cores, in_worker
+    if sheets < SHEET_WORKERS_FROM or cores() < 2 or in_worker() or not can_spawn():
+        return 0
+    return min(cores(), sheets)
+
+
+@contextmanager
+def sheet_pool(items: list[Item]):
+    """A process pool of sheet_workers for the comparisons among ``items`` (None where they
+    are composed here), its workers started at once: a build starts them before it makes its
+    keys, when its second core is idle (they took it from the first draws). Closed on leaving;
+    on an error its queued work is dropped."""
+    from ...workers import process_pool
+    workers = sheet_workers(sum(1 for item in items if flip_pairs(item)))
+    if not workers:
+        yield None
+        return
+    pool = process_pool(workers)
+    try:
+        for _ in range(workers):   # a pool starts a worker per task it is given
+            pool.submit(_start_worker)
+        yield pool
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    finally:
+        pool.shutdown(wait=True)
+
+
+def _start_worker() -> None:
+    """What composing a sheet imports, loaded while the parent makes its keys."""
+    from .. import compare   # noqa: F401  (numpy, Pillow, the layout)
+
+
+def _compose_sheet(item: Item, key: str, renders: list) -> Rendered:
+    """A worker's part (module level, for the pool): ``item`` composed from renders made in
+    the parent; every FLIP is measured here (the parent's pool has the cores)."""
+    from ...image.metrics import measure_in_process
+    from ..compare import keep_renders
+    measure_in_process()
+    start = time.perf_counter()
+    keep_renders(renders)
+    rendered = render_item(item, key)
+    rendered.seconds = time.perf_counter() - start
+    return rendered
+
+
+def _compose_in_workers(measuring: list[Item], others: list[Item], keys: dict[str, str],
+                        done: Callable[[Item, Rendered], None], pool) -> None:
+    from concurrent.futures import FIRST_COMPLETED, wait
+    from concurrent.futures.process import BrokenProcessPool
+    from ..compare import bug_renders
+    futures: dict = {}   # future -> (item, the seconds its renders took here)
+
+    def here(item: Item, drawing: float) -> None:   # a worker died (killed, out of memory): compose it here
+        rendered = render_item(item, keys[item.name])
+        rendered.seconds += drawing
+        done(item, rendered)
+
+    def take(finished) -> None:
+        for future in finished:
+            item, drawing = futures.pop(future)
+            try:
+                rendered = future.result()
+            except BrokenProcessPool:
+                here(item, drawing)
+                continue
+            rendered.seconds += drawing
+            done(item, rendered)
+
+    for item in measuring:   # fewest pairs first: the catalog, which needs every pair, last
+        start = time.perf_counter()
+        pairs = bug_renders(item.base, [name for _, name in flip_pairs(item)])
+        renders = list({id(r): r for pair in pairs for r in pair}.values())
+        drawing = time.perf_counter() - start
+        try:
+            futures[pool.submit(_compose_sheet, item, keys[item.name], renders)] = (item, drawing)
+        except BrokenProcessPool:
+            here(item, drawing)
+        take([future for future in futures if future.done()])
+    for item in others:   # drawn here while the workers compose
+        done(item, render_item(item, keys[item.name]))
+        take([future for future in futures if future.done()])
+    while futures:
+        take(wait(futures, return_when=FIRST_COMPLETED).done)
 
 
 def ensure_image(item: Item, cache: ImageCache | None = None, force: bool = False,

@@ -112,7 +112,7 @@ def gl_renderers(items: Sequence[Item]) -> dict[tuple[str, int], str]:
 
 def item_key(item: Item, renderers: dict[tuple[str, int], str]) -> str:
     specs = [_spec_for_key(s) for s in item.specs]
-    sources = [[src.text for src in program_sources(s)] for s in item.specs]
+    sources = [[src.digest for src in program_sources(s)] for s in item.specs]   # each text hashed once
     gl = sorted({renderers[(s.backend, s.device_index)] for s in item.specs})
     return content_key(FORMAT, __version__, code_digest(), gl, item.kind, item.canonical, specs, sources)
 
