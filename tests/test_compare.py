@@ -305,3 +305,35 @@ def test_sheets_keep_their_renders_read_only_and_frames_are_not_kept():
     np.testing.assert_array_equal(frame.result.image, with_aov.result.image)
     sheet = compare.compare_bug(spec, "unsquared-roughness")
     assert (spec, True) in compare._kept and sheet.image.shape[0] > 0
+
+
+def test_display_bugs_are_their_correct_charts_radiance_through_their_own_display_pass(monkeypatch):
+    """A kept correct chart keeps its radiance: a display bug's chart (and gamma-2.2's darker
+    correct one, which differs in exposure) is drawn from it through its own display pass, not
+    drawn again, and is the very image (and sphere AOVs) a render of its own gives."""
+    from sdfpbr.gpu.session import Session, default_session
+    from sdfpbr.spec.fields import same_radiance
+    from sdfpbr.tools import compare
+    spec = make_spec(width=64, height=48, quality="draft", rows=2, cols=3)
+    drawn = []
+    real = Session.render
+    monkeypatch.setattr(Session, "render", lambda self, s, *a, **k: drawn.append(s) or real(self, s, *a, **k))
+    compare._kept.clear()
+    compare._radiance.clear()
+    display_bugs = [b.name for b in BUGS.values() if b.program == "display"]
+    assert {"double-gamma", "gamma-2.2", "clamp-tonemap"} <= set(display_bugs)
+    for name in display_bugs:
+        _, correct, buggy = bug_pair(spec, name)
+        assert same_radiance(spec, buggy) and same_radiance(correct, buggy)
+        for s, aovs in ((correct, True), (buggy, False)):
+            got = compare.render_chart(s, aovs=aovs, keep=True).result
+            alone = real(default_session(), s, aovs=aovs, hdr=False)
+            np.testing.assert_array_equal(got.image, alone.image, err_msg=f"{name}: {s.bugs} {s.exposure}")
+            for aov in ("row", "col") if aovs else ():
+                np.testing.assert_array_equal(got.aov[aov], alone.aov[aov])
+            assert got.hdr is None and got.aov.keys() == ({"row", "col"} if aovs else set())
+    assert drawn == [spec]                        # one chart drawn; every other one redisplayed
+    chart_bug = bug_pair(spec, "metal-diffuse")[2]
+    assert not same_radiance(spec, chart_bug)
+    compare.render_chart(chart_bug, keep=True)
+    assert drawn == [spec, chart_bug]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, replace
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -376,11 +377,19 @@ def resolve_field(name: str, what: str = "spec field", also=()) -> Field:
 DISPLAY_ATTRS = tuple(f.attr for f in FIELDS if f.display)
 
 
+def radiance_fields(spec) -> tuple:
+    """What decides a spec's radiance: every field but the display ones, and of its bugs those
+    of the chart program (a display bug changes the display pass alone). Hashable."""
+    return tuple((f.name, tuple(b for b in spec.bugs if BUGS[b].program != "display") if f.name == "bugs"
+                  else getattr(spec, f.name))
+                 for f in dataclass_fields(spec) if f.name not in DISPLAY_ATTRS)
+
+
 def same_radiance(a, b) -> bool:
-    """Whether specs ``a`` and ``b`` differ in display fields alone (tone map, exposure, ...):
-    their charts' radiance is the same, and one's display image is the other's radiance
-    through its own display pass."""
-    return replace(a, **{k: getattr(b, k) for k in DISPLAY_ATTRS}) == b
+    """Whether specs ``a`` and ``b`` differ in display fields (tone map, exposure, ...) and
+    display bugs alone: their charts' radiance is the same, and one's display image is the
+    other's radiance through its own display pass."""
+    return radiance_fields(a) == radiance_fields(b)
 
 
 def field_for_attr(attr: str) -> Field:

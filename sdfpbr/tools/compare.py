@@ -12,6 +12,7 @@ import functools
 import json
 import math
 from dataclasses import dataclass, field
+from dataclasses import replace as dc_replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -119,25 +120,49 @@ SHEET_AOVS = ("row", "col")   # what the sheets measure cells by
 _kept = Kept(KEPT_RENDER_BYTES, lambda r: sum(a.nbytes for a in [r.result.image, *r.result.aov.values()]))
 
 
+# The radiance of kept renders that measure cells (a bug pair's correct chart): a chart that
+# differs from one of them in display fields and display bugs alone (fields.same_radiance) is
+# that radiance through its own display pass (gpu.render.redisplay: the same pixels), not
+# drawn again: the catalog's five display bugs and gamma-2.2's darker chart. Read only where it
+# fits the budget (512²: 4 MB).
+KEPT_RADIANCE_BYTES = 32 << 20
+_radiance = Kept(KEPT_RADIANCE_BYTES, lambda result: result.hdr.nbytes + result.alpha.nbytes)
+
+
 def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> RenderedChart:
     """Render on the process's renderer (the one place this module reaches GL): the display
     image, and the AOVs (sphere row / col) only where cells are measured. ``keep``: take a kept
-    render of the same spec, and keep this one (sheets; not animation frames, which never
-    repeat and would hold memory)."""
+    render of the same spec (or its radiance: _radiance), and keep this one (sheets; not
+    animation frames, which never repeat and would hold memory)."""
     from ..gpu.session import default_session
+    from ..spec.fields import radiance_fields
     for key in ((spec, True), (spec, aovs)) if keep else ():
         kept = _kept.get(key)
         if kept is not None:
             return kept
     session = default_session(spec.backend, spec.device_index)
-    rendered = RenderedChart(spec, session.render(spec, aovs=aovs, hdr=False), session.renderer)
-    for name in set(rendered.result.aov) - set(SHEET_AOVS):   # kept small: a catalog's renders fit
-        del rendered.result.aov[name]
+    radiance = radiance_fields(spec) if keep else None
+    source = _radiance.get(radiance) if keep else None
+    if source is not None:
+        result = session.redisplay(spec, source)
+        result.aov = {name: source.aov[name] for name in SHEET_AOVS} if aovs else {}   # the same geometry
+    else:
+        read = keep and aovs and spec.width * spec.height * 16 <= KEPT_RADIANCE_BYTES
+        result = session.render(spec, aovs=aovs, hdr=read)
+        for name in set(result.aov) - set(SHEET_AOVS):   # kept small: a catalog's renders fit
+            del result.aov[name]
+        if read:
+            _radiance.put(radiance, result)
+    rendered = RenderedChart(spec, dc_replace(result, hdr=None, alpha=None), session.renderer)
     if keep:
-        for array in [rendered.result.image, *rendered.result.aov.values()]:
-            array.setflags(write=False)
-        _kept.put((spec, aovs), rendered)
+        _keep(rendered, aovs)
     return rendered
+
+
+def _keep(rendered: RenderedChart, aovs: bool) -> None:
+    for array in [rendered.result.image, *rendered.result.aov.values()]:
+        array.setflags(write=False)
+    _kept.put((rendered.spec, aovs), rendered)
 
 
 def render_charts(specs: Sequence[ChartSpec]) -> list[RenderedChart]:
@@ -339,9 +364,8 @@ def keep_renders(rendered: Sequence[RenderedChart]) -> None:
     """Renders made in another process (kept there, then pickled), kept here as render_chart
     keeps its own: a worker process composes sheets from them without a GL context."""
     for r in rendered:
-        for array in [r.result.image, *r.result.aov.values(), r.display]:
-            array.setflags(write=False)
-        _kept.put((r.spec, bool(r.result.aov)), r)
+        r.display.setflags(write=False)
+        _keep(r, bool(r.result.aov))
 
 
 def submit_bug_pairs(spec: ChartSpec, names: Sequence[str], batch) -> None:
@@ -396,7 +420,6 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
     each a bug's correct | buggy | FLIP difference with axes at ``panel_size`` px, its name,
     summary and caption. The figures are measured on renders at ``measure_size`` (the size
     ``compare --bug`` uses, so both quote the same figure; None: the spec's own size)."""
-    from dataclasses import replace as dc_replace
     from ..image.metrics import FlipBatch
     from ..spec.bugs import BUGS, get_bug
     spec = at_panel_size(as_spec(spec, "spec"), measure_size)
