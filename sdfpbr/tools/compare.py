@@ -167,8 +167,8 @@ def _keep(rendered: RenderedChart, aovs: bool) -> None:
 
 def render_charts(specs: Sequence[ChartSpec]) -> list[RenderedChart]:
     """Each spec's render (as render_chart's); the specs that differ from the first in display
-    fields alone (a tone-map or exposure sweep) take its radiance through their own display
-    pass, with the same pixels as drawing each (gpu.render.redisplay)."""
+    fields or display bugs alone (a tone-map or exposure sweep) take its radiance through their
+    own display pass, with the same pixels as drawing each (gpu.render.redisplay)."""
     from ..gpu.session import default_session
     from ..spec.fields import same_radiance
     first = specs[0]
