@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
@@ -21,7 +20,7 @@ from ...cache import touch
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from ...workers import cores, process_pool
-from .images import ImageCache, Rendered, checkpoint, render_items, sheet_pool, write_file
+from .images import ImageCache, Rendered, checkpoint, render_items, write_file
 from .page import gallery_html
 from .stamp import InputLog, package_files, record, stamp_path, unchanged
 
@@ -133,64 +132,60 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
         if manifest is not None:
             return manifest
 
-    with ExitStack() as stack:    # the sheet workers, closed however the build ends
-        from .entries import collect
-        from .keys import gl_renderers, item_keys
-        packages = package_files()
-        with InputLog(cache.root) as inputs:
-            items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
-            _check_out(out)
-            # Drawn here (-j 1): the workers that compose the comparisons start now, while the
-            # keys are made (its second core is idle then).
-            sheets = stack.enter_context(sheet_pool(items if jobs == 1 else []))
-            renderers = gl_renderers(items)
-            keys = item_keys(items, renderers, cache.dir / "keys.json")
-        cache.remove_stale_temps()
-        _make_out(out)
-        previous = _previous_images(out)
+    from .entries import collect
+    from .keys import gl_renderers, item_keys
+    packages = package_files()
+    with InputLog(cache.root) as inputs:
+        items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
+        _check_out(out)
+        renderers = gl_renderers(items)
+        keys = item_keys(items, renderers, cache.dir / "keys.json")
+    cache.remove_stale_temps()
+    _make_out(out)
+    previous = _previous_images(out)
 
-        results: dict[str, Result] = {}
-        todo: list[Item] = []
-        total = len(items)
-        for item in items:
-            data = None if force else cache.get(keys[item.name])
-            if data is None:
-                todo.append(item)
-                continue
-            results[item.name] = Result(item, keys[item.name], True, data)
-            _write_output(out, item, data)
-            say(progress_line(len(results), total, f"{item.name}.png", "cached", keys[item.name] if verbose else ""))
+    results: dict[str, Result] = {}
+    todo: list[Item] = []
+    total = len(items)
+    for item in items:
+        data = None if force else cache.get(keys[item.name])
+        if data is None:
+            todo.append(item)
+            continue
+        results[item.name] = Result(item, keys[item.name], True, data)
+        _write_output(out, item, data)
+        say(progress_line(len(results), total, f"{item.name}.png", "cached", keys[item.name] if verbose else ""))
 
-        uncached = []     # images a later build cannot find in the cache: no stamp then
+    uncached = []     # images a later build cannot find in the cache: no stamp then
 
-        def done(item: Item, rendered: Rendered) -> None:
-            key = keys[item.name]
-            checkpoint("render")
-            if rendered.renderer and rendered.renderer not in renderers.values():
-                # Rendered on another GL than the key says: use the image, but do not cache it.
-                say(f"warning: {item.name} rendered on {rendered.renderer}, not caching it")
-                uncached.append(item.name)
-            elif not cache.put(key, rendered.png):
-                uncached.append(item.name)
-            results[item.name] = Result(item, key, False, rendered.png, rendered.seconds, rendered.timings)
-            _write_output(out, item, rendered.png)
-            say(progress_line(len(results), total, f"{item.name}.png", f"rendered in {rendered.seconds:.2f} s",
-                              key if verbose else ""))
+    def done(item: Item, rendered: Rendered) -> None:
+        key = keys[item.name]
+        checkpoint("render")
+        if rendered.renderer and rendered.renderer not in renderers.values():
+            # Rendered on another GL than the key says: use the image, but do not cache it.
+            say(f"warning: {item.name} rendered on {rendered.renderer}, not caching it")
+            uncached.append(item.name)
+        elif not cache.put(key, rendered.png):
+            uncached.append(item.name)
+        results[item.name] = Result(item, key, False, rendered.png, rendered.seconds, rendered.timings)
+        _write_output(out, item, rendered.png)
+        say(progress_line(len(results), total, f"{item.name}.png", f"rendered in {rendered.seconds:.2f} s",
+                          key if verbose else ""))
 
-        groups = work_groups(todo)
-        workers = min(jobs, len(groups))
-        if workers <= 1:
-            render_items(todo, keys, done, sheets)
-        else:
-            _render_parallel(groups, keys, workers, done)
+    groups = work_groups(todo)
+    workers = min(jobs, len(groups))
+    if workers <= 1:
+        render_items(todo, keys, done)
+    else:
+        _render_parallel(groups, keys, workers, done)
 
-        manifest = _manifest(items, results, renderers, chart_dir, time.perf_counter() - start)
-        if shard is not None:
-            manifest["shard"] = list(shard)
-        _finish(out, manifest, previous, page=shard is None)
-        if not uncached:
-            record(stamp_file, inputs, packages, _as_unchanged(manifest))
-        return manifest
+    manifest = _manifest(items, results, renderers, chart_dir, time.perf_counter() - start)
+    if shard is not None:
+        manifest["shard"] = list(shard)
+    _finish(out, manifest, previous, page=shard is None)
+    if not uncached:
+        record(stamp_file, inputs, packages, _as_unchanged(manifest))
+    return manifest
 
 
 def _as_unchanged(manifest: dict) -> dict:

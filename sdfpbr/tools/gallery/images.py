@@ -161,24 +161,20 @@ def flip_pairs(item: Item) -> list[tuple[ChartSpec, str]]:
     return []
 
 
-def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, Rendered], None],
-                 pool=None) -> None:
+def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, Rendered], None]) -> None:
     """Render ``items`` on this process's GL context, calling ``done`` with each (in order of
     completion). The pairs the comparisons measure are rendered first; where worker processes
-    can start (``pool``, from sheet_pool; else one started here), each comparison is handed to
-    one with its renders as soon as they are made and composed there (its FLIP measured, its
-    page laid out and encoded) while this process goes on drawing, the catalog last; else their
-    FLIPs alone go to workers (metrics.FlipBatch) and the pages are composed here. Composed
-    here, the bug pages and the catalog were the last third of a gallery build, on one core."""
+    can start (sheet_pool), each comparison is handed to one with its renders as soon as they
+    are made and composed there (its FLIP measured, its page laid out and encoded) while this
+    process goes on drawing, the catalog last; else their FLIPs alone go to workers
+    (metrics.FlipBatch) and the pages are composed here. Composed here, the bug pages and the
+    catalog were the last third of a gallery build, on one core."""
     pairs = list(dict.fromkeys(pair for item in items for pair in flip_pairs(item)))
     measuring = sorted((item for item in items if flip_pairs(item)), key=lambda item: len(flip_pairs(item)))
     others = [item for item in items if not flip_pairs(item)]
     if not pairs:
         for item in items:
             done(item, render_item(item, keys[item.name]))
-        return
-    if pool is not None:
-        _compose_in_workers(measuring, others, keys, done, pool)
         return
     with sheet_pool(measuring) as pool:
         if pool is not None:
@@ -219,9 +215,10 @@ def sheet_workers(sheets: int) -> int:
 @contextmanager
 def sheet_pool(items: list[Item]):
     """A process pool of sheet_workers for the comparisons among ``items`` (None where they
-    are composed here), its workers started at once: a build starts them before it makes its
-    keys, when its second core is idle (they took it from the first draws). Closed on leaving;
-    on an error its queued work is dropped."""
+    are composed here), its workers started at once (they import while the first pair is
+    drawn). Closed on leaving; on an error its queued work is dropped. (Started before the
+    build made its keys, on the core idle then, a cold build was no faster, and a build with
+    one plain chart to render paid 0.4 s for workers it did not use.)"""
     from ...workers import process_pool
     workers = sheet_workers(sum(1 for item in items if flip_pairs(item)))
     if not workers:
@@ -240,7 +237,7 @@ def sheet_pool(items: list[Item]):
 
 
 def _start_worker() -> None:
-    """What composing a sheet imports, loaded while the parent makes its keys."""
+    """What composing a sheet imports, loaded before the first sheet comes."""
     from .. import compare   # noqa: F401  (numpy, Pillow, the layout)
 
 
