@@ -348,11 +348,12 @@ def test_comparisons_composed_in_workers_are_the_images_each_makes_alone(env):
 
     from sdfpbr.image import metrics
     from sdfpbr.tools import compare
-    from sdfpbr.tools.gallery.images import SHEET_WORKERS_FROM, render_item, sheet_workers
+    from sdfpbr.tools.gallery.images import render_item
+    from sdfpbr.workers import HELPERS_FROM, helpers
     bugs = ["metal-diffuse", "double-gamma", "unsquared-roughness", "gamma-2.2"]
-    if not sheet_workers(len(bugs) + 1):
+    if not helpers(len(bugs) + 1):
         pytest.skip("one core (or no worker processes here): the comparisons are composed in-process")
-    assert len(bugs) + 1 >= SHEET_WORKERS_FROM
+    assert len(bugs) + 1 >= HELPERS_FROM
     entries = {f"bug-{name}.toml": f'[compare]\nbug = "{name}"\n[spec]\n' + SMALL for name in bugs}
     entries["sheet.toml"] = f"[compare]\nbugs = {json.dumps(bugs)}\n[spec]\n" + SMALL
     entries["plain.toml"] = ENTRIES["plain.toml"]

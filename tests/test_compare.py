@@ -3,6 +3,7 @@ vanish for identical specs and sit where the specs differ, per-sphere numbers th
 per-cell means of the map, sweeps and contact sheets, and the compare / sweep commands."""
 import json
 import math
+import os
 import subprocess
 import sys
 
@@ -337,3 +338,24 @@ def test_display_bugs_are_their_correct_charts_radiance_through_their_own_displa
     assert not same_radiance(spec, chart_bug)
     compare.render_chart(chart_bug, keep=True)
     assert drawn == [spec, chart_bug]
+
+
+def test_a_catalog_made_with_helper_processes_is_the_one_made_on_one_core(tmp_path):
+    """With cores to spare, `compare --bugs` hands each card (its FLIP, panels and layout) to a
+    helper process as soon as its pair is drawn (workers.helper_pool); pinned to one CPU it
+    makes every card itself. Both sheets are the same, pixel for pixel and in their metadata."""
+    from sdfpbr.workers import helpers
+    names = ["metal-diffuse", "double-gamma", "unsquared-roughness", "gamma-2.2"]
+    if not helpers(len(names)):
+        pytest.skip("one core (or no worker processes here): no helpers to compare with")
+    sheets = {}
+    for where, pin in (("helpers", None), ("one core", lambda: os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}))):
+        out = tmp_path / f"{where}.png"
+        done = subprocess.run([sys.executable, "-m", "sdfpbr", "compare", "--bugs", ",".join(names), "--quality", "draft",
+                               "--rows", "2", "--cols", "2", "--panel-size", "96", "-o", str(out)],
+                              capture_output=True, text=True, preexec_fn=pin)
+        assert done.returncode == 0, done.stderr
+        with Image.open(out) as image:
+            sheets[where] = (np.asarray(image), dict(image.text))
+    np.testing.assert_array_equal(sheets["helpers"][0], sheets["one core"][0])
+    assert sheets["helpers"][1] == sheets["one core"][1]

@@ -21,6 +21,7 @@ import numpy as np
 from .. import __version__
 from ..errors import SpecError
 from ..kept import Kept
+from ..workers import helper_pool
 from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import FOOTER_SEPARATOR, Cell
 from ..image.sheet import (Axes, Box, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
@@ -414,6 +415,22 @@ def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panels: list[Panel], pa
     return card, panels + [diff.panel], diff
 
 
+def _start_helper() -> None:
+    """What a helper making cards imports (workers.helper_pool)."""
+    from ..image import flip, metrics   # noqa: F401
+
+
+def _whole_card(name: str, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
+    """A helper's part (module level, for the pool): a bug's card, as _bug_panels and _bug_card
+    make it here, from renders made in the parent; its FLIP measured here."""
+    from ..image.metrics import measure_in_process
+    from ..spec.bugs import get_bug
+    measure_in_process()
+    keep_renders([rc, rb])
+    bug = get_bug(name)
+    return _bug_card(bug, rc, rb, _bug_panels(bug, rc, rb, panel_size, text_size), panel_size, text_size)
+
+
 def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
                       panel_size: int = 256, per_row: int = 2, measure_size: int | None = BUG_MEASURE_SIZE) -> Sheet:
     """The bug catalog (or ``names`` from it) as one sheet: a grid of cards, ``per_row`` across,
@@ -440,19 +457,28 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
             specs.append(s)
         return rendered[s], specs.index(s)
 
-    # Every pair rendered first, each measured (in worker processes) while the next renders and
-    # the cards' chart panels are drawn.
-    with FlipBatch(len(pairs)) as batch:
-        submit_bug_pairs(spec, names, batch)
-        for bug, correct, buggy in pairs:   # the sheet's specs in this order
-            render(buggy, False), render(correct, True)
-        chart_panels = [_bug_panels(bug, render(correct, True)[0], render(buggy, False)[0], panel_size, text_size)
-                        for bug, correct, buggy in pairs]
+    with helper_pool(len(pairs), _start_helper) as pool:
+        if pool is not None:   # each card made by a helper process as soon as its pair is drawn
+            made = []
+            for bug, correct, buggy in pairs:
+                render_chart(correct, aovs=True, keep=True)   # drawn first: its radiance serves display bugs
+                rb, rc = render(buggy, False)[0], render(correct, True)[0]   # the sheet's specs in this order
+                made.append(pool.submit(_whole_card, bug.name, rc, rb, panel_size, text_size))
+            made = [future.result() for future in made]
+        else:
+            # Every pair rendered first, each measured (in worker processes) while the next
+            # renders and the cards' chart panels are drawn.
+            with FlipBatch(len(pairs)) as batch:
+                submit_bug_pairs(spec, names, batch)
+                for bug, correct, buggy in pairs:   # the sheet's specs in this order
+                    render(buggy, False), render(correct, True)
+                chart_panels = [_bug_panels(bug, render(correct, True)[0], render(buggy, False)[0], panel_size,
+                                            text_size) for bug, correct, buggy in pairs]
+            made = [_bug_card(bug, render(correct, True)[0], render(buggy, False)[0], drawn, panel_size, text_size)
+                    for (bug, correct, buggy), drawn in zip(pairs, chart_panels)]
     cards, card_panels, diffs = [], [], []
-    for (bug, correct, buggy), drawn in zip(pairs, chart_panels):
-        (rc, ic), (rb, ib) = render(correct, True), render(buggy, False)
-        card, panels, diff = _bug_card(bug, rc, rb, drawn, panel_size, text_size)
-        panels[0].spec_index, panels[1].spec_index = ic, ib
+    for (bug, correct, buggy), (card, panels, diff) in zip(pairs, made):
+        panels[0].spec_index, panels[1].spec_index = render(correct, True)[1], render(buggy, False)[1]
         cards.append(card)
         card_panels.append(panels)
         diffs.append(diff)

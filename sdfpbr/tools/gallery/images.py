@@ -7,7 +7,6 @@ import zlib
 import signal
 import time
 from collections import Counter
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
@@ -195,45 +194,12 @@ def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, 
             done(item, rendered)
 
 
-# Sheets composed in worker processes: a page costs ~0.3 s of one core (its FLIP, layout and
-# PNG), the drawing here ~0.2 s; fewer sheets than this are composed here (a worker's start
-# costs ~0.5 s of a core).
-SHEET_WORKERS_FROM = 4
-
-
-def sheet_workers(sheets: int) -> int:
-    """Worker processes that compose ``sheets`` comparison sheets (0: compose them here): one
-    per core (the drawing here leaves its core part idle: one worker on 2 cores built the
-    gallery in 13.2 s, two in 12.5); none on one core, in a worker (its parent's pool has the
-    cores) or where none can start."""
-    from ...workers import can_spawn, cores, in_worker
-    if sheets < SHEET_WORKERS_FROM or cores() < 2 or in_worker() or not can_spawn():
-        return 0
-    return min(cores(), sheets)
-
-
-@contextmanager
 def sheet_pool(items: list[Item]):
-    """A process pool of sheet_workers for the comparisons among ``items`` (None where they
-    are composed here), its workers started at once (they import while the first pair is
-    drawn). Closed on leaving; on an error its queued work is dropped. (Started before the
-    build made its keys, on the core idle then, a cold build was no faster, and a build with
-    one plain chart to render paid 0.4 s for workers it did not use.)"""
-    from ...workers import process_pool
-    workers = sheet_workers(sum(1 for item in items if flip_pairs(item)))
-    if not workers:
-        yield None
-        return
-    pool = process_pool(workers)
-    try:
-        for _ in range(workers):   # a pool starts a worker per task it is given
-            pool.submit(_start_worker)
-        yield pool
-    except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
-        raise
-    finally:
-        pool.shutdown(wait=True)
+    """A workers.helper_pool for the comparisons among ``items`` (None where they are composed
+    here). (Started before the build made its keys, on the core idle then, a cold build was no
+    faster, and a build with one plain chart to render paid 0.4 s for workers it did not use.)"""
+    from ...workers import helper_pool
+    return helper_pool(sum(1 for item in items if flip_pairs(item)), _start_worker)
 
 
 def _start_worker() -> None:
