@@ -420,15 +420,26 @@ def _start_helper() -> None:
     from ..image import flip, metrics   # noqa: F401
 
 
-def _whole_card(name: str, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
-    """A helper's part (module level, for the pool): a bug's card, as _bug_panels and _bug_card
-    make it here, from renders made in the parent; its FLIP measured here."""
-    from ..image.metrics import measure_in_process
-    from ..spec.bugs import get_bug
-    measure_in_process()
-    keep_renders([rc, rb])
-    bug = get_bug(name)
+def _whole_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
+    """A bug's card, its panels included (_bug_panels, _bug_card)."""
     return _bug_card(bug, rc, rb, _bug_panels(bug, rc, rb, panel_size, text_size), panel_size, text_size)
+
+
+def _helper_card(name: str, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
+    """A helper's part (module level, for the pool): the card, from renders made in the parent;
+    its FLIP measured here."""
+    from ..spec.bugs import get_bug
+    keep_renders([rc, rb])
+    return _whole_card(get_bug(name), rc, rb, panel_size, text_size)
+
+
+def _helped(future):
+    """A helper's result, or None where there is none (its helper died: killed, out of memory)."""
+    from concurrent.futures.process import BrokenProcessPool
+    try:
+        return future.result() if future is not None else None
+    except BrokenProcessPool:
+        return None
 
 
 def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
@@ -437,6 +448,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
     each a bug's correct | buggy | FLIP difference with axes at ``panel_size`` px, its name,
     summary and caption. The figures are measured on renders at ``measure_size`` (the size
     ``compare --bug`` uses, so both quote the same figure; None: the spec's own size)."""
+    from concurrent.futures.process import BrokenProcessPool
     from ..image.metrics import FlipBatch
     from ..spec.bugs import BUGS, get_bug
     spec = at_panel_size(as_spec(spec, "spec"), measure_size)
@@ -459,12 +471,17 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
 
     with helper_pool(len(pairs), _start_helper) as pool:
         if pool is not None:   # each card made by a helper process as soon as its pair is drawn
-            made = []
+            futures = []
             for bug, correct, buggy in pairs:
                 render_chart(correct, aovs=True, keep=True)   # drawn first: its radiance serves display bugs
                 rb, rc = render(buggy, False)[0], render(correct, True)[0]   # the sheet's specs in this order
-                made.append(pool.submit(_whole_card, bug.name, rc, rb, panel_size, text_size))
-            made = [future.result() for future in made]
+                try:
+                    futures.append(pool.submit(_helper_card, bug.name, rc, rb, panel_size, text_size))
+                except BrokenProcessPool:
+                    futures.append(None)
+            made = [_helped(future) or _whole_card(bug, render(correct, True)[0], render(buggy, False)[0],
+                                                   panel_size, text_size)
+                    for (bug, correct, buggy), future in zip(pairs, futures)]
         else:
             # Every pair rendered first, each measured (in worker processes) while the next
             # renders and the cards' chart panels are drawn.
