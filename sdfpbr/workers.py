@@ -2,7 +2,8 @@
 worker starts clean and makes its own GL context if it needs one; no GL state is forked), whose
 workers ignore Ctrl-C (it reaches the whole process group; the parent alone answers it, so no
 worker prints a KeyboardInterrupt traceback) and exit on their own when their parent dies,
-instead of working for nobody."""
+instead of working for nobody. helper_pool: such workers taking CPU work off a process that
+draws, as it draws (a gallery's comparisons, the bug catalog's cards)."""
 from __future__ import annotations
 
 import os
