@@ -80,7 +80,7 @@ def helpers(tasks: int) -> int:
 
 
 @contextmanager
-def helper_pool(tasks: int, warm=None):
+def helper_pool(tasks: int, warm):
     """A process_pool of ``helpers(tasks)`` workers (None where there are none), each started
     at once by running ``warm`` (a module-level function: what the tasks import), so that they
     start while the caller draws its first. Closed on leaving; on an error its queued tasks are
@@ -92,14 +92,10 @@ def helper_pool(tasks: int, warm=None):
     pool = process_pool(workers)
     try:
         for _ in range(workers):   # a pool starts a worker per task it is given
-            pool.submit(warm or _nothing)
+            pool.submit(warm)
         yield pool
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     finally:
         pool.shutdown(wait=True)
-
-
-def _nothing() -> None:
-    pass
