@@ -338,3 +338,90 @@ def test_a_long_footer_wraps_and_the_row_axis_title_stays_by_its_labels(side):
         rows = [b for t, b in boxes if t in {label_text(v) for v in values} and b[2] < x0]
         return min(b[0] for b in rows) - title[2]
     assert title_to_labels(footer) == title_to_labels("") > 0
+
+
+# A still chart's labels in a new process: the canvas's digest, where the render goes, and
+# whether Pillow was imported to make it.
+NEW_PROCESS_CANVAS = """
+import hashlib, sys
+from sdfpbr.image.chart_labels import labelled_canvas
+from sdfpbr.shading.camera import frame
+from sdfpbr.spec.chart_spec import make_spec
+spec = make_spec(rows=2, cols=3, width=240, height=160)
+canvas, origin = labelled_canvas(spec, frame(spec))
+print(hashlib.sha256(canvas.tobytes()).hexdigest(), canvas.shape, origin, "PIL" in sys.modules)
+"""
+
+
+def _canvas_in_a_new_process(cache_dir):
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", NEW_PROCESS_CANVAS], env={**os.environ, "SDFPBR_CACHE_DIR": str(cache_dir)},
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    *canvas, pillow = r.stdout.split()
+    return " ".join(canvas), pillow == "True", r.stderr
+
+
+def _system_font():
+    from sdfpbr.image.text import SYSTEM_FONTS
+    import os
+    if not os.path.isfile(SYSTEM_FONTS[0]):
+        pytest.skip(f"labels are kept on disk only in the system font, absent here: {SYSTEM_FONTS[0]} "
+                    "(Debian's fonts-dejavu-core)")
+    return SYSTEM_FONTS[0]
+
+
+def test_a_still_charts_labels_are_read_back_in_a_new_process_without_pillow(tmp_path):
+    """The first process draws the labels with Pillow and keeps them in the disk cache; the next
+    reads them, imports no Pillow, and gets the same canvas byte for byte. An entry that does
+    not verify is reported, dropped and drawn again, to the same bytes."""
+    _system_font()
+    drawn, drawn_with_pillow, _ = _canvas_in_a_new_process(tmp_path)
+    read, read_with_pillow, _ = _canvas_in_a_new_process(tmp_path)
+    assert drawn_with_pillow and not read_with_pillow
+    assert read == drawn
+    (entry,) = (tmp_path / "labels").glob("*.npz")
+    entry.write_bytes(entry.read_bytes()[:200])                       # truncated
+    again, again_with_pillow, stderr = _canvas_in_a_new_process(tmp_path)
+    assert again == drawn and again_with_pillow and "is bad" in stderr
+
+
+def test_labels_are_kept_on_disk_only_for_the_font_file_they_were_drawn_in(tmp_path, monkeypatch):
+    """The key holds the font file's identity: the same path with another file under it (a
+    font package updated) keys other entries; a font that is not the system file (Pillow's own,
+    where DejaVu is absent) keeps nothing on disk; an animation's labels (not on_disk) neither."""
+    import os
+    import shutil
+    from sdfpbr.image import layout, text
+    font = tmp_path / "font.ttf"
+    shutil.copy(_system_font(), font)
+    monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
+    cells = [Cell(r, c, 20.0 + 40 * c, 20.0 + 40 * r, 15.0) for r in range(2) for c in range(3)]
+    args = ((80, 120), cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER)
+
+    def kept_entries(fonts, on_disk=True):
+        monkeypatch.setattr(text, "SYSTEM_FONTS", fonts)
+        monkeypatch.setattr(layout, "SYSTEM_FONTS", fonts)
+        for cached in (layout._drawing_identity, text.load_font):
+            cached.cache_clear()
+        forget_layouts()
+        layout.chart_canvas(*args, on_disk=on_disk)
+        return sorted(p.name for p in (tmp_path / "cache" / "labels").glob("*.npz"))
+
+    try:
+        first = kept_entries((str(font),))
+        assert len(first) == 1
+        assert kept_entries((str(font),)) == first                     # read back: nothing new
+        os.utime(font, ns=(0, 10**18))                                 # the file replaced in place
+        second = kept_entries((str(font),))
+        assert len(second) == 2 and set(first) < set(second)
+        assert kept_entries((str(tmp_path / "absent.ttf"),)) == second  # Pillow's own font: not kept
+        os.utime(font, ns=(0, 2 * 10**18))
+        assert kept_entries((str(font),), on_disk=False) == second     # an animation frame's: not kept
+    finally:
+        monkeypatch.undo()
+        for cached in (layout._drawing_identity, text.load_font):
+            cached.cache_clear()
+        forget_layouts()

@@ -86,7 +86,7 @@ def labelled_canvas(spec: ChartSpec, camera, title: str | None = None,
     if not spec.labels:
         return None
     layout = _layout(spec, camera, title, footer)
-    return chart_canvas((spec.height, spec.width), **layout)
+    return chart_canvas((spec.height, spec.width), **layout, on_disk=True)
 
 
 def finish_labels(spec: ChartSpec, chart: np.ndarray, camera, origin: tuple[int, int]) -> np.ndarray:

@@ -18,16 +18,22 @@ margins are sized from measured text extents.
 from __future__ import annotations
 
 import functools
+import importlib.util
 import math
+import os
 from dataclasses import dataclass
 from decimal import ROUND_HALF_UP, Decimal
-from typing import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
 
+from ..cache import ArrayCache, content_key
 from ..kept import Kept
-from .text import drawable_text, load_font
+from .text import SYSTEM_FONTS, drawable_text, load_font
+
+if TYPE_CHECKING:   # Pillow is imported where text is set: a chart whose labels are kept on disk needs none
+    from PIL import ImageFont
 
 __all__ = ["FOOTER_SEPARATOR", "Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset", "label_text", "label_boxes"]
 
@@ -254,13 +260,23 @@ def chart_canvas(render_shape: Sequence[int], cells: Sequence[Cell], column_valu
                  row_values: Sequence[float], title: str, footer: str,
                  row_names: Sequence[str] | None = None, transparent: bool = False,
                  column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
-                 row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> tuple[np.ndarray, tuple[int, int]]:
+                 row_axis_title: str = DEFAULT_ROW_AXIS_TITLE,
+                 on_disk: bool = False) -> tuple[np.ndarray, tuple[int, int]]:
     """A new RGBA uint8 chart without its render: the background and every label, and the
-    (x, y) where a render of ``render_shape`` goes (a renderer may draw straight into it)."""
+    (x, y) where a render of ``render_shape`` goes (a renderer may draw straight into it).
+    ``on_disk``: the labels are also read from and kept in the disk cache (a still chart's; an
+    animation's frames, each a layout of its own when the camera turns, are not kept)."""
     key = (tuple(render_shape[:2]), tuple(cells), tuple(column_values), tuple(row_values), title, footer,
            tuple(row_names or ()), transparent, column_axis_title, row_axis_title)
-    labels = _labels.pop(key, None) or _draw_labels(render_shape, cells, column_values, row_values, title, footer,
-                                              row_names, transparent, column_axis_title, row_axis_title)
+    labels = _labels.pop(key, None)
+    stored_key = _stored_key(key) if on_disk and labels is None else None
+    if stored_key:
+        labels = _read_labels(stored_key)
+    if labels is None:
+        labels = _draw_labels(render_shape, cells, column_values, row_values, title, footer, row_names,
+                              transparent, column_axis_title, row_axis_title)
+        if stored_key:
+            ArrayCache().put(LABELS_CACHE_KIND, stored_key, labels.arrays())
     _labels[key] = labels   # the most recently used last
     while len(_labels) > LABELS_CACHE_SIZE:
         _labels.pop(next(iter(_labels)))
@@ -279,6 +295,7 @@ def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], o
     """Each cell's name centred under its sphere, outlined so it reads over any floor, and cut
     to its column's width so that neighbours' names never run into each other. ``origin``: the
     render's (x, y) in the chart."""
+    from PIL import Image, ImageDraw
     x0, y0 = origin
     style = _styles(max(render_shape[:2]))["label"]
     layer = Image.new("RGBA", (chart.shape[1], chart.shape[0]), _TRANSPARENT)
@@ -305,9 +322,47 @@ _labels: dict[tuple, "_Labels"] = {}
 
 def forget_layouts() -> None:
     """Drop the kept label layers and text patches (the next chart of each layout draws its
-    labels from nothing)."""
+    labels from nothing, or reads them from the disk cache)."""
     _labels.clear()
     _text_patches.clear()
+
+
+# A still chart's labels are kept in the disk cache too: a new process charting a layout drawn
+# before reads them (a few hundred kilobytes) instead of importing Pillow and setting the text,
+# 50 ms of a cold `sdfpbr chart`. Keyed by the layout and by all that decides how its text is
+# drawn: the font file, Pillow's version and FreeType module, and this module's and text's source.
+LABELS_CACHE_KIND = "labels"
+
+
+@functools.lru_cache(maxsize=1)
+def _drawing_identity() -> str | None:
+    """What decides the labels' pixels besides the layout, found without importing Pillow; None
+    where the font is not the system file (Pillow's search or its own font: drawn each time)."""
+    try:
+        font = os.stat(SYSTEM_FONTS[0])
+        pil = importlib.util.find_spec("PIL")
+        where = Path(next(iter(pil.submodule_search_locations)))
+        freetype = sorted((n, os.stat(where / n).st_size) for n in os.listdir(where) if n.startswith("_imagingft"))
+        version = (where / "_version.py").read_text()
+        code = [(Path(__file__).parent / name).read_text() for name in ("layout.py", "text.py")]
+    except (OSError, AttributeError, StopIteration, ValueError, ImportError):
+        return None
+    return content_key(SYSTEM_FONTS[0], font.st_size, font.st_mtime_ns, version, freetype, code)
+
+
+def _stored_key(key: tuple) -> str | None:
+    identity = _drawing_identity()
+    return content_key(identity, repr(key)) if identity else None
+
+
+def _read_labels(stored_key: str) -> "_Labels | None":
+    arrays = ArrayCache().get(LABELS_CACHE_KIND, stored_key)
+    if arrays is None:
+        return None
+    try:
+        return _Labels.from_arrays(arrays)
+    except (KeyError, ValueError):   # a well-formed entry of another shape: drawn again
+        return None
 
 
 @dataclass(frozen=True)
@@ -321,6 +376,27 @@ class _Labels:
     background: tuple[int, int, int, int]
     origin: tuple[int, int]
     patches: tuple[tuple[int, int, np.ndarray], ...]
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The layers as the disk cache keeps them: a header, each patch's (x, y, height, width),
+        and the patches' pixels end to end."""
+        table = np.array([(x, y, p.shape[0], p.shape[1]) for x, y, p in self.patches], np.int64).reshape(-1, 4)
+        pixels = [np.ascontiguousarray(p, np.uint8).reshape(-1) for _, _, p in self.patches]
+        return {"head": np.array([self.width, self.height, *self.background, *self.origin], np.int64),
+                "table": table, "pixels": np.concatenate(pixels) if pixels else np.zeros(0, np.uint8)}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> "_Labels":
+        head, table, pixels = arrays["head"], arrays["table"], arrays["pixels"]
+        width, height, *rest = (int(v) for v in head)
+        background, origin = tuple(rest[:4]), tuple(rest[4:6])
+        patches, at = [], 0
+        for x, y, h, w in table.tolist():
+            patches.append((x, y, pixels[at:at + h * w * 4].reshape(h, w, 4)))
+            at += h * w * 4
+        if len(origin) != 2 or at != pixels.size or pixels.dtype != np.uint8:
+            raise ValueError("labels entry of another form")
+        return cls(width, height, background, origin, tuple(patches))
 
     def canvas(self) -> np.ndarray:
         """A new (height, width, 4) uint8 chart: the background with every label on it."""
@@ -446,6 +522,7 @@ def _text_patch(style: _Style, text: str, stroke: int, size: tuple[int, int] | N
 
 def _drawn_text_patch(style: _Style, text: str, stroke: int, size: tuple[int, int] | None,
                       origin: tuple[float, float] | None) -> np.ndarray:
+    from PIL import Image, ImageDraw
     if size is None:
         left, _, right, _ = _ink(style, text)
         strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
@@ -465,6 +542,7 @@ def _draw_labels(render_shape, cells, column_values, row_values, title, footer, 
                  column_axis_title, row_axis_title) -> _Labels:
     """Every label of the layout drawn on its own patch, at the same sub-pixel position as on
     the whole chart (a patch's corner is a whole pixel: the fraction of the text's origin is kept)."""
+    from PIL import Image
     row_labels = _row_labels(row_values, row_names)
     lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
     width, height = lay.width, lay.height

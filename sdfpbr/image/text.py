@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import functools
 import unicodedata
+from typing import TYPE_CHECKING
 
-from PIL import ImageFont
+if TYPE_CHECKING:   # imported by load_font: a chart whose labels come from the disk cache sets no text
+    from PIL import ImageFont
 
 SYSTEM_FONTS = ("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "DejaVuSans.ttf")
 ASCII_FALLBACK = {"²": "^2", "³": "^3", "–": "-", "—": "-", "−": "-", "×": "x",
@@ -19,6 +21,7 @@ ASCII_FALLBACK = {"²": "^2", "³": "^3", "–": "-", "—": "-", "−": "-", "�
 @functools.lru_cache(maxsize=64)
 def load_font(size: int) -> ImageFont.FreeTypeFont:
     """The font at ``size`` px, loaded once per size (fonts are only read)."""
+    from PIL import ImageFont
     for name in SYSTEM_FONTS:
         try:
             return ImageFont.truetype(name, int(size))

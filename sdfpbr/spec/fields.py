@@ -18,7 +18,6 @@ from ..errors import SpecError, did_you_mean
 from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
-from .gltf import GLTF_SUFFIXES, gltf_materials, grid_for
 from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
                       LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
@@ -189,7 +188,10 @@ def _png(name: str):
 
 def _gltf(v) -> str:
     text(v, "gltf (a .gltf or .glb path)")
-    if v and (Path(v).suffix.lower() not in GLTF_SUFFIXES or not Path(v).is_file()):
+    if not v:
+        return v
+    from .gltf import GLTF_SUFFIXES   # here: a chart without glTF does not import its reader
+    if Path(v).suffix.lower() not in GLTF_SUFFIXES or not Path(v).is_file():
         raise SpecError(f"gltf {quote(v)} is not an existing .gltf or .glb file")
     return v
 
@@ -420,6 +422,7 @@ def attr_values(mapping: Mapping[str, Any], what: str = "option") -> dict[str, A
     if out.get("base_colors") and "rows" not in out:
         out["rows"] = len(_colors(out["base_colors"]))
     if out.get("gltf") and "rows" not in out and "cols" not in out:
+        from .gltf import gltf_materials, grid_for
         names = _gltf_names(out.get("gltf_materials", ()))
         out["rows"], out["cols"] = grid_for(len(gltf_materials(_gltf(out["gltf"]), names).materials))
     if out.get("row_materials") and "rows" not in out:

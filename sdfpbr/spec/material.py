@@ -16,7 +16,6 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import SpecError
-from .gltf import gltf_materials
 from .presets import MATERIAL_PRESETS
 
 # The lobes a material can switch on beyond the glTF 2.0 core, each a compile option of the
@@ -214,6 +213,7 @@ def check_axes(spec) -> None:
         if values:
             _per_cell(values, spec.rows, spec.cols, what)
     if spec.gltf:
+        from .gltf import gltf_materials   # here: a chart without glTF does not import its reader
         count = len(gltf_materials(spec.gltf, spec.gltf_materials).materials)
         if count != spec.rows * spec.cols:
             raise SpecError(f"gltf charts {count} materials, one per cell: rows x cols must be {count}, "
@@ -230,6 +230,7 @@ def cell_materials(spec) -> list[list[Material]]:
     """Every cell's Material, row by row (row 0 at the top, column 0 at the left)."""
     rows, cols = spec.rows, spec.cols
     if spec.gltf:   # one material per cell, row by row; the axes do not apply
+        from .gltf import gltf_materials
         found = [Material(**m) for m in gltf_materials(spec.gltf, spec.gltf_materials).materials]
         return [found[r * cols:(r + 1) * cols] for r in range(rows)]
     if spec.row_materials:

@@ -2,13 +2,13 @@
 ``read_toml``, so a missing, unreadable or malformed file gives the same one-line error."""
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from ..errors import SpecError
 
 
 def read_toml(path: str | Path, what: str = "spec file") -> dict:
+    import tomllib   # here, not at the top: a chart without a spec file does not pay its import
     p = Path(path)
     try:
         return tomllib.loads(p.read_text(encoding="utf-8"))
@@ -26,6 +26,7 @@ def read_toml(path: str | Path, what: str = "spec file") -> dict:
 
 def parse_toml_text(text: str, where: str) -> dict:
     """Inline TOML (a Sphinx directive's body) with the same error mapping."""
+    import tomllib
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
