@@ -224,7 +224,7 @@ class ArrayCache:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             remove_stale_temps(path.parent)   # a killed bake's temporaries
-            with atomic_file(path) as f:
+            with atomic_file(path, durable=False) as f:   # get() verifies its checksum
                 np.savez(f, **arrays, **{CHECK: checksum(key, arrays)})
             after_write(self.root, path.stat().st_size)
         except (OSError, OutputError):

@@ -1,5 +1,5 @@
-"""The one way sdfpbr writes a file: under a temporary name beside the destination, fsynced, then
-renamed into place. A rename is atomic on one filesystem, so a reader sees no file or a
+"""The one way sdfpbr writes a file: under a temporary name beside the destination, fsynced (all
+but cache entries, which their readers verify), then renamed into place. A rename is atomic on one filesystem, so a reader sees no file or a
 complete one, never a torn one, and a failure never clobbers the old file.
 
 Temporary names carry the writer's pid (``.<name>.<random>.<pid>.tmp[<suffix>]``), so the
@@ -52,20 +52,24 @@ def atomic_path(path: str | Path, suffix: str = ""):
 
 
 @contextmanager
-def atomic_file(path: str | Path, before_rename: Callable[[], None] | None = None):
+def atomic_file(path: str | Path, before_rename: Callable[[], None] | None = None, durable: bool = True):
     """A binary file object on a temporary beside ``path``, fsynced and renamed into place when
-    the block succeeds. ``before_rename`` runs between the fsync and the rename (a test hook)."""
+    the block succeeds. ``before_rename`` runs between the fsync and the rename (a test hook).
+    ``durable=False``: no fsync, for files whose reader verifies them (cache entries: one torn
+    by a power cut fails its check and is made again); the rename is atomic all the same."""
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             yield f
-            f.flush()
-            os.fsync(f.fileno())
+            if durable:
+                f.flush()
+                os.fsync(f.fileno())
         if before_rename is not None:
             before_rename()
 
 
-def write_bytes(path: str | Path, data: bytes, before_rename: Callable[[], None] | None = None) -> None:
-    with atomic_file(path, before_rename) as f:
+def write_bytes(path: str | Path, data: bytes, before_rename: Callable[[], None] | None = None,
+                durable: bool = True) -> None:
+    with atomic_file(path, before_rename, durable) as f:
         f.write(data)
 
 

@@ -66,11 +66,14 @@ def _panel_size(args, default: int) -> int | None:
 
 def run(args) -> int:
     import time
+
+    from ...shading.compose import modules_fixed
     start = time.perf_counter()
     mode = _mode(args)
     if mode == "bug" and args.frames is not None:
         return _animate_bug(args, start)
-    sheet, output = {"files": _files, "bug": _bug, "bugs": _contact_sheet}[mode](args)
+    with modules_fixed():   # a catalog composes each of its ~50 charts' programs several times
+        sheet, output = {"files": _files, "bug": _bug, "bugs": _contact_sheet}[mode](args)
     sheet.save(output)
     if args.verbose:
         h, w = sheet.image.shape[:2]

@@ -50,8 +50,8 @@ processes, each with its own GL context; the main process alone writes files.
 Interruption and concurrency
 ----------------------------
 Every file (cache entry, image, manifest, index) is written through ``sdfpbr.files``: to a
-temporary name carrying the writer's pid in the destination directory, fsynced, and renamed
-into place. A rename is atomic on one filesystem, so a reader sees either no file or a complete
+temporary name carrying the writer's pid in the destination directory, fsynced (images,
+manifest and index; not cache entries, verified on read below), and renamed into place. A rename is atomic on one filesystem, so a reader sees either no file or a complete
 one, never a torn one; a build killed at any point leaves at most temporary files, which the
 next build removes once their writer's process is gone. A cache entry is also verified on read (it must decode and carry its
 own key), so even a damaged file only costs a re-render. Two builds sharing a cache may render

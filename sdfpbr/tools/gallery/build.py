@@ -29,9 +29,11 @@ if TYPE_CHECKING:     # the entries, their specs and keys (numpy, the glTF parse
 
 
 def _worker(items: list[Item], keys: list[str]) -> list[Rendered]:
+    from ...shading.compose import modules_fixed
     rendered: dict[str, Rendered] = {}
-    render_items(items, {item.name: key for item, key in zip(items, keys)},
-                 lambda item, result: rendered.__setitem__(item.name, result))
+    with modules_fixed():
+        render_items(items, {item.name: key for item, key in zip(items, keys)},
+                     lambda item, result: rendered.__setitem__(item.name, result))
     return [rendered[item.name] for item in items]
 
 
@@ -131,7 +133,13 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
         manifest = _replay(stamp_file, cache, chart_dir, out, shard, say, verbose, start)
         if manifest is not None:
             return manifest
+    from ...shading.compose import modules_fixed
+    with modules_fixed():   # the build's keys and renders read one version of each shader module
+        return _full_build(chart_dir, out, force, jobs, say, verbose, shard, start, cache, stamp_file)
 
+
+def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool, shard, start: float,
+                cache: ImageCache, stamp_file: Path) -> dict:
     from .entries import collect
     from .keys import gl_renderers, item_keys
     packages = package_files()

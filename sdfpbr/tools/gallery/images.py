@@ -40,10 +40,10 @@ def checkpoint(phase: str) -> None:
             os.kill(os.getpid(), signal.SIGKILL)
 
 
-def write_file(path: Path, data: bytes, phase: str) -> None:
+def write_file(path: Path, data: bytes, phase: str, durable: bool = True) -> None:
     """An atomic write (sdfpbr.files) with the kill points ``phase``-temp (written, not yet
     renamed) and ``phase`` (in place)."""
-    write_bytes(path, data, before_rename=lambda: checkpoint(phase + "-temp"))
+    write_bytes(path, data, before_rename=lambda: checkpoint(phase + "-temp"), durable=durable)
     checkpoint(phase)
 
 
@@ -103,7 +103,7 @@ class ImageCache:
         """Best effort: an unwritable cache only costs speed."""
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
-            write_file(self.path(key), data, "cache")
+            write_file(self.path(key), data, "cache", durable=False)   # get() verifies its chunks and key
             after_write(self.root, len(data))
             return True
         except (OSError, OutputError):
@@ -211,11 +211,13 @@ def _compose_sheet(item: Item, key: str, renders: list) -> Rendered:
     """A worker's part (module level, for the pool): ``item`` composed from renders made in
     the parent; every FLIP is measured here (the parent's pool has the cores)."""
     from ...image.metrics import measure_in_process
+    from ...shading.compose import modules_fixed
     from ..compare import keep_renders
     measure_in_process()
     start = time.perf_counter()
     keep_renders(renders)
-    rendered = render_item(item, key)
+    with modules_fixed():
+        rendered = render_item(item, key)
     rendered.seconds = time.perf_counter() - start
     return rendered
 
