@@ -19,13 +19,15 @@ def quote(v, limit: int = 60) -> str:
 
 def is_number(v) -> bool:
     """Python and numpy ints and floats; not booleans (True is an int to Python, not to users)."""
+    if type(v) is float or type(v) is int:   # most values, without the ABC checks (a spec checks ~250)
+        return True
     return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 def number(v, what: str, lo: float = -math.inf, hi: float = math.inf, integer: bool = False):
     if not is_number(v):
         raise SpecError(f"{what} must be a number, got {quote(v)}")
-    if isinstance(v, numbers.Integral):
+    if type(v) is int or (type(v) is not float and isinstance(v, numbers.Integral)):
         v, finite = int(v), True      # (math.isfinite overflows on ints beyond float range)
     else:
         v = float(v)

@@ -8,6 +8,7 @@ are the same in all of them. Old names keep working as aliases (``row_materials`
 """
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, replace
 from dataclasses import fields as dataclass_fields
@@ -48,7 +49,7 @@ class Field:
     def stored(self) -> tuple[str, ...]:
         return self.attrs or (self.name,)
 
-    @property
+    @functools.cached_property   # read ~500 times a spec made
     def attr(self) -> str:
         """The one attribute of a stored field (every field but size)."""
         (attr,) = self.stored
