@@ -249,3 +249,99 @@ def test_a_shared_set_is_uploaded_once_per_context_and_draws_as_uploaded_anew(se
     assert not texture_set(own).shared
     session.render(own)
     assert len(kept) == 1 <= KEPT_UPLOADS                          # its own PNG set was not kept
+
+
+def _box_levels_float64(img, srgb):
+    """Independent levels: each texel of level k the mean of the 2^k x 2^k level-0 texels under
+    it, colour decoded by the sRGB curve in float64 and encoded back, rounded to codes."""
+    from sdfpbr.oracle.display import srgb_oetf
+    linear = img.astype(np.float64)
+    if srgb:
+        linear[..., :3] = 255.0 * srgb_eotf(img[..., :3] / 255.0)
+    out, k = [], 1
+    while (img.shape[0] >> k) or (img.shape[1] >> k):
+        h, w = max(1, img.shape[0] >> k), max(1, img.shape[1] >> k)
+        fy, fx = img.shape[0] // h, img.shape[1] // w
+        mean = linear.reshape(h, fy, w, fx, 4).mean(axis=(1, 3))
+        if srgb:
+            mean[..., :3] = 255.0 * srgb_oetf(mean[..., :3] / 255.0)
+        out.append(np.rint(mean))
+        k += 1
+    return out
+
+
+@pytest.mark.parametrize("srgb", [True, False], ids=["srgb", "linear"])
+def test_mip_levels_are_box_means_of_level_0_colour_in_linear_light(srgb):
+    """The levels made for an upload against float64 box means (GL's sizes down to 1 x 1);
+    float32 sums may land a code the other way only where the exact mean is within 2e-5 of a
+    half code: at most one code, on a handful of texels. A one-texel checker of 0 and 255 is
+    code 188 one level down where it is sRGB (half the light), 128 where it is linear."""
+    from sdfpbr.gpu.textures import mip_levels
+    img = np.random.default_rng(7).integers(0, 256, (64, 128, 4), dtype=np.uint8)
+    ours, want = mip_levels(img, srgb), _box_levels_float64(img, srgb)
+    assert [a.shape for a in ours] == [w.shape for w in want] and ours[-1].shape == (1, 1, 4)
+    diff = np.concatenate([np.abs(a.astype(int) - w).ravel() for a, w in zip(ours, want)])
+    assert diff.max() <= 1 and np.count_nonzero(diff) <= 3
+    checker = np.zeros((4, 8, 4), np.uint8)
+    checker[(np.indices((4, 8)).sum(axis=0) % 2) == 1] = 255
+    assert (mip_levels(checker, srgb)[0][..., :3] == (188 if srgb else 128)).all()
+    odd = mip_levels(np.full((5, 7, 4), 77, np.uint8), srgb)    # GL's sizes for odd sides, a flat map stays flat
+    assert [a.shape[:2] for a in odd] == [(2, 3), (1, 1)] and all((a == 77).all() for a in odd)
+
+
+READ_2D_LEVELS = """#version 450
+layout(local_size_x = 1) in;
+layout(std430, binding = 0) buffer Out { vec4 texel[]; };
+uniform sampler2D u_map;
+uniform int u_levels;
+void main() {
+    int at = 0;
+    for (int k = 1; k < u_levels; ++k) {
+        ivec2 size = textureSize(u_map, k);
+        for (int y = 0; y < size.y; ++y)
+            for (int x = 0; x < size.x; ++x) texel[at++] = texelFetch(u_map, ivec2(x, y), k);
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("backend", ["egl", pytest.param("osmesa", marks=pytest.mark.requires_backend("osmesa"))])
+@pytest.mark.parametrize("loader", [True, False], ids=["glTexImage2D", "build_mipmaps"])
+def test_a_maps_levels_are_uploaded_as_made_and_read_back_through_the_sampler(backend, loader):
+    """upload() gives each map the levels mip_levels made (no glGenerateMipmap: a blit shader's
+    compile per format on llvmpipe, 0.3 s of a cold textured chart); without a GL loader it
+    falls back to build_mipmaps, whose levels GL filters from the level above rounded: within
+    half a code a level of ours (2 codes over these 4 levels). The colour map is read through
+    its sRGB decode (the driver's curve, SRGB_DECODE_RTOL)."""
+    from sdfpbr.gpu.gl import create_context
+    from sdfpbr.gpu.textures import TextureSet, mip_levels, upload
+    rng = np.random.default_rng(3)
+    maps = {name: rng.integers(0, 256, (8, 16, 4), dtype=np.uint8) for name in ("base", "orm", "normal")}
+    ctx = create_context(backend)
+    try:
+        with ctx:
+            if not loader:
+                ctx.extra = {**ctx.extra, "gl_function": None}
+            uploaded = upload(ctx, TextureSet(maps))
+            read = ctx.compute_shader(READ_2D_LEVELS)
+            for name, uniform in (("base", "u_base_color_map"), ("orm", "u_orm_map"), ("normal", "u_normal_map")):
+                levels = mip_levels(maps[name], srgb=name == "base")
+                out = ctx.buffer(reserve=sum(a.size for a in levels) * 4)
+                out.bind_to_storage_buffer(0)
+                uploaded[uniform].use(0)
+                read["u_map"], read["u_levels"] = 0, len(levels) + 1
+                read.run(1)
+                ctx.memory_barrier()
+                got = 255.0 * np.frombuffer(out.read(), np.float32)
+                want = np.concatenate([a.ravel() for a in levels]).astype(np.float64)
+                if name == "base":   # compare in linear light: the sampler decodes
+                    colour = np.arange(want.size) % 4 < 3
+                    want[colour] = 255.0 * srgb_eotf(want[colour] / 255.0)
+                    tolerance = SRGB_DECODE_RTOL * 255.0 + (0 if loader else 2.0 * 2.4)   # the curve's steepest slope
+                else:
+                    tolerance = 1e-3 if loader else 2.0 + 1e-3
+                assert np.abs(got - want).max() <= tolerance, (name, np.abs(got - want).max())
+                out.release()
+            assert ctx.error == "GL_NO_ERROR"
+    finally:
+        ctx.release()

@@ -138,8 +138,38 @@ def _egl_loader():
     return lambda function: egl.eglGetProcAddress(function.encode()) or 0
 
 
-_GL_TEXTURE0, _GL_TEXTURE_CUBE_MAP, _GL_CUBE_FACE0 = 0x84C0, 0x8513, 0x8515
+_GL_TEXTURE0, _GL_TEXTURE_2D, _GL_TEXTURE_CUBE_MAP, _GL_CUBE_FACE0 = 0x84C0, 0x0DE1, 0x8513, 0x8515
 _GL_BASE_LEVEL, _GL_MAX_LEVEL, _GL_RGBA32F, _GL_RGBA, _GL_FLOAT = 0x813C, 0x813D, 0x8814, 0x1908, 0x1406
+_GL_UNSIGNED_BYTE = 0x1401
+
+
+class _TexImage:
+    """glTexImage2D and what binding a texture for it takes, from the context's loader (the
+    entry points moderngl does not wrap); None where no loader answers."""
+
+    @classmethod
+    def of(cls, ctx: moderngl.Context) -> "_TexImage | None":
+        load = (ctx.extra or {}).get("gl_function")
+        names = ("glActiveTexture", "glBindTexture", "glTexParameteri", "glTexImage2D")
+        addresses = [load(f) if load else 0 for f in names]
+        return cls(ctx, addresses) if all(addresses) else None
+
+    def __init__(self, ctx: moderngl.Context, addresses: list[int]):
+        self.ctx = ctx
+        self.active = ctypes.CFUNCTYPE(None, ctypes.c_uint)(addresses[0])
+        self.bind = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint)(addresses[1])
+        self.parameter = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.c_int)(addresses[2])
+        self.image = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                      ctypes.c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)(addresses[3])
+
+    def bound(self, target: int, texture) -> "_TexImage":
+        self.active(_GL_TEXTURE0 + self.ctx.default_texture_unit)   # where moderngl binds a texture it edits
+        self.bind(target, texture.glo)
+        return self
+
+    def levels(self, target: int, count: int) -> None:
+        self.parameter(target, _GL_BASE_LEVEL, 0)
+        self.parameter(target, _GL_MAX_LEVEL, count - 1)
 
 
 def allocate_cube_levels(ctx: moderngl.Context, cube: moderngl.TextureCube, levels: int) -> None:
@@ -149,25 +179,34 @@ def allocate_cube_levels(ctx: moderngl.Context, cube: moderngl.TextureCube, leve
     llvmpipe the first such call of a process compiles a blit shader (~110-170 ms of a cold
     chart). Allocating with glTexImage2D costs nothing; build_mipmaps stays the fallback where
     no loader answers."""
-    load = (ctx.extra or {}).get("gl_function")
-    addresses = [load(f) if load else 0 for f in ("glActiveTexture", "glBindTexture", "glTexParameteri", "glTexImage2D")]
-    if not all(addresses):
+    gl = _TexImage.of(ctx)
+    if gl is None:
         cube.build_mipmaps(0, levels - 1)
         return
-    active = ctypes.CFUNCTYPE(None, ctypes.c_uint)(addresses[0])
-    bind = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint)(addresses[1])
-    parameter = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.c_int)(addresses[2])
-    image = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
-                             ctypes.c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)(addresses[3])
     size = cube.size[0]
-    active(_GL_TEXTURE0 + ctx.default_texture_unit)   # where moderngl binds a texture it edits
-    bind(_GL_TEXTURE_CUBE_MAP, cube.glo)
+    gl.bound(_GL_TEXTURE_CUBE_MAP, cube)
     for level in range(1, levels):
         s = max(1, size >> level)
         for face in range(6):
-            image(_GL_CUBE_FACE0 + face, level, _GL_RGBA32F, s, s, 0, _GL_RGBA, _GL_FLOAT, None)
-    parameter(_GL_TEXTURE_CUBE_MAP, _GL_BASE_LEVEL, 0)
-    parameter(_GL_TEXTURE_CUBE_MAP, _GL_MAX_LEVEL, levels - 1)
+            gl.image(_GL_CUBE_FACE0 + face, level, _GL_RGBA32F, s, s, 0, _GL_RGBA, _GL_FLOAT, None)
+    gl.levels(_GL_TEXTURE_CUBE_MAP, levels)
+
+
+def upload_levels(ctx: moderngl.Context, texture: moderngl.Texture, levels: list, internal_format: int) -> bool:
+    """Give an RGBA8 2D texture (level 0 already in it) the levels 1.. ``levels`` (uint8
+    (h, w, 4) arrays, GL's level sizes) as they are, instead of build_mipmaps' filtering (on
+    llvmpipe a blit shader compiled per format in every process: 0.1 s a map). False where no
+    loader answers: then the caller builds them."""
+    gl = _TexImage.of(ctx)
+    if gl is None:
+        return False
+    gl.bound(_GL_TEXTURE_2D, texture)
+    for k, level in enumerate(levels, start=1):
+        data = level if level.flags.c_contiguous else level.copy()   # rows of 4-byte texels: any unpack alignment holds
+        gl.image(_GL_TEXTURE_2D, k, internal_format, data.shape[1], data.shape[0], 0, _GL_RGBA, _GL_UNSIGNED_BYTE,
+                 data.ctypes.data)
+    gl.levels(_GL_TEXTURE_2D, len(levels) + 1)
+    return True
 
 
 def renderer_string(ctx: moderngl.Context) -> str:

@@ -15,11 +15,12 @@ import numpy as np
 
 from ..errors import SpecError
 from ..shading.maps import MAPS
+from .gl import upload_levels
 
 MAPS_BY_NAME = {m.name: m for m in MAPS}
 
 PROCEDURAL_SIZE = (1024, 512)   # (width, height): u spans 2 pi, v spans pi, so texels stay square
-GL_SRGB8_ALPHA8 = 0x8C43
+GL_SRGB8_ALPHA8, GL_RGBA8 = 0x8C43, 0x8058
 
 
 @dataclass(frozen=True)
@@ -217,22 +218,61 @@ def _sample(img: np.ndarray, u: np.ndarray, v: np.ndarray, wrap: tuple[str, str]
     return top * (1 - fy) + bottom * fy
 
 
+def _linear_codes(img: np.ndarray, srgb: bool) -> np.ndarray:
+    """uint8 RGBA as float32 that averages right: an sRGB map's colour in linear light (codes
+    0..255 scaled), alpha and a linear map's channels as they are."""
+    from ..oracle.display import srgb_eotf
+    if not srgb:
+        return img.astype(np.float32)
+    out = np.empty(img.shape, np.float32)
+    colour = (255.0 * srgb_eotf(np.arange(256) / 255.0)).astype(np.float32)
+    np.take(colour, img[..., :3], out=out[..., :3])   # a table per code, not a curve per texel
+    out[..., 3:] = img[..., 3:]
+    return out
+
+
+def _codes(linear: np.ndarray, srgb: bool) -> np.ndarray:
+    """_linear_codes' inverse, float64 codes 0..255 (not rounded)."""
+    from ..oracle.display import srgb_oetf
+    out = np.array(linear, np.float64)
+    if srgb:
+        out[..., :3] = 255.0 * srgb_oetf(np.clip(out[..., :3], 0.0, 255.0) / 255.0)
+    return out
+
+
+def _box_reduced(linear: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``linear`` (float32 (h, w, c)) at ``size`` (w, h), each texel the mean of those under it."""
+    h, w = linear.shape[:2]
+    if (w, h) == (size[0] * 2, size[1] * 2):   # the common step: a 2 x 2 mean in numpy
+        quads = linear.reshape(size[1], 2, size[0], 2, -1)
+        return ((quads[:, 0, :, 0] + quads[:, 0, :, 1]) + (quads[:, 1, :, 0] + quads[:, 1, :, 1])) * np.float32(0.25)
+    from PIL import Image
+    return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(linear[..., c]), "F").resize(size, Image.BOX),
+                                np.float32) for c in range(linear.shape[2])], axis=-1)
+
+
 def _area_reduced(img: np.ndarray, factors: tuple[float, float], srgb: bool) -> np.ndarray:
     """``img`` (uint8 RGBA) shrunk by ``factors`` (x, y) >= 1, each texel the mean of the
     texels under it (Pillow's box filter, per channel in float), colour averaged in linear light
     for an sRGB map, as a GL sRGB texture's mipmaps are; float64 codes 0..255."""
-    from PIL import Image
-
-    from ..oracle.display import srgb_eotf, srgb_oetf
     h, w = img.shape[:2]
     size = (max(1, round(w / factors[0])), max(1, round(h / factors[1])))
-    out = np.empty((size[1], size[0], img.shape[2]), np.float64)
-    decode = (srgb_eotf(np.arange(256) / 255.0) if srgb else np.arange(256.0)).astype(np.float32)
-    for c in range(img.shape[2]):
-        channel = (decode if c < 3 else np.arange(256, dtype=np.float32))[img[..., c]]   # per code, not per texel
-        reduced = np.asarray(Image.fromarray(channel, "F").resize(size, Image.BOX), np.float64)
-        out[..., c] = 255.0 * srgb_oetf(reduced) if srgb and c < 3 else reduced
-    return out
+    return _codes(_box_reduced(_linear_codes(img, srgb), size), srgb)
+
+
+def mip_levels(img: np.ndarray, srgb: bool) -> list[np.ndarray]:
+    """The mipmap levels 1.. of ``img`` (uint8 RGBA) down to 1 x 1, GL's sizes (each side
+    halved, rounded down, at least 1): each texel the mean of the level-0 texels under it,
+    colour in linear light for an sRGB map (as GL's sRGB mipmaps are), rounded to codes. Made
+    here, not by glGenerateMipmap: the same levels on every driver, and on llvmpipe no blit
+    shader compiled per format in every process (0.1 s a map)."""
+    levels, linear = [], _linear_codes(img, srgb)
+    w, h = img.shape[1], img.shape[0]
+    while w > 1 or h > 1:
+        w, h = max(1, w // 2), max(1, h // 2)
+        linear = _box_reduced(linear, (w, h))
+        levels.append(np.clip(np.rint(_codes(linear, srgb)), 0, 255).astype(np.uint8))
+    return levels
 
 
 def _on_sphere(ref, size: tuple[int, int], srgb: bool) -> np.ndarray:
@@ -354,7 +394,8 @@ def upload(ctx, maps: TextureSet) -> dict:
         # Image row 0 is v = 0; uploading it as the first GL row keeps texture(v) = image row v.
         kwargs = {"internal_format": GL_SRGB8_ALPHA8} if kind.srgb else {}
         tex = ctx.texture((w, h), 4, np.ascontiguousarray(img).tobytes(), **kwargs)
-        tex.build_mipmaps()
+        if not upload_levels(ctx, tex, mip_levels(img, kind.srgb), GL_SRGB8_ALPHA8 if kind.srgb else GL_RGBA8):
+            tex.build_mipmaps()
         tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         tex.repeat_x, tex.repeat_y = True, False
         out[kind.uniform] = tex
