@@ -28,18 +28,21 @@ def can_spawn() -> bool:
     return main is None or os.path.exists(main)
 
 
-_worker = False     # whether this process is one of a pool's workers
+_helper = False     # whether this process is a helper_pool's worker
 
 
-def in_worker() -> bool:
-    """Whether this process is a worker of a process_pool (its parent's pool has the cores)."""
-    return _worker
+def in_helper() -> bool:
+    """Whether this process is a helper (it starts no workers of its own)."""
+    return _helper
+
+
+def _as_helper() -> None:
+    global _helper
+    _helper = True
 
 
 def _init(parent: int, environ: dict, then) -> None:
     import signal
-    global _worker
-    _worker = True
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ.update(environ)
 
@@ -65,18 +68,21 @@ def process_pool(workers: int, environ: dict | None = None, initializer=None):
 
 # Helpers: worker processes that take CPU work (FLIP, page layout, PNG) off a process that
 # draws, as it draws. Fewer tasks than this are done there: a worker's start costs ~0.5 s of a
-# core, a task ~0.1-0.3 s.
+# core, a task ~0.1-0.3 s. At most HELPERS_MAX: each holds numpy and Pillow (~40-80 MB), and one
+# drawing process feeds no more.
 HELPERS_FROM = 4
+HELPERS_MAX = 8
 
 
 def helpers(tasks: int) -> int:
     """Helper processes for ``tasks`` tasks (0: do them in this process): one per core (the
     drawing process leaves its core part idle: a gallery on 2 cores built in 13.2 s with one,
-    12.5 with two); none on one core, in a worker (its parent's pool has the cores) or where
-    none can start."""
-    if tasks < HELPERS_FROM or cores() < 2 or in_worker() or not can_spawn():
+    12.5 with two); none on one core, in a helper, or where none can start. A `-j` build's
+    worker may start them: its group of comparisons is the build's longest task (on 2 cores,
+    -j 2 took 13.9 s with that worker composing its pages itself, -j 1 12.1 s)."""
+    if tasks < HELPERS_FROM or cores() < 2 or in_helper() or not can_spawn():
         return 0
-    return min(cores(), tasks)
+    return min(cores(), tasks, HELPERS_MAX)
 
 
 @contextmanager
@@ -89,7 +95,7 @@ def helper_pool(tasks: int, warm):
     if not workers:
         yield None
         return
-    pool = process_pool(workers)
+    pool = process_pool(workers, initializer=_as_helper)
     try:
         for _ in range(workers):   # a pool starts a worker per task it is given
             pool.submit(warm)

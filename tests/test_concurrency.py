@@ -195,3 +195,17 @@ def test_ctrl_c_to_a_parallel_build_is_one_line(gallery, tmp_path):
     _, rest = p.communicate(timeout=120)
     assert p.returncode == 130, rest
     assert "Traceback" not in rest and rest.strip().endswith("sdfpbr: interrupted")
+
+
+def test_a_builds_worker_may_start_helpers_and_a_helper_starts_none():
+    """One rule for helper processes (workers.helpers): a `-j` build's worker may take them (its
+    group of comparisons is the build's longest task), a helper never does (its parent's
+    helpers have the cores; a FlipBatch there asks the same rule and measures in-process)."""
+    from sdfpbr.workers import HELPERS_FROM, HELPERS_MAX, can_spawn, cores, helper_pool, helpers, process_pool
+    if cores() < 2 or not can_spawn():
+        pytest.skip("one core, or no worker can start here: no helpers anywhere")
+    with process_pool(1) as pool:
+        assert pool.submit(helpers, 10).result(timeout=120) == min(cores(), 10, HELPERS_MAX)
+    with helper_pool(HELPERS_FROM, os.getpid) as pool:
+        assert pool is not None
+        assert pool.submit(helpers, 10).result(timeout=120) == 0

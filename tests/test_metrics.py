@@ -296,9 +296,9 @@ def test_a_flip_batch_measures_each_pair_as_flip_ldr_does():
     flip_ldr of each afterwards takes the kept result without measuring again, and it is the
     very map image.flip gives for that pair in this process."""
     from sdfpbr.image.flip import ldr_flip
-    from sdfpbr.workers import cores
+    from sdfpbr.workers import HELPERS_FROM, HELPERS_MAX, cores
     rng = np.random.default_rng(11)
-    refs = [rng.integers(0, 256, (40, 56, 3), np.uint8) for _ in range(M.BATCH_WORKERS_FROM)]
+    refs = [rng.integers(0, 256, (40, 56, 3), np.uint8) for _ in range(HELPERS_FROM)]
     tests = [np.clip(r.astype(int) + rng.integers(-60, 60, r.shape), 0, 255).astype(np.uint8) for r in refs]
     M._kept_flips.clear()
     with M.FlipBatch(len(refs)) as batch:
@@ -309,7 +309,7 @@ def test_a_flip_batch_measures_each_pair_as_flip_ldr_does():
         early_mean, early_map = M.flip_ldr(tests[1], refs[1])          # in the block: the worker's result
         assert len(M._in_flight) == (len(refs) - 1 if batch.workers else 0) and len(M._kept_flips) >= 1
     assert not M._in_flight
-    workers = min(cores(), len(refs), M.BATCH_WORKERS_MAX)
+    workers = min(cores(), len(refs), HELPERS_MAX)
     assert batch.workers == (workers if workers > 1 else 0)
     assert len(M._kept_flips) == len(refs)
     assert M.flip_ldr(tests[1], refs[1])[0] == early_mean
@@ -327,8 +327,9 @@ def test_a_measured_pair_is_stored_on_disk_and_read_back_exactly(tmp_path):
     starts no workers, and a damaged entry is measured anew."""
     from sdfpbr.cache import ArrayCache
     from sdfpbr.image.flip import ldr_flip
+    from sdfpbr.workers import HELPERS_FROM
     rng_ = np.random.default_rng(23)
-    refs = [rng_.integers(0, 256, (32, 40, 3), np.uint8) for _ in range(M.BATCH_WORKERS_FROM)]
+    refs = [rng_.integers(0, 256, (32, 40, 3), np.uint8) for _ in range(HELPERS_FROM)]
     tests = [np.clip(r.astype(int) + rng_.integers(-50, 50, r.shape), 0, 255).astype(np.uint8) for r in refs]
     M._kept_flips.clear()
     measured = [M.flip_ldr(t, r) for t, r in zip(tests, refs)]

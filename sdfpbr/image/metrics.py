@@ -293,23 +293,10 @@ def flip_hdr(test_linear, ref_linear, pixels_per_degree: float | None = None, ma
     return _flip(ref, test, "HDR", {"ppd": _ppd(pixels_per_degree)}, mask)
 
 
-# A 512² pair takes ~0.12 s of one core (image/flip.py). Worker processes measure the pairs
-# beside the renders of the next ones: a thread cannot, as the GL calls hold the GIL while
-# llvmpipe draws (22 pairs measured in a thread lagged the renders by 2-2.6 s; in 2 processes by
-# 0.2 s, and `compare --bugs all` took 7.2-8.2 s against 8.9-9.3). Starting the workers costs
-# ~0.3 s, so a batch of fewer pairs, or a machine of one core, measures in-process.
-BATCH_WORKERS_FROM = 4
-BATCH_WORKERS_MAX = 8   # each worker holds numpy (~40 MB)
-
-
-_batch_workers = True   # False: a FlipBatch measures in this process (measure_in_process)
-
-
-def measure_in_process() -> None:
-    """Every FlipBatch of this process measures here: a worker composing sheets beside others
-    (gallery.images) would otherwise start workers of its own for a pair not yet stored."""
-    global _batch_workers
-    _batch_workers = False
+# A 512² pair takes ~0.12 s of one core (image/flip.py). Helper processes (workers.helpers)
+# measure the pairs beside the renders of the next ones: a thread cannot, as the GL calls hold
+# the GIL while llvmpipe draws (22 pairs measured in a thread lagged the renders by 2-2.6 s; in 2
+# processes by 0.2 s, and `compare --bugs all` took 7.2-8.2 s against 8.9-9.3).
 
 
 # Pairs an open FlipBatch is measuring in its workers: key -> future. flip_ldr of such a pair
@@ -342,9 +329,8 @@ class FlipBatch:
     by flip_ldr when asked)."""
 
     def __init__(self, expected: int):
-        from ..workers import can_spawn, cores
-        workers = min(cores(), expected, BATCH_WORKERS_MAX)
-        self._workers = workers if expected >= BATCH_WORKERS_FROM and workers > 1 and _batch_workers and can_spawn() else 0
+        from ..workers import helpers
+        self._workers = helpers(expected)   # none in a helper: its parent's helpers have the cores
         self._pool = None
         self._futures: dict = {}    # key -> the pair's result from a worker
 

@@ -210,10 +210,8 @@ def _start_worker() -> None:
 def _compose_sheet(item: Item, key: str, renders: list) -> Rendered:
     """A worker's part (module level, for the pool): ``item`` composed from renders made in
     the parent; every FLIP is measured here (the parent's pool has the cores)."""
-    from ...image.metrics import measure_in_process
     from ...shading.compose import modules_fixed
     from ..compare import keep_renders
-    measure_in_process()
     start = time.perf_counter()
     keep_renders(renders)
     with modules_fixed():
