@@ -154,9 +154,14 @@ _DIRECTIVE = re.compile(r"\s*#\s*(if|elif|else|endif|include)\b\s*(.*)")
 class _Module:
     """A module's text split once into directives and runs of plain lines:
     (line number, directive kind or None, its argument or the run's lines), and for each run
-    the upper-case names its code uses (an option may be named there, not only tested)."""
+    the upper-case names its code uses (an option may be named there, not only tested).
+    ``jump`` and ``end`` are its conditionals' structure, found once: for an #if, #elif or
+    #else, the index of the next branch of its chain and of the chain's #endif, so a compose
+    steps over a branch not taken instead of walking it line by line."""
     items: tuple[tuple[int, str | None, object], ...]
     names: dict[int, frozenset[str]]      # index of a run in items -> its upper-case names
+    jump: dict[int, int]
+    end: dict[int, int]
 
 
 _UPPER_NAME = re.compile(r"\b[A-Z_][A-Z0-9_]*\b")
@@ -210,8 +215,8 @@ def _stamp(path: str) -> tuple[int, int] | None:
     return stamp
 
 
-def _module(path: str) -> _Module | None:
-    """The parsed module at ``path``; None if there is no such file."""
+def _module(path: str, name: str) -> _Module | None:
+    """The parsed module at ``path`` (``name`` in messages); None if there is no such file."""
     stamp = _stamp(path)
     if stamp is None:
         return None
@@ -235,13 +240,43 @@ def _module(path: str) -> _Module | None:
         items.append((lineno - len(run) + 1, None, tuple(run)))
     names = {i: frozenset(_UPPER_NAME.findall("\n".join(rest))) for i, (_, kind, rest) in enumerate(items)
              if kind is None}
-    module = _Module(tuple(items), names)
+    module = _Module(tuple(items), names, *_structure(items, name))
     _parsed[path] = (stamp, module)
     return module
 
 
+def _structure(items: list, name: str) -> tuple[dict[int, int], dict[int, int]]:
+    """(jump, end) of a module's conditionals (see _Module); a malformed chain is an error
+    wherever it stands, taken or not."""
+    jump: dict[int, int] = {}
+    end: dict[int, int] = {}
+    chains: list[list[int]] = []   # the open chains: indices of their #if, #elif, #else
+    for i, (lineno, kind, _) in enumerate(items):
+        if kind == "if":
+            chains.append([i])
+        elif kind in ("elif", "else", "endif"):
+            if not chains:
+                raise ValueError(f"{name}:{lineno}: #{kind} without #if")
+            chain = chains[-1]
+            if kind != "endif" and items[chain[-1]][1] == "else":
+                raise ValueError(f"{name}:{lineno}: #{kind} after #else")
+            chain.append(i)
+            if kind == "endif":
+                chains.pop()
+                for a, b in zip(chain, chain[1:]):
+                    jump[a] = b
+                for a in chain[:-1]:
+                    end[a] = i
+    if chains:
+        raise ValueError(f"{name}: unterminated #if")
+    return jump, end
+
+
 _tokens_of: dict[str, tuple[tuple[str, str], ...]] = {}
 _evaluated: dict[str, bool] = {}   # a condition with its options substituted -> its value
+_names_of: dict[str, tuple[str, ...]] = {}   # a condition -> the names it reads, in order
+_conditions: dict[tuple, tuple[bool, tuple[str, ...], OptionSchema]] = {}   # see condition()
+_ABSENT = object()
 
 
 def _tokens(expr: str, where: str) -> tuple[tuple[str, str], ...]:
@@ -272,6 +307,21 @@ class _Preprocessor:
         self._next: tuple[int, int] | None = None   # (file index, line) the output continues at
 
     def condition(self, expr: str, where: str) -> bool:
+        """The value of an #if/#elif condition; remembered by its text, the schema and the values
+        (or absence) of the names it reads, which decide it and the checks it passes."""
+        names = _names_of.get(expr)
+        if names is None:
+            names = _names_of[expr] = tuple(dict.fromkeys(v for k, v in _tokens(expr, where) if k == "name"))
+        options = self.options
+        key = (expr, id(self.schema), tuple(options.get(n, _ABSENT) for n in names))
+        hit = _conditions.get(key)
+        if hit is None or hit[2] is not self.schema:
+            consulted: set[str] = set()
+            hit = _conditions[key] = (self._evaluate(expr, where, consulted), tuple(consulted), self.schema)
+        self.consulted.update(hit[1])
+        return hit[0]
+
+    def _evaluate(self, expr: str, where: str, consulted: set[str]) -> bool:
         python: list[str] = []
         last_option: str | None = None
         for kind, value in _tokens(expr, where):
@@ -285,7 +335,7 @@ class _Preprocessor:
                     if name not in self.options:
                         raise ValueError(f"{where}: condition uses {name}, which the composer did not define")
                     python.append(repr(self.options[name]))
-                    self.consulted.add(name)
+                    consulted.add(name)
                     last_option = name
                 else:  # a bare lower-case word is a value of the option it is compared with
                     allowed = self.schema.choices.get(last_option)
@@ -304,49 +354,39 @@ class _Preprocessor:
     def include(self, name: str, where: str) -> None:
         if name in self.modules:
             return
-        module = _module(os.path.join(self.root, name))
+        module = _module(os.path.join(self.root, name), name)
         if module is None:
             raise ValueError(f"{where}: no shader module {name}")
         self.modules.append(name)
         index = len(self.modules)
-        stack: list[list[bool]] = []   # [active, a branch was taken]
-        active = True
-        for i, (lineno, kind, rest) in enumerate(module.items):
-            where_here = f"{name}:{lineno}"
+        items, jump, end = module.items, module.jump, module.end
+        i, count = 0, len(items)
+        while i < count:
+            lineno, kind, rest = items[i]
             if kind is None:
-                if active:
-                    if self._next != (index, lineno):
-                        self.out.append(f"#line {lineno} {index}")
-                    self.out.extend(rest)
-                    self.named |= module.names[i]
-                    self._next = (index, lineno + len(rest))
-                continue
-            if kind == "if":
-                taken = active and self.condition(rest, where_here)
-                stack.append([taken, taken])
-            elif kind == "elif":
-                if not stack:
-                    raise ValueError(f"{where_here}: #elif without #if")
-                outer = all(frame[0] for frame in stack[:-1])
-                take = outer and not stack[-1][1] and self.condition(rest, where_here)
-                stack[-1] = [take, stack[-1][1] or take]
-            elif kind == "else":
-                if not stack:
-                    raise ValueError(f"{where_here}: #else without #if")
-                outer = all(frame[0] for frame in stack[:-1])
-                stack[-1] = [outer and not stack[-1][1], True]
+                if self._next != (index, lineno):
+                    self.out.append(f"#line {lineno} {index}")
+                self.out.extend(rest)
+                self.named |= module.names[i]
+                self._next = (index, lineno + len(rest))
+                i += 1
+            elif kind == "if":   # the chain's first branch whose condition holds, else none
+                while True:
+                    lineno, kind, rest = items[i]
+                    if kind == "endif" or kind == "else" or self.condition(rest, f"{name}:{lineno}"):
+                        i += 1
+                        break
+                    i = jump[i]
             elif kind == "endif":
-                if not stack:
-                    raise ValueError(f"{where_here}: #endif without #if")
-                stack.pop()
-            elif active:
+                i += 1
+            elif kind == "include":
                 target = re.match(r'"([^"]+)"', rest)
                 if not target:
-                    raise ValueError(f"{where_here}: malformed #include {rest!r}")
-                self.include(target.group(1), where_here)
-            active = all(frame[0] for frame in stack)
-        if stack:
-            raise ValueError(f"{name}: unterminated #if")
+                    raise ValueError(f"{name}:{lineno}: malformed #include {rest!r}")
+                self.include(target.group(1), f"{name}:{lineno}")
+                i += 1
+            else:   # an #elif or #else met in a branch that was taken: that branch has ended
+                i = end[i] + 1
 
 
 # Composed sources by (entry, options, schema, root), each with the (path, mtime, size) of the
