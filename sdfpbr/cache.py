@@ -158,7 +158,7 @@ def checksum(key: str, arrays: dict[str, np.ndarray]) -> np.ndarray:
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
         h.update(f"\0{name}\0{a.dtype.str}\0{a.shape}\0".encode())
-        h.update(a.tobytes())
+        h.update(a.reshape(-1).view(np.uint8) if a.size else b"")   # its bytes, not a copy of them
     return np.frombuffer(h.digest(), np.uint8)
 
 

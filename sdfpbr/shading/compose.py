@@ -16,7 +16,7 @@ import os
 import re
 import stat
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Mapping
@@ -157,11 +157,16 @@ class _Module:
     the upper-case names its code uses (an option may be named there, not only tested).
     ``jump`` and ``end`` are its conditionals' structure, found once: for an #if, #elif or
     #else, the index of the next branch of its chain and of the chain's #endif, so a compose
-    steps over a branch not taken instead of walking it line by line."""
+    steps over a branch not taken instead of walking it line by line. ``read`` is every name
+    its conditions read (None where one does not parse: it is reported when evaluated), and
+    ``plans`` what a compose does in it (runs to emit, modules to include) by those names'
+    values: the same module under the same values is not walked twice."""
     items: tuple[tuple[int, str | None, object], ...]
     names: dict[int, frozenset[str]]      # index of a run in items -> its upper-case names
     jump: dict[int, int]
     end: dict[int, int]
+    read: tuple[str, ...] | None
+    plans: dict = field(default_factory=dict, compare=False)
 
 
 _UPPER_NAME = re.compile(r"\b[A-Z_][A-Z0-9_]*\b")
@@ -240,9 +245,20 @@ def _module(path: str, name: str) -> _Module | None:
         items.append((lineno - len(run) + 1, None, tuple(run)))
     names = {i: frozenset(_UPPER_NAME.findall("\n".join(rest))) for i, (_, kind, rest) in enumerate(items)
              if kind is None}
-    module = _Module(tuple(items), names, *_structure(items, name))
+    module = _Module(tuple(items), names, *_structure(items, name), _condition_names(items, name))
     _parsed[path] = (stamp, module)
     return module
+
+
+def _condition_names(items: list, name: str) -> tuple[str, ...] | None:
+    read: dict[str, None] = {}
+    try:
+        for lineno, kind, rest in items:
+            if kind in ("if", "elif"):
+                read.update((v, None) for k, v in _tokens(rest, f"{name}:{lineno}") if k == "name")
+    except ValueError:
+        return None
+    return tuple(read)
 
 
 def _structure(items: list, name: str) -> tuple[dict[int, int], dict[int, int]]:
@@ -359,16 +375,51 @@ class _Preprocessor:
             raise ValueError(f"{where}: no shader module {name}")
         self.modules.append(name)
         index = len(self.modules)
+        items = module.items
+        actions, named = self._plan(module, name)
+        self.named |= named
+        out = self.out
+        for action in actions:
+            if isinstance(action, int):   # a run of plain lines
+                lineno, _, rest = items[action]
+                if self._next != (index, lineno):
+                    out.append(f"#line {lineno} {index}")
+                out.extend(rest)
+                self._next = (index, lineno + len(rest))
+            else:
+                self.include(action[1], f"{name}:{action[0]}")
+
+    def _plan(self, module: _Module, name: str) -> tuple[tuple, frozenset[str]]:
+        """What composing ``module`` does under these options: run indices and (line, module)
+        includes, in order, and the upper-case names of those runs; the options its
+        conditions read are added to ``consulted``."""
+        key = None
+        if module.read is not None:
+            options = self.options
+            key = (id(self.schema), tuple(options.get(n, _ABSENT) for n in module.read))
+            hit = module.plans.get(key)
+            if hit is not None and hit[3] is self.schema:
+                self.consulted.update(hit[2])
+                return hit[0], hit[1]
+        outer, self.consulted = self.consulted, set()
+        try:
+            actions = self._walk(module, name)
+            consulted = self.consulted
+        finally:
+            self.consulted = outer | self.consulted
+        named = frozenset().union(*(module.names[a] for a in actions if isinstance(a, int)))
+        if key is not None:
+            module.plans[key] = (actions, named, tuple(consulted), self.schema)
+        return actions, named
+
+    def _walk(self, module: _Module, name: str) -> tuple:
         items, jump, end = module.items, module.jump, module.end
+        actions: list = []
         i, count = 0, len(items)
         while i < count:
             lineno, kind, rest = items[i]
             if kind is None:
-                if self._next != (index, lineno):
-                    self.out.append(f"#line {lineno} {index}")
-                self.out.extend(rest)
-                self.named |= module.names[i]
-                self._next = (index, lineno + len(rest))
+                actions.append(i)
                 i += 1
             elif kind == "if":   # the chain's first branch whose condition holds, else none
                 while True:
@@ -383,10 +434,11 @@ class _Preprocessor:
                 target = re.match(r'"([^"]+)"', rest)
                 if not target:
                     raise ValueError(f"{name}:{lineno}: malformed #include {rest!r}")
-                self.include(target.group(1), f"{name}:{lineno}")
+                actions.append((lineno, target.group(1)))
                 i += 1
             else:   # an #elif or #else met in a branch that was taken: that branch has ended
                 i = end[i] + 1
+        return tuple(actions)
 
 
 # Composed sources by (entry, options, schema, root), each with the (path, mtime, size) of the
