@@ -203,3 +203,67 @@ def test_outputs_are_fsynced_and_cache_entries_which_their_readers_verify_are_no
     assert ImageCache(tmp_path / "cache").put("k" * 64, b"not checked on put")
     assert len(synced) == 2
     assert ArrayCache(tmp_path / "cache").get("ibl", "k")["a"].tolist() == [1, 1, 1, 1]
+
+
+READ_CUBE_LEVEL = """#version 450
+layout(local_size_x = 1) in;
+layout(rgba32f, binding = 0) uniform readonly imageCube u_level;
+layout(std430, binding = 1) buffer Out { vec4 texel[]; };
+uniform int u_size;
+void main() {
+    for (int f = 0; f < 6; ++f)
+        for (int y = 0; y < u_size; ++y)
+            for (int x = 0; x < u_size; ++x) texel[(f * u_size + y) * u_size + x] = imageLoad(u_level, ivec3(x, y, f));
+}
+"""
+
+
+@pytest.mark.parametrize("backend", ["egl", pytest.param("osmesa", marks=pytest.mark.requires_backend("osmesa"))])
+def test_a_chain_is_uploaded_texel_for_texel(backend):
+    """upload_cube_levels puts a chain into a cube with glTexImage2D: every texel of every face
+    and level reads back (imageLoad, per level) as the array gave it, faces in GL order, row 0
+    first, with no GL error; without a GL loader it answers False (the caller copies)."""
+    from sdfpbr.gpu.gl import create_context, upload_cube_levels
+    rng = np.random.default_rng(7)
+    levels = [rng.uniform(-4, 4, (6, 16 >> k, 16 >> k, 4)).astype(np.float32) for k in range(4)]
+    ctx = create_context(backend)
+    try:
+        with ctx:
+            cube = ctx.texture_cube((16, 16), 4, dtype="f4")
+            assert upload_cube_levels(ctx, cube, levels)
+            read = ctx.compute_shader(READ_CUBE_LEVEL)
+            for k, want in enumerate(levels):
+                out = ctx.buffer(reserve=want.nbytes)
+                out.bind_to_storage_buffer(1)
+                cube.bind_to_image(0, read=True, write=False, level=k)
+                read["u_size"] = want.shape[1]
+                read.run(1)
+                ctx.memory_barrier()
+                np.testing.assert_array_equal(np.frombuffer(out.read(), np.float32).reshape(want.shape), want)
+                out.release()
+            assert ctx.error == "GL_NO_ERROR"
+            ctx.extra = {**ctx.extra, "gl_function": None}
+            assert not upload_cube_levels(ctx, cube, levels)
+    finally:
+        ctx.release()
+
+
+def test_cached_chains_render_the_same_uploaded_or_copied(session, cache_dir):
+    """From a warm cache a session whose context has no GL loader copies the chains into their
+    cubes with a compute shader: its charts (the shared stage reads the environment's chain,
+    the cells stage its probe's) are those of a session that uploads them."""
+    from sdfpbr.gpu.gl import create_context
+    from sdfpbr.gpu.session import Session
+    from sdfpbr.spec.chart_spec import make_spec
+    specs = [make_spec(width=96, height=64, rows=1, cols=2, labels=False, stage=stage) for stage in ("cells", "shared")]
+    want = [session.render(spec).hdr for spec in specs]           # every bake now on disk
+    for loader in (True, False):
+        ctx = create_context("egl")
+        if not loader:
+            ctx.extra = {**ctx.extra, "gl_function": None}
+        fresh = Session(ctx, ArrayCache(cache_dir))
+        try:
+            for spec, hdr in zip(specs, want):
+                np.testing.assert_array_equal(fresh.render(spec).hdr, hdr)
+        finally:
+            fresh.release()

@@ -192,6 +192,26 @@ def allocate_cube_levels(ctx: moderngl.Context, cube: moderngl.TextureCube, leve
     gl.levels(_GL_TEXTURE_CUBE_MAP, levels)
 
 
+def upload_cube_levels(ctx: moderngl.Context, cube: moderngl.TextureCube, levels: list) -> bool:
+    """Give an RGBA32F cube the levels ``levels`` ((6, s, s, 4) float32 arrays, faces in GL
+    order, row 0 first, GL's level sizes) as they are. moderngl writes a cube's level 0 only;
+    without this the IBL cache's chains were uploaded as 2D arrays and copied into the cube
+    level by level by a compute shader (a gallery build: ~180 dispatches). False where no loader
+    answers: then the caller copies them."""
+    import numpy as np
+    gl = _TexImage.of(ctx)
+    if gl is None:
+        return False
+    gl.bound(_GL_TEXTURE_CUBE_MAP, cube)
+    for level, data in enumerate(levels):
+        data = np.ascontiguousarray(data, np.float32)   # rows of 16-byte texels: any unpack alignment holds
+        for face in range(6):
+            gl.image(_GL_CUBE_FACE0 + face, level, _GL_RGBA32F, data.shape[2], data.shape[1], 0, _GL_RGBA, _GL_FLOAT,
+                     data[face].ctypes.data)
+    gl.levels(_GL_TEXTURE_CUBE_MAP, len(levels))
+    return True
+
+
 def upload_levels(ctx: moderngl.Context, texture: moderngl.Texture, levels: list, internal_format: int) -> bool:
     """Give an RGBA8 2D texture (level 0 already in it) the levels 1.. ``levels`` (uint8
     (h, w, 4) arrays, GL's level sizes) as they are, instead of build_mipmaps' filtering (on

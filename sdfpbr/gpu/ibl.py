@@ -16,7 +16,7 @@ from ..errors import SpecError
 from ..shading.compose import ComposedSource
 from ..shading.plan import IBLPlan, RenderPlan, env_option
 from ..spec.chart_spec import ChartSpec
-from .gl import allocate_cube_levels
+from .gl import allocate_cube_levels, upload_cube_levels
 from .programs import ProgramCache, set_uniforms
 
 DEFAULT_SUN = (0.55, 0.6, 0.58)
@@ -564,6 +564,9 @@ class IBLBaker:
     def _cube_from_levels(self, copy: ComposedSource, levels: list[np.ndarray]) -> moderngl.TextureCube:
         size = levels[0].shape[1]
         cube = self.ctx.texture_cube((size, size), 4, dtype="f4")
+        cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        if upload_cube_levels(self.ctx, cube, levels):
+            return cube
         allocate_cube_levels(self.ctx, cube, len(levels))
         program = self.programs.compute(copy)
         for k, data in enumerate(levels):
