@@ -293,6 +293,7 @@ _evaluated: dict[str, bool] = {}   # a condition with its options substituted ->
 _names_of: dict[str, tuple[str, ...]] = {}   # a condition -> the names it reads, in order
 _conditions: dict[tuple, tuple[bool, tuple[str, ...], OptionSchema]] = {}   # see condition()
 _ABSENT = object()
+_paths: dict[tuple, str] = {}   # (root, module name) -> its path
 
 
 def _tokens(expr: str, where: str) -> tuple[tuple[str, str], ...]:
@@ -317,6 +318,7 @@ class _Preprocessor:
         self.schema = schema
         self.root = root
         self.modules: list[str] = []
+        self.included: set[str] = set()    # self.modules, to look up
         self.out: list[str] = []
         self.consulted: set[str] = set()   # the options a condition read
         self.named: set[str] = set()       # the upper-case names in the code composed
@@ -368,12 +370,16 @@ class _Preprocessor:
         return value
 
     def include(self, name: str, where: str) -> None:
-        if name in self.modules:
+        if name in self.included:
             return
-        module = _module(os.path.join(self.root, name), name)
+        path = _paths.get((self.root, name))
+        if path is None:
+            path = _paths[(self.root, name)] = os.path.join(self.root, name)
+        module = _module(path, name)
         if module is None:
             raise ValueError(f"{where}: no shader module {name}")
         self.modules.append(name)
+        self.included.add(name)
         index = len(self.modules)
         items = module.items
         actions, named = self._plan(module, name)
