@@ -3,7 +3,8 @@ worker starts clean and makes its own GL context if it needs one; no GL state is
 workers ignore Ctrl-C (it reaches the whole process group; the parent alone answers it, so no
 worker prints a KeyboardInterrupt traceback) and exit on their own when their parent dies,
 instead of working for nobody. helper_pool: such workers taking CPU work off a process that
-draws, as it draws (a gallery's comparisons, the bug catalog's cards)."""
+draws, as it draws (a gallery's comparisons, the bug catalog's cards), forked from a clean
+server process (no GL state either) that imported what they need once."""
 from __future__ import annotations
 
 import os
@@ -42,18 +43,37 @@ def _as_helper() -> None:
 
 
 def _init(parent: int, environ: dict, then) -> None:
+    """A worker's start: Ctrl-C ignored, ``environ`` set, a watch that exits when the process
+    that made the pool (``parent``: for a helper, not the server it was forked from) is gone."""
     import signal
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ.update(environ)
-
-    def watch():
-        while True:
-            time.sleep(0.5)
-            if os.getppid() != parent:
-                os._exit(1)
-    threading.Thread(target=watch, daemon=True).start()
+    threading.Thread(target=_watch, args=(parent,), daemon=True).start()
     if then is not None:
         then()
+
+
+def _watch(parent: int) -> None:
+    """Exit when ``parent`` does. Its pidfd (Linux) becomes readable then, whoever this process's
+    parent is and whatever process later takes its pid; elsewhere its pid is polled."""
+    import select
+    try:
+        pidfd = os.pidfd_open(parent)
+    except ProcessLookupError:
+        os._exit(1)
+    except (AttributeError, OSError):
+        pidfd = None
+    if pidfd is not None:
+        select.select([pidfd], [], [])
+        os._exit(1)
+    while True:
+        time.sleep(0.5)
+        try:
+            os.kill(parent, 0)
+        except ProcessLookupError:
+            os._exit(1)
+        except OSError:
+            pass
 
 
 def process_pool(workers: int, environ: dict | None = None, initializer=None):
@@ -85,20 +105,54 @@ def helpers(tasks: int) -> int:
     return min(cores(), tasks, HELPERS_MAX)
 
 
+def _helper_context():
+    """Helpers fork from a server process that imported what they need once (multiprocessing's
+    forkserver: itself a clean process, no GL state to fork), instead of each importing numpy,
+    Pillow and the layout anew (~0.6 s of a core each); spawned where there is no forkserver."""
+    import multiprocessing
+    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+    return multiprocessing.get_context(method)
+
+
+def start_helper_server(imports: tuple[str, ...]) -> None:
+    """Start the server helpers fork from now, importing ``imports`` there, so that it does so
+    while this process works alone (a gallery build making its keys). The first call decides
+    what the server imports; helpers import the rest themselves."""
+    context = _helper_context()
+    if context.get_start_method() == "forkserver":
+        from multiprocessing import forkserver
+        context.set_forkserver_preload(list(imports))
+        forkserver.ensure_running()
+
+
+def _start_helper(imports: tuple[str, ...]) -> None:
+    import importlib
+    _as_helper()
+    for name in imports:
+        importlib.import_module(name)
+
+
+def _ready() -> None:
+    """A task that makes the pool start a worker (ProcessPoolExecutor starts one per task)."""
+
+
 @contextmanager
-def helper_pool(tasks: int, warm):
-    """A process_pool of ``helpers(tasks)`` workers (None where there are none), each started
-    at once by running ``warm`` (a module-level function: what the tasks import), so that they
-    start while the caller draws its first. Closed on leaving; on an error its queued tasks are
-    dropped."""
+def helper_pool(tasks: int, imports: tuple[str, ...]):
+    """A pool of ``helpers(tasks)`` helper processes (None where there are none), each started
+    at once with ``imports`` (the modules the tasks need) loaded, so that they are ready while
+    the caller draws its first. Closed on leaving; on an error its queued tasks are dropped."""
+    import functools
+    from concurrent.futures import ProcessPoolExecutor
     workers = helpers(tasks)
     if not workers:
         yield None
         return
-    pool = process_pool(workers, initializer=_as_helper)
+    start_helper_server(imports)
+    pool = ProcessPoolExecutor(workers, mp_context=_helper_context(), initializer=_init,
+                               initargs=(os.getpid(), {}, functools.partial(_start_helper, tuple(imports))))
     try:
-        for _ in range(workers):   # a pool starts a worker per task it is given
-            pool.submit(warm)
+        for _ in range(workers):
+            pool.submit(_ready)
         yield pool
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)

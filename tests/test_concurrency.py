@@ -206,6 +206,43 @@ def test_a_builds_worker_may_start_helpers_and_a_helper_starts_none():
         pytest.skip("one core, or no worker can start here: no helpers anywhere")
     with process_pool(1) as pool:
         assert pool.submit(helpers, 10).result(timeout=120) == min(cores(), 10, HELPERS_MAX)
-    with helper_pool(HELPERS_FROM, os.getpid) as pool:
+    with helper_pool(HELPERS_FROM, ("json",)) as pool:
         assert pool is not None
         assert pool.submit(helpers, 10).result(timeout=120) == 0
+
+
+HELD_HELPERS = """
+import os, time
+from sdfpbr.workers import HELPERS_FROM, helper_pool
+if __name__ == "__main__":
+    with helper_pool(HELPERS_FROM, ("sdfpbr.tools.compare",)) as pool:
+        pids = {pool.submit(os.getpid).result(timeout=120) for _ in range(20)}
+        print(" ".join(map(str, sorted(pids))), flush=True)
+        time.sleep(120)
+"""
+
+
+def test_helpers_and_the_server_they_fork_from_exit_when_their_parent_is_killed(tmp_path):
+    """Helpers fork from a server process; killed, the process that started them leaves
+    neither behind (the server sees its parent's pipe close, the helpers their parent go)."""
+    from sdfpbr.workers import cores
+    if cores() < 2:
+        pytest.skip("one core: no helpers")
+    script = tmp_path / "held.py"
+    script.write_text(HELD_HELPERS)
+    marker = f"SDFPBR_TEST_RUN={uuid.uuid4().hex}"
+    name, value = marker.split("=")
+    p = subprocess.Popen([sys.executable, str(script)], env={**os.environ, name: value},
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        helper_pids = {int(pid) for pid in p.stdout.readline().split()}
+        assert helper_pids and p.pid not in helper_pids, p.stderr.read() if p.poll() is not None else ""
+        assert helper_pids <= set(_processes_with(marker))
+    finally:
+        p.kill()
+        p.wait()
+    for _ in range(100):
+        if not _processes_with(marker):
+            break
+        time.sleep(0.1)
+    assert _processes_with(marker) == []

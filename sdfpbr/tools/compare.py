@@ -415,9 +415,9 @@ def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panels: list[Panel], pa
     return card, panels + [diff.panel], diff
 
 
-def _start_helper() -> None:
-    """What a helper making cards imports (workers.helper_pool)."""
-    from ..image import flip, metrics   # noqa: F401
+# What a helper composing comparisons imports (workers.helper_pool): the cards here, a
+# gallery's pages (tools.gallery.images).
+HELPER_IMPORTS = ("sdfpbr.tools.compare", "sdfpbr.image.metrics", "sdfpbr.image.flip")
 
 
 def _whole_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
@@ -469,7 +469,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
             specs.append(s)
         return rendered[s], specs.index(s)
 
-    with helper_pool(len(pairs), _start_helper) as pool:
+    with helper_pool(len(pairs), HELPER_IMPORTS) as pool:
         if pool is not None:   # each card made by a helper process as soon as its pair is drawn
             futures = []
             for bug, correct, buggy in pairs:

@@ -20,7 +20,7 @@ from ...cache import touch
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from ...workers import cores, process_pool
-from .images import ImageCache, Rendered, checkpoint, render_items, write_file
+from .images import ImageCache, Rendered, checkpoint, prepare_helpers, render_items, write_file
 from .page import gallery_html
 from .stamp import InputLog, package_files, record, stamp_path, unchanged
 
@@ -146,6 +146,8 @@ def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool
     with InputLog(cache.root) as inputs:
         items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
         _check_out(out)
+        if jobs <= 1:
+            prepare_helpers(items)
         renderers = gl_renderers(items)
         keys = item_keys(items, renderers, cache.dir / "keys.json")
     cache.remove_stale_temps()

@@ -196,15 +196,25 @@ def render_items(items: list[Item], keys: dict[str, str], done: Callable[[Item, 
 
 def sheet_pool(items: list[Item]):
     """A workers.helper_pool for the comparisons among ``items`` (None where they are composed
-    here). (Started before the build made its keys, on the core idle then, a cold build was no
-    faster, and a build with one plain chart to render paid 0.4 s for workers it did not use.)"""
+    here)."""
     from ...workers import helper_pool
-    return helper_pool(sum(1 for item in items if flip_pairs(item)), _start_worker)
+    from ..compare import HELPER_IMPORTS
+    return helper_pool(_comparisons(items), HELPER_IMPORTS)
 
 
-def _start_worker() -> None:
-    """What composing a sheet imports, loaded before the first sheet comes."""
-    from .. import compare   # noqa: F401  (numpy, Pillow, the layout)
+def prepare_helpers(items: list[Item]) -> None:
+    """Start the server the comparisons' helpers fork from, if ``items`` will have helpers: its
+    imports then run on a core that is idle while the build makes its keys. (Spawning the
+    helpers themselves that early made a cold build no faster, and a build with one plain chart
+    paid 0.4 s for workers it did not use: here nothing starts without comparisons to make.)"""
+    from ...workers import helpers, start_helper_server
+    if helpers(_comparisons(items)):
+        from ..compare import HELPER_IMPORTS
+        start_helper_server(HELPER_IMPORTS)
+
+
+def _comparisons(items: list[Item]) -> int:
+    return sum(1 for item in items if flip_pairs(item))
 
 
 def _compose_sheet(item: Item, key: str, renders: list) -> Rendered:
