@@ -132,9 +132,15 @@ def clear(root: Path, kind: str | None = None) -> tuple[int, int]:
             files, size = files + 1, size + n
         except OSError:
             pass
-    for dirpath, _, _ in os.walk(where):
-        remove_stale_temps(Path(dirpath))
+    remove_stale_temporaries(where)
     return files, size
+
+
+def remove_stale_temporaries(root: Path) -> int:
+    """Delete the temporaries of writers that no longer run in every kind under ``root`` (a
+    worker that exits with its killed parent may leave one mid-write, in a kind the next run
+    does not write to); returns how many."""
+    return sum(remove_stale_temps(Path(dirpath)) for dirpath, _, _ in os.walk(root))
 
 
 def content_key(*parts) -> str:

@@ -161,6 +161,25 @@ def test_killed_parallel_build_leaves_no_workers_and_reruns(gallery, tmp_path):
     assert_consistent(out, cache, reference, complete=True)
 
 
+def test_a_dead_writers_temporaries_in_any_cache_kind_go_with_the_next_build(gallery, tmp_path):
+    """A worker that exits with its killed build may leave a temporary mid-write in a kind the
+    next build does not write to (its bakes all cached): that build removes it all the same,
+    and leaves a live writer's alone."""
+    from test_cache import dead_pid
+    charts, reference = gallery
+    cache = tmp_path / "cache"
+    assert run_build(charts, tmp_path / "first", cache).returncode == 0      # every bake on disk
+    stale = cache / "ibl" / f".k.c.npz.abc123.{dead_pid()}.tmp"
+    live = cache / "ibl" / f".k.c.npz.def456.{os.getpid()}.tmp"
+    for path in (stale, live):
+        path.write_bytes(b"partial")
+    r = run_build(charts, tmp_path / "out", cache, "--force")
+    assert r.returncode == 0, r.stderr
+    assert not stale.exists() and live.exists()
+    live.unlink()
+    assert_consistent(tmp_path / "out", cache, reference, complete=True)
+
+
 @pytest.mark.parametrize("force", [False, True], ids=["cold-cache", "both-forced"])
 def test_two_builds_sharing_a_cache_at_once(gallery, tmp_path, force):
     """Both builds render (and write) the same keys at the same time into one cache."""

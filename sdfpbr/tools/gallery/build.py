@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 from ... import __version__
-from ...cache import touch
+from ...cache import remove_stale_temporaries, touch
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from ...workers import cores, process_pool
@@ -150,7 +150,7 @@ def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool
             prepare_helpers(items)
         renderers = gl_renderers(items)
         keys = item_keys(items, renderers, cache.dir / "keys.json")
-    cache.remove_stale_temps()
+    remove_stale_temporaries(cache.root)
     _make_out(out)
     previous = _previous_images(out)
 
