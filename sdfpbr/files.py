@@ -116,8 +116,14 @@ def _alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except OSError:          # exists, owned by someone else
+        pass
+    # An exited process waits as a zombie until it is reaped (an orphan's by init, here up to
+    # ~1 s later): it writes nothing more.
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+    except (OSError, IndexError):
         return True
-    return True
 
 
 def remove_stale_temps(directory: str | Path, prefix: str = "") -> int:

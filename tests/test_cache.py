@@ -99,6 +99,29 @@ def test_a_killed_writers_temporaries_go_with_the_next_write(tmp_path):
     assert (tmp_path / "c.png").read_bytes() == b"new"
 
 
+def test_an_exited_writer_not_yet_reaped_is_not_a_live_one(tmp_path):
+    """A writer killed with its parent exits as an orphan, a zombie until init reaps it (up to
+    ~1 s here): its temporaries are stale at once; a running writer's are not."""
+    from sdfpbr.files import remove_stale_temps
+    exited = subprocess.Popen([sys.executable, "-c", "pass"])
+    running = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        for _ in range(200):   # exited, and not waited for: a zombie
+            if open(f"/proc/{exited.pid}/stat").read().rsplit(")", 1)[1].split()[0] == "Z":
+                break
+            time.sleep(0.05)
+        gone = tmp_path / f".k.c.npz.abc123.{exited.pid}.tmp"
+        live = tmp_path / f".k.c.npz.def456.{running.pid}.tmp"
+        for path in (gone, live):
+            path.write_bytes(b"partial")
+        assert remove_stale_temps(tmp_path) == 1
+        assert not gone.exists() and live.exists()
+    finally:
+        running.kill()
+        running.wait()
+        exited.wait()
+
+
 def test_a_killed_bakes_temporaries_go_with_the_next_bake(tmp_path):
     stale = tmp_path / "ibl" / f".k.c.npz.abc123.{dead_pid()}.tmp"
     stale.parent.mkdir()
