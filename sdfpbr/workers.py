@@ -125,9 +125,18 @@ def start_helper_server(imports: tuple[str, ...]) -> None:
         forkserver.ensure_running()
 
 
-def _start_helper(imports: tuple[str, ...]) -> None:
+def _start_helper(imports: tuple[str, ...], environ: dict, cwd: str) -> None:
+    """A helper's start. Forked from a server started earlier, it takes the environment and
+    working directory its pool's maker has now, as a spawned process would (a test's cache
+    directory, a script that changed directory), then imports what its tasks need."""
     import importlib
     _as_helper()
+    os.environ.clear()
+    os.environ.update(environ)
+    try:
+        os.chdir(cwd)
+    except OSError:
+        pass
     for name in imports:
         importlib.import_module(name)
 
@@ -149,7 +158,7 @@ def helper_pool(tasks: int, imports: tuple[str, ...]):
         return
     start_helper_server(imports)
     pool = ProcessPoolExecutor(workers, mp_context=_helper_context(), initializer=_init,
-                               initargs=(os.getpid(), {}, functools.partial(_start_helper, tuple(imports))))
+                               initargs=(os.getpid(), {}, functools.partial(_start_helper, tuple(imports), dict(os.environ), os.getcwd())))
     try:
         for _ in range(workers):
             pool.submit(_ready)

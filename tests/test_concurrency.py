@@ -230,6 +230,28 @@ def test_a_builds_worker_may_start_helpers_and_a_helper_starts_none():
         assert pool.submit(helpers, 10).result(timeout=120) == 0
 
 
+def test_helpers_take_the_environment_and_directory_their_pool_is_made_in(tmp_path, monkeypatch):
+    """Helpers fork from a server started earlier (by another pool, another test): each pool's
+    helpers still see the environment and working directory of its maker at that time."""
+    from sdfpbr.workers import HELPERS_FROM, can_spawn, cores, helper_pool
+    if cores() < 2 or not can_spawn():
+        pytest.skip("one core, or no worker can start here: no helpers")
+    for i in range(2):
+        where = tmp_path / str(i)
+        where.mkdir()
+        monkeypatch.chdir(where)
+        monkeypatch.setenv("SDFPBR_TEST_HELPER_ENV", str(i))
+        if i:
+            monkeypatch.delenv("SDFPBR_TEST_HELPER_GONE", raising=False)
+        else:
+            monkeypatch.setenv("SDFPBR_TEST_HELPER_GONE", "set")
+        with helper_pool(HELPERS_FROM, ("json",)) as pool:
+            seen = pool.submit(os.getenv, "SDFPBR_TEST_HELPER_ENV").result(timeout=120)
+            gone = pool.submit(os.getenv, "SDFPBR_TEST_HELPER_GONE").result(timeout=120)
+            cwd = pool.submit(os.getcwd).result(timeout=120)
+        assert (seen, gone, cwd) == (str(i), None if i else "set", str(where))
+
+
 HELD_HELPERS = """
 import os, time
 from sdfpbr.workers import HELPERS_FROM, helper_pool
