@@ -1,7 +1,7 @@
-"""Worker processes, the one way sdfpbr starts them: a process pool in the spawn context (each
-worker starts clean and makes its own GL context if it needs one; no GL state is forked), whose
-workers ignore Ctrl-C (it reaches the whole process group; the parent alone answers it, so no
-worker prints a KeyboardInterrupt traceback) and exit on their own when their parent dies,
+"""Worker processes, the one way sdfpbr starts them: process pools whose workers start clean
+(spawned, and each makes its own GL context if it needs one; no GL state is forked), ignore
+Ctrl-C (it reaches the whole process group; the parent alone answers it, so no worker prints a
+KeyboardInterrupt traceback) and exit on their own when the process that made the pool dies,
 instead of working for nobody. helper_pool: such workers taking CPU work off a process that
 draws, as it draws (a gallery's comparisons, the bug catalog's cards), forked from a clean
 server process (no GL state either) that imported what they need once."""
@@ -157,8 +157,9 @@ def helper_pool(tasks: int, imports: tuple[str, ...]):
         yield None
         return
     start_helper_server(imports)
+    start = functools.partial(_start_helper, tuple(imports), dict(os.environ), os.getcwd())
     pool = ProcessPoolExecutor(workers, mp_context=_helper_context(), initializer=_init,
-                               initargs=(os.getpid(), {}, functools.partial(_start_helper, tuple(imports), dict(os.environ), os.getcwd())))
+                               initargs=(os.getpid(), {}, start))
     try:
         for _ in range(workers):
             pool.submit(_ready)
