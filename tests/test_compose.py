@@ -127,12 +127,10 @@ def test_a_remembered_condition_is_one_of_the_same_options(tmp_path):
     """Conditions are remembered by the values they read: the same text under other options
     is evaluated again, and the header names the options each program's conditions read."""
     root = _tree(tmp_path / "s", {"main.glsl": "#if X && MODE == b\nxb\n#elif Y\ny\n#endif\nend\n"})
-    seen = {}
     for x in (False, True):
         for mode in ("a", "b"):
             for y in (False, True):
                 source = compose_source("main.glsl", {"X": x, "Y": y, "MODE": mode}, _SCHEMA, root=root)
-                seen[(x, mode, y)] = _body(source)
                 expected_first = ["xb"] if (x and mode == "b") else (["y"] if y else [])
                 assert _body(source) == expected_first + ["end"]
                 header = source.text.splitlines()[:6]

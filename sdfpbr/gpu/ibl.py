@@ -578,5 +578,4 @@ class IBLBaker:
             program.run(_groups(s), _groups(s), 6)
             self.ctx.memory_barrier()
             array.release()
-        cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         return cube

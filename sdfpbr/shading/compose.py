@@ -289,7 +289,6 @@ def _structure(items: list, name: str) -> tuple[dict[int, int], dict[int, int]]:
 
 
 _tokens_of: dict[str, tuple[tuple[str, str], ...]] = {}
-_evaluated: dict[str, bool] = {}   # a condition with its options substituted -> its value
 _names_of: dict[str, tuple[str, ...]] = {}   # a condition -> the names it reads, in order
 _conditions: dict[tuple, tuple[bool, tuple[str, ...], OptionSchema]] = {}   # see condition()
 _ABSENT = object()
@@ -363,11 +362,7 @@ class _Preprocessor:
                     python.append(repr(name))
             else:
                 python.append({"&&": " and ", "||": " or ", "!": " not "}.get(value, value))
-        text = "".join(python)
-        value = _evaluated.get(text)
-        if value is None:
-            value = _evaluated[text] = bool(eval(text, {"__builtins__": {}}, {}))  # tokens vetted above
-        return value
+        return bool(eval("".join(python), {"__builtins__": {}}, {}))  # tokens vetted above
 
     def include(self, name: str, where: str) -> None:
         if name in self.included:
