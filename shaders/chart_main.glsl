@@ -11,7 +11,9 @@
 #include "march.glsl"
 #endif
 #if ANALYTIC_AA
+#if EDGE_PIXELS != skipped
 #include "edge_coverage.glsl"
+#endif
 #endif
 #if STAGE == cells && HAS_GROUND && USE_AO && !BOUNCE_PLATE
 #include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
@@ -190,11 +192,23 @@ void chart_pixel(vec2 frag_coord) {
 #if ANALYTIC_AA
     // One ray per pixel, and two at the sphere's silhouette, blended by the covered share of
     // the pixel box (edge_coverage.glsl).
+#if EDGE_PIXELS == skipped
+    // The silhouette's pixels are drawn over by the edge pass (EDGE_PIXELS only, on a ring of
+    // triangles round each silhouette: silhouette_ring_vert.glsl). A software rasterizer runs
+    // an if's body for every pixel, so the edge's second trace here would cost a whole trace.
+    const bool edge = false;
+    vec2 first = pixel + 0.5;
+#else
     EdgeSplit split = edge_split(pixel + 0.5);
     bool edge = split.coverage > 0.0 && split.coverage < 1.0;
+#if EDGE_PIXELS == only
+    if (!edge) discard;   // the chart pass's pixel stands
+#endif
     // Two traces, not three, where a SIMD group holds an edge: the first ray is the centre's,
     // or the inside one's at an edge.
-    vec4 radiance = trace_pixel(edge ? split.inside : pixel + 0.5, footprint, centre, centre_rd);
+    vec2 first = edge ? split.inside : pixel + 0.5;
+#endif
+    vec4 radiance = trace_pixel(first, footprint, centre, centre_rd);
     float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
 #if SPHERE_SAMPLES > 1 && !SPHERE_PLATE
     // A small sphere's inside pixels average n x n points of their box, as the sphere plate's
@@ -211,12 +225,14 @@ void chart_pixel(vec2 frag_coord) {
         if (count > 0.0) radiance = sum / count;
     }
 #endif
+#if EDGE_PIXELS != skipped
     if (edge) {
         radiance = mix(trace_pixel(split.outside, footprint, other, other_rd), radiance, split.coverage);
         sphere_share = split.coverage;
         vec3 ro = camera_ray(2.0 * (pixel + 0.5) / u_resolution - 1.0, centre_rd);
         centre = intersect_scene(ro, centre_rd, footprint);
     }
+#endif
 #else
     // SPP stratified rays over the pixel box; sample 0 is the centre.
     vec4 radiance = trace_pixel(pixel + sample_offset(0), footprint, centre, centre_rd);

@@ -1,5 +1,7 @@
 """The chart as a compute shader (for GPUs that run few fragment units) draws what the fragment
 shader draws; which one a session uses follows its renderer, or $SDFPBR_CHART_STAGE."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -51,3 +53,64 @@ def test_the_stage_follows_the_renderer_or_the_environment(monkeypatch):
     monkeypatch.setenv("SDFPBR_CHART_STAGE", "vertex")
     with pytest.raises(SpecError, match="SDFPBR_CHART_STAGE must be one of fragment, compute"):
         chart_stage_for("llvmpipe")
+
+
+def _inline(plan):
+    """``plan`` with the chart's silhouette pixels drawn inline by the chart program itself."""
+    from sdfpbr.shading.plan import compose_program
+    chart = compose_program("chart_main.glsl", {**plan.options, "EDGE_PIXELS": "inline"})
+    return dataclasses.replace(plan, chart=chart, edge_pass=None, edge_vertex=None)
+
+
+# Layouts where a ring could miss a silhouette pixel: tiny spheres (whole discs), wide cells,
+# tiles the rings cross, the shared stage's spheres seen from round and above, orthographic,
+# a camera backed off, glTF-style see-through and textured spheres.
+EDGE_CASES = [dict(), dict(width=256, height=256, rows=64, cols=64), dict(width=600, height=110, rows=1, cols=11),
+              dict(width=333, height=271, rows=3, cols=4, tile=64), dict(stage="shared", camera_azimuth=20.0,
+              camera_elevation=25.0), dict(stage="shared", rows=2, cols=7, width=420, height=160),
+              dict(camera="orthographic"), dict(camera_distance_scale=1.7), dict(textures="procedural"),
+              dict(alpha=(0.3, 1.0), x_axis="alpha"), dict(transparent=True)]
+
+
+@pytest.mark.parametrize("options", EDGE_CASES, ids=[",".join(f"{k}={v}" for k, v in c.items()) or "default"
+                                                     for c in EDGE_CASES])
+def test_the_edge_pass_draws_what_the_chart_draws_inline(session, options):
+    """The fragment chart leaves its silhouettes' pixels to a pass over a ring of triangles
+    round each one (a software rasterizer runs an if's body for every pixel): every pixel the
+    silhouette crosses must lie in a ring, and the pass must shade it as the chart program
+    does inline. Same arithmetic per pixel: the same radiance, coverage and AOVs."""
+    from sdfpbr.gpu.render import render_chart
+    from sdfpbr.shading.plan import render_plan
+    options = dict(options)
+    tile = options.pop("tile", None)
+    spec = make_spec(**{"width": 256, "height": 256, "quality": "draft", **options})
+    plan = render_plan(spec)
+    assert plan.edge_pass is not None and plan.options["EDGE_PIXELS"] == "skipped"
+    fragment = Session(session.ctx, session.cache, chart_stage="fragment", tile=tile)
+    with fragment:
+        a = render_chart(fragment, spec, plan=_inline(plan))
+        b = render_chart(fragment, spec, plan=plan)
+    edges = (a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)
+    assert edges.sum() > 0
+    np.testing.assert_allclose(b.hdr, a.hdr, rtol=0, atol=1e-6 * a.hdr.max())
+    np.testing.assert_array_equal(b.alpha, a.alpha)
+    np.testing.assert_array_equal(b.image, a.image)
+    for name in a.aov:
+        np.testing.assert_allclose(b.aov[name], a.aov[name], rtol=0, atol=1e-6, err_msg=name)
+
+
+def test_a_ring_too_thin_for_the_silhouette_leaves_pixels_out(session, monkeypatch):
+    """The comparison above can fail: rings a third of a pixel wide miss silhouette pixels,
+    which then keep the chart pass's one ray (coverage 0 or 1)."""
+    import sdfpbr.gpu.render as render
+    from sdfpbr.shading.camera import silhouette_ring
+    spec = make_spec(width=256, height=256, quality="draft")
+    plan = render.render_plan(spec)
+    fragment = Session(session.ctx, session.cache, chart_stage="fragment")
+    with fragment:
+        a = render.render_chart(fragment, spec, plan=_inline(plan))
+        monkeypatch.setattr(render, "silhouette_ring", lambda s: silhouette_ring(s, pad=0.15))
+        b = render.render_chart(fragment, spec, plan=plan)
+    edges = (a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)
+    missed = edges & ((b.aov["coverage"] == 0) | (b.aov["coverage"] == 1))
+    assert missed.sum() > 0.2 * edges.sum()

@@ -37,10 +37,12 @@ def test_the_plan_names_every_program_a_render_compiles(cache_dir):
         plan = render_plan(spec)
         # The vertex stage is linked into every fragment program, not compiled alone; a fresh
         # bake copies levels to the disk cache but never back; the probe's turn runs only in
-        # a light orbit (Session.turning_light); and the chart is drawn by one of its two programs (Session.chart_stage).
-        unused = plan.chart_compute if session.chart_stage == "fragment" else plan.chart
+        # a light orbit (Session.turning_light); and the chart is drawn by the fragment program
+        # and its edge pass, or by the compute program (Session.chart_stage).
+        unused = ({plan.chart_compute} if session.chart_stage == "fragment"
+                  else {plan.chart, plan.edge_pass, plan.edge_vertex})
         assert planned - compiled == {plan.vertex.digest, plan.ibl.copy_to_cube.digest, plan.ibl.turn_probe.digest,
-                                      unused.digest}
+                                      *(s.digest for s in unused)}
     finally:
         session.release()
 

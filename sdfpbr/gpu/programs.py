@@ -17,20 +17,23 @@ class ProgramCache:
         self._vertex = compose_program("fullscreen_vert.glsl")
         self.compile_seconds = 0.0   # total spent compiling, for the benchmark
 
-    def fragment(self, source: ComposedSource) -> moderngl.Program:
-        key = "frag:" + source.digest
+    def fragment(self, source: ComposedSource, vertex: ComposedSource | None = None) -> moderngl.Program:
+        """``source`` drawn by the fullscreen triangle, or by ``vertex``'s geometry."""
+        vertex = vertex or self._vertex
+        key = "frag:" + source.digest + ("" if vertex is self._vertex else ":" + vertex.digest)
         if key not in self._programs:
             start = time.perf_counter()
             try:
-                self._programs[key] = self.ctx.program(vertex_shader=self._vertex.text, fragment_shader=source.text)
+                self._programs[key] = self.ctx.program(vertex_shader=vertex.text, fragment_shader=source.text)
             except Exception as exc:   # moderngl raises a bare Error with the driver log
                 raise compile_error(source, exc) from None
             self.compile_seconds += time.perf_counter() - start
         return self._programs[key]
 
     def digests(self) -> list[str]:
-        """The composed sources compiled so far (fragment and compute), by digest."""
-        return [key.split(":", 1)[1] for key in self._programs]
+        """The composed sources compiled so far (fragment and compute, and vertex programs
+        other than the fullscreen triangle's), by digest."""
+        return [digest for key in self._programs for digest in key.split(":")[1:]]
 
     def compute(self, source: ComposedSource) -> moderngl.ComputeShader:
         key = "comp:" + source.digest

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import SpecError
 from ..shading import camera as camera_mod
-from ..shading.camera import cell_sphere_box
+from ..shading.camera import cell_sphere_box, silhouette_ring
 from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
@@ -97,21 +97,23 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
     t0 = time.perf_counter()
     timings = {}
     plan = plan or render_plan(spec)
-    compute = session.chart_stage == "compute"
-    program = session.programs.compute(plan.chart_compute) if compute else session.programs.fragment(plan.chart)
-    display = session.programs.fragment(plan.display)
-    timings["compile_s"] = time.perf_counter() - t0
-
-    t1 = time.perf_counter()
-    scene = chart_scene(session, spec, plan)
+    chart = ChartDraw(session, plan)
     try:
-        timings["setup_s"] = time.perf_counter() - t1
-        t2 = time.perf_counter()
-        bind_frame(session, plan, scene, program)
-        radiance, alpha, image, aov = _draw(session, program, display, spec, aovs, hdr, image, compute)
-        timings["render_s"] = time.perf_counter() - t2
+        display = session.programs.fragment(plan.display)
+        timings["compile_s"] = time.perf_counter() - t0
+
+        t1 = time.perf_counter()
+        scene = chart_scene(session, spec, plan)
+        try:
+            timings["setup_s"] = time.perf_counter() - t1
+            t2 = time.perf_counter()
+            bind_frame(session, plan, scene, chart.programs)
+            radiance, alpha, image, aov = _draw(session, chart, display, spec, aovs, hdr, image)
+            timings["render_s"] = time.perf_counter() - t2
+        finally:
+            scene.release()
     finally:
-        scene.release()
+        chart.release()
     return RenderResult(radiance, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
 
 
@@ -170,16 +172,73 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
     return scene
 
 
-def bind_frame(session, plan: RenderPlan, scene: SceneBindings, program) -> None:
+class ChartDraw:
+    """The chart's programs for a frame and what they draw with: the compute program, or the
+    fragment program over each whole tile and then (EDGE_PIXELS) its edge pass over a ring of
+    triangles round each silhouette, which draws over the silhouettes' pixels."""
+
+    def __init__(self, session, plan: RenderPlan, stage: str | None = None):
+        """``stage``: "fragment" or "compute" (None: the session's chart_stage)."""
+        ctx = self.ctx = session.ctx
+        self.compute = (stage or session.chart_stage) == "compute"
+        self.vao = self.edge_vao = self.ring = None
+        self.instances = 1
+        if self.compute:
+            self.program = session.programs.compute(plan.chart_compute)
+            self.programs = [self.program]
+            return
+        self.program = session.programs.fragment(plan.chart)
+        self.programs = [self.program]
+        try:
+            self.vao = ctx.vertex_array(self.program, [])
+            if plan.edge_pass is not None:
+                edge = session.programs.fragment(plan.edge_pass, plan.edge_vertex)
+                self.programs.append(edge)
+                ring, self.instances = silhouette_ring(plan.spec)
+                self.ring = ctx.buffer(ring.tobytes())
+                self.edge_vao = ctx.vertex_array(edge, [(self.ring, "2f", "in_ring")])
+        except BaseException:
+            self.release()
+            raise
+
+    def draw(self, x0: int, y0: int, tw: int, th: int, targets: list, fbo=None) -> None:
+        """The tile at (x0, y0) of (tw, th) pixels into ``targets`` (radiance, then the AOVs'
+        when they are read): through ``fbo`` (bound here) on the fragment path, as images
+        0..2 for the compute program, which stores the AOVs only when they are bound."""
+        if self.compute:
+            for unit, target in enumerate(targets):
+                target.bind_to_image(unit, read=False, write=True)
+            set_uniforms(self.program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
+                                        "u_write_aovs": len(targets) > 1})
+            self.program.run((tw + 7) // 8, (th + 7) // 8, 1)
+            self.ctx.memory_barrier()
+            return
+        fbo.use()
+        for program in self.programs:
+            set_uniforms(program, {"u_tile_origin": (x0, y0), "u_ring_viewport": (tw, th)})
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        if self.edge_vao is not None:
+            self.edge_vao.render(moderngl.TRIANGLES, instances=self.instances)
+
+    def release(self) -> None:
+        for obj in (self.vao, self.edge_vao, self.ring):
+            if obj is not None:
+                obj.release()
+        self.vao = self.edge_vao = self.ring = None
+
+
+def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs) -> None:
     """The per-frame work before the chart's draw: the cells stage's floor plate (a pass of its
-    own, part of what a frame costs), then every binding onto ``program``."""
+    own, part of what a frame costs), then every binding onto ``programs`` (the chart's)."""
     if plan.floor_plate is not None:
         scene.replace_texture("u_floor_plate", _floor_plate(session, plan.floor_plate, scene, plan.spec))
     if plan.bounce_plate is not None:
         scene.replace_texture("u_bounce_plate", _bounce_plate(session, plan, scene))
     if plan.sphere_plate is not None:
         _sphere_plate(session, plan, scene)
-    set_uniforms(program, scene.bind())
+    bindings = scene.bind()
+    for program in programs:
+        set_uniforms(program, bindings)
 
 
 def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int],
@@ -261,8 +320,8 @@ def _sphere_plate(session, plan: RenderPlan, scene) -> None:
     scene.replace_texture("u_sphere_plate", plate)
 
 
-def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool, image: np.ndarray | None,
-          compute: bool = False):
+def _draw(session, chart: ChartDraw, display, spec: ChartSpec, aovs: bool, read_hdr: bool,
+          image: np.ndarray | None):
     ctx, pool = session.ctx, session.targets
     W, H = spec.width, spec.height
     # Tiles are read straight into the final arrays: no full-size 4-channel staging copies.
@@ -274,39 +333,25 @@ def _draw(session, program, display, spec: ChartSpec, aovs: bool, read_hdr: bool
     # Radiance, then (normal, depth) and (col, row, NdotV, coverage) when the AOVs are read:
     # without their targets the program's writes to those outputs go nowhere.
     dtypes = ("f2" if half else "f4",) + (("f4", "f4") if aovs else ())
-    vao = None if compute else ctx.vertex_array(program, [])
-    try:
-        for x0, y0, tw, th in tiles(W, H, session.tile):
-            targets = [pool.take(tw, th, dtype) for dtype in dtypes]
-            fbo = None if compute else ctx.framebuffer(color_attachments=targets)
-            try:
-                program["u_tile_origin"].value = (x0, y0)
-                if compute:   # the targets as images 0..2; the AOV stores only when they are bound
-                    for unit, target in enumerate(targets):
-                        target.bind_to_image(unit, read=False, write=True)
-                    set_uniforms(program, {"u_tile_size": (tw, th), "u_write_aovs": bool(aovs)})
-                    program.run((tw + 7) // 8, (th + 7) // 8, 1)
-                    ctx.memory_barrier()
-                else:
-                    fbo.use()
-                    vao.render(moderngl.TRIANGLES, vertices=3)
-                where = image_slices(H, x0, y0, tw, th)
-                # Targets are read through the framebuffer (glReadPixels) where there is one.
-                source = targets if fbo is None else [fbo] * len(targets)
-                image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool, origin=(x0, y0))
-                if read_hdr:
-                    radiance = read_rgba(source[0], tw, th, np.float16 if half else np.float32, pool)
-                    hdr[where] = radiance[..., :3]
-                    alpha[where] = radiance[..., 3]
-                if aov is not None:
-                    aov.write(where, read_rgba(source[1], tw, th, pool=pool, slot=1, attachment=1),
-                              read_rgba(source[2], tw, th, pool=pool, slot=2, attachment=2))
-            finally:
-                if fbo is not None:
-                    fbo.release()
-                for tex in targets:
-                    pool.give(tex)
-    finally:
-        if vao is not None:
-            vao.release()
+    for x0, y0, tw, th in tiles(W, H, session.tile):
+        targets = [pool.take(tw, th, dtype) for dtype in dtypes]
+        fbo = None if chart.compute else ctx.framebuffer(color_attachments=targets)
+        try:
+            chart.draw(x0, y0, tw, th, targets, fbo)
+            where = image_slices(H, x0, y0, tw, th)
+            # Targets are read through the framebuffer (glReadPixels) where there is one.
+            source = targets if fbo is None else [fbo] * len(targets)
+            image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool, origin=(x0, y0))
+            if read_hdr:
+                radiance = read_rgba(source[0], tw, th, np.float16 if half else np.float32, pool)
+                hdr[where] = radiance[..., :3]
+                alpha[where] = radiance[..., 3]
+            if aov is not None:
+                aov.write(where, read_rgba(source[1], tw, th, pool=pool, slot=1, attachment=1),
+                          read_rgba(source[2], tw, th, pool=pool, slot=2, attachment=2))
+        finally:
+            if fbo is not None:
+                fbo.release()
+            for tex in targets:
+                pool.give(tex)
     return hdr, alpha, image, (aov.finish() if aov is not None else {})

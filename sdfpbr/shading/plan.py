@@ -44,6 +44,7 @@ SCHEMA = OptionSchema(
         "STAGE": ("shared", "cells"),
         "CHART_STAGE": ("fragment", "compute"),
         "EXPOSURE_AXIS": ("none", "x", "y"),
+        "EDGE_PIXELS": ("inline", "skipped", "only"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "IBL_TWO_TAP", "GROUND_IBL",
@@ -199,6 +200,10 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["INTERSECT"] == "analytic"
                            and (opts["STAGE"] == "cells" or opts["SCENE_SDF"] == "nearest_cell")
                            and camera.silhouettes_apart(spec))
+    if opts["ANALYTIC_AA"]:
+        # The silhouettes' pixels drawn by a pass of their own over a ring round each one
+        # (RenderPlan.edge_pass); the compute variant draws them inline.
+        opts["EDGE_PIXELS"] = "skipped"
     opts["BOUNCE_PLATE"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
@@ -321,6 +326,8 @@ class RenderPlan:
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
     sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
+    edge_pass: ComposedSource | None = None     # EDGE_PIXELS: the chart's silhouette pixels, drawn
+    edge_vertex: ComposedSource | None = None   # over rings round them (silhouette_ring_vert.glsl)
 
     @property
     def options(self) -> dict:
@@ -329,20 +336,28 @@ class RenderPlan:
     @property
     def chart_compute(self) -> ComposedSource:
         """The chart program as a compute shader (session.py picks which one draws), composed
-        on first use: a software rasterizer never runs it (7 ms of a cold start saved)."""
-        return compose_program("chart_main.glsl", {**self.options, "CHART_STAGE": "compute"})
+        on first use: a software rasterizer never runs it (7 ms of a cold start saved). It
+        draws the silhouettes' pixels itself: a GPU's branch skips the edge's work elsewhere."""
+        options = {**self.options, "CHART_STAGE": "compute"}
+        if "EDGE_PIXELS" in options:
+            options["EDGE_PIXELS"] = "inline"
+        return compose_program("chart_main.glsl", options)
 
     def frame_programs(self) -> dict[str, ComposedSource]:
         """The programs each frame runs, by the names `sdfpbr shader --program` takes: the
-        cells stage's plates where the plan has them, the chart, the display pass."""
+        cells stage's plates where the plan has them, the chart, its edge pass, the display."""
         plates = {"floor-plate": self.floor_plate, "bounce-plate": self.bounce_plate,
                   "sphere-plate": self.sphere_plate}
-        return {**{k: v for k, v in plates.items() if v is not None}, "chart": self.chart, "display": self.display}
+        out = {**{k: v for k, v in plates.items() if v is not None}, "chart": self.chart}
+        if self.edge_pass is not None:
+            out["chart-edges"] = self.edge_pass
+        return {**out, "display": self.display}
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys."""
         out = [self.vertex, self.chart, self.display, self.dfg]
-        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate, self.sphere_plate) if s]
+        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate, self.sphere_plate,
+                            self.edge_pass, self.edge_vertex) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
 
@@ -411,6 +426,16 @@ def _sphere_plate(chart: dict) -> ComposedSource | None:
     return compose_program("stage_sphere_main.glsl", {**chart, "SPHERE_PLATE": False, "SPHERE_PLATE_PASS": True})
 
 
+def _edge_pass(chart: dict) -> tuple[ComposedSource | None, ComposedSource | None]:
+    """The chart's silhouette pixels, drawn over the chart pass (which skips them) on a ring of
+    triangles round each silhouette: the chart program with only those pixels, and the
+    vertex program placing the rings."""
+    if chart.get("EDGE_PIXELS") != "skipped":
+        return None, None
+    return (compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only"}),
+            compose_program("silhouette_ring_vert.glsl", {"STAGE": chart["STAGE"]}))
+
+
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
     """The ground's IBL table bake: the ground material (never a catalogued bug, which are about
     the spheres) under the environment, IBL_PIXEL_SAMPLES filtered samples per texel."""
@@ -438,6 +463,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
     q = quality(spec)
     chart, layout = _chart_options(spec)
     chart_source = compose_program("chart_main.glsl", chart)
+    edge_pass, edge_vertex = _edge_pass(chart)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
     return RenderPlan(
         spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
@@ -448,7 +474,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
         floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart),
-        sphere_layout=layout)
+        sphere_layout=layout, edge_pass=edge_pass, edge_vertex=edge_vertex)
 
 
 # ---- the reference's plan --------------------------------------------------------------------

@@ -145,30 +145,25 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
     """Render once (programs, IBL bakes), then time a frame's draws alone into the same float
     targets the renderer uses: its per-frame passes (the cells stage's floor plate) and the
     chart program's tiles."""
-    import moderngl
     from ...shading.plan import render_plan
-    from ...gpu.render import bind_frame, chart_scene
+    from ...gpu.render import ChartDraw, bind_frame, chart_scene
     result = session.render(spec)
     ctx = session.ctx
     plan = render_plan(spec)
     source = plan.chart
     with session:
-        program = session.programs.fragment(source)
+        chart = ChartDraw(session, plan, stage="fragment")
         scene = chart_scene(session, spec, plan)
         W, H = spec.width, spec.height
         passes = []
         for x0, y0, tw, th in tiles(W, H, session.tile):
             targets = [ctx.texture((tw, th), 4, dtype="f4") for _ in range(3)]
             passes.append((x0, y0, tw, th, targets, ctx.framebuffer(color_attachments=targets)))
-        vao = ctx.vertex_array(program, [])
 
-        def draw():   # what a frame draws: its per-frame passes, then the chart's tiles
-            bind_frame(session, plan, scene, program)
-            for x0, y0, _, _, _, fbo in passes:
-                fbo.use()
-                if "u_tile_origin" in program:
-                    program["u_tile_origin"].value = (x0, y0)
-                vao.render(moderngl.TRIANGLES, vertices=3)
+        def draw():   # what a frame draws: its per-frame passes, then the chart's tiles (and edges)
+            bind_frame(session, plan, scene, chart.programs)
+            for x0, y0, tw, th, targets, fbo in passes:
+                chart.draw(x0, y0, tw, th, targets, fbo)
 
         timing = time_draws(ctx, draw, repeats, warmup)
         radiance = np.empty((H, W, 3), np.float32)
@@ -177,7 +172,7 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
             radiance[H - y0 - th:H - y0, x0:x0 + tw] = tile
         scale = max(float(np.abs(result.hdr).max()), 1e-6)
         check = float(np.abs(radiance - result.hdr).max()) / scale
-        vao.release()
+        chart.release()
         scene.release()
         for *_, targets, fbo in passes:
             fbo.release()
