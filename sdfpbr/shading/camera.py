@@ -117,7 +117,8 @@ def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, i
 # The edge pass (chart_main.glsl EDGE_PIXELS) draws a ring of triangles this many pixels to
 # either side of each silhouette. It must hold every pixel whose box the silhouette crosses:
 # their centres lie within half the box's diagonal (0.71 px) of the silhouette, which its
-# polygon follows within SILHOUETTE_CHORD_PX; the rest is margin for the projection's rounding.
+# polygon follows within SILHOUETTE_CHORD_PX (inside it: chords cut the curve); the rest is
+# margin for the projection's rounding.
 SILHOUETTE_RING_PAD_PX = 2.0
 SILHOUETTE_CHORD_PX = 0.1
 
@@ -132,22 +133,27 @@ def silhouette_ring(spec: ChartSpec, pad: float = SILHOUETTE_RING_PAD_PX) -> tup
         cam, spheres = frame_cell(spec), [np.zeros(3)]
     else:
         cam, spheres = frame_grid(spec), list(sphere_centers(spec).reshape(-1, 3))
-    triangles = [_ring_triangles(cam, c, spec.sphere_radius, pad) for c in spheres]
+    triangles = [_ring_triangles(*_outline(cam, c, spec.sphere_radius), pad) for c in spheres]
     return np.concatenate(triangles).astype(np.float32), (spec.rows * spec.cols if stage(spec) == "cells" else 1)
 
 
-def _ring_triangles(cam: Camera, centre, radius: float, pad: float) -> np.ndarray:
-    # Enough points that the polygon's chords stay within SILHOUETTE_CHORD_PX of the circle:
-    # a circle of rho px with n points strays rho (1 - cos(pi / n)) ~ rho pi^2 / (2 n^2).
+def _outline(cam: Camera, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """A sphere's silhouette as a polygon whose chords stay within SILHOUETTE_CHORD_PX of it,
+    and the outward unit normals at its points. A circle of rho px with n points strays
+    rho (1 - cos(pi / n)) ~ rho pi^2 / (2 n^2)."""
     _, scale = cam.project(np.asarray(centre, float)[None])
     rho = float(radius * scale[0]) * 1.1   # perspective stretches the outline a little
     n = int(min(max(math.ceil(math.pi * math.sqrt(rho / (2.0 * SILHOUETTE_CHORD_PX))), 16), 4096))
     p = silhouette(cam, centre, radius, n)
-    middle = p.mean(axis=0)
     tangent = np.roll(p, -1, axis=0) - np.roll(p, 1, axis=0)
     normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=-1)
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    normal *= np.sign(np.sum(normal * (p - middle), axis=-1, keepdims=True))   # outward
+    normal *= np.sign(np.sum(normal * (p - p.mean(axis=0)), axis=-1, keepdims=True))   # outward
+    return p, normal
+
+
+def _ring_triangles(p: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarray:
+    middle = p.mean(axis=0)
     outer = p + pad * normal
     inner = p - pad * normal
     if np.linalg.norm(p - middle, axis=-1).min() <= 2.0 * pad:

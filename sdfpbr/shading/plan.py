@@ -327,7 +327,7 @@ class RenderPlan:
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
     sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
     edge_pass: ComposedSource | None = None     # EDGE_PIXELS: the chart's silhouette pixels, drawn
-    edge_vertex: ComposedSource | None = None   # over rings round them (silhouette_ring_vert.glsl)
+    edge_vertex: ComposedSource | None = None   # over rings round them, repeated per cell
 
     @property
     def options(self) -> dict:
@@ -426,14 +426,12 @@ def _sphere_plate(chart: dict) -> ComposedSource | None:
     return compose_program("stage_sphere_main.glsl", {**chart, "SPHERE_PLATE": False, "SPHERE_PLATE_PASS": True})
 
 
-def _edge_pass(chart: dict) -> tuple[ComposedSource | None, ComposedSource | None]:
+def _edge_pass(chart: dict) -> ComposedSource | None:
     """The chart's silhouette pixels, drawn over the chart pass (which skips them) on a ring of
-    triangles round each silhouette: the chart program with only those pixels, and the
-    vertex program placing the rings."""
+    triangles round each silhouette: the chart program with only those pixels."""
     if chart.get("EDGE_PIXELS") != "skipped":
-        return None, None
-    return (compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only"}),
-            compose_program("silhouette_ring_vert.glsl", {"STAGE": chart["STAGE"]}))
+        return None
+    return compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only"})
 
 
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
@@ -463,7 +461,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
     q = quality(spec)
     chart, layout = _chart_options(spec)
     chart_source = compose_program("chart_main.glsl", chart)
-    edge_pass, edge_vertex = _edge_pass(chart)
+    edge_pass = _edge_pass(chart)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
     return RenderPlan(
         spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
@@ -474,7 +472,8 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
         floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart),
-        sphere_layout=layout, edge_pass=edge_pass, edge_vertex=edge_vertex)
+        sphere_layout=layout, edge_pass=edge_pass,
+        edge_vertex=compose_program("grid_instances_vert.glsl") if edge_pass else None)
 
 
 # ---- the reference's plan --------------------------------------------------------------------
