@@ -103,7 +103,7 @@ def test_a_ring_too_thin_for_the_silhouette_leaves_pixels_out(session, monkeypat
     """The comparison above can fail: rings a third of a pixel wide miss silhouette pixels,
     which then keep the chart pass's one ray (coverage 0 or 1)."""
     import sdfpbr.gpu.render as render
-    from sdfpbr.shading.camera import silhouette_ring
+    from sdfpbr.shading.silhouette import silhouette_ring
     spec = make_spec(width=256, height=256, quality="draft")
     plan = render.render_plan(spec)
     fragment = Session(session.ctx, session.cache, chart_stage="fragment")

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..errors import SpecError
 from ..shading import camera as camera_mod
-from ..shading.camera import cell_sphere_box, silhouette_ring
+from ..shading.camera import cell_sphere_box
+from ..shading.silhouette import silhouette_ring
 from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan

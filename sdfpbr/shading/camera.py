@@ -83,83 +83,28 @@ def frame_cell(spec: ChartSpec) -> Camera:
     return Camera(-forward * distance, right, up, forward, tan_half, False, grid.cell_width, grid.cell_height)
 
 
-def silhouette(cam: Camera, centre, radius: float, points: int = 256) -> np.ndarray:
-    """(points, 2) GL pixels (x right, y up from the lower-left of cam's frame) on the
-    silhouette of the sphere at ``centre``: the circle where the rays from the eye touch it (the
-    great circle facing the view, for an orthographic camera), projected."""
-    centre = np.asarray(centre, float)
-    if cam.orthographic:
-        middle, ring, axis = centre, radius, cam.forward
-    else:
-        to_eye = cam.position - centre
-        d = float(np.linalg.norm(to_eye))
-        axis = to_eye / d
-        middle, ring = centre + axis * (radius * radius / d), radius * math.sqrt(max(1.0 - (radius / d) ** 2, 0.0))
-    u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    w = np.cross(axis, u)
-    angle = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
-    px, _ = cam.project(middle + ring * (np.cos(angle) * u + np.sin(angle) * w))
-    return np.stack([px[:, 0], cam.height - px[:, 1]], axis=-1)
-
-
 def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, int]:
     """The pixels of a cell (GL frame: x right, y up from the cell's lower-left) whose box
     comes within ``pad`` px of its sphere's silhouette: (x0, y0, x1, y1), x1 and y1 past the
-    end. The silhouette is projected from 256 of its points, whose polygon's edges pass
-    within ring (1 - cos(pi / 256)) of the circle: far under pad."""
-    px = silhouette(frame_cell(spec), np.zeros(3), spec.sphere_radius)
-    x0, x1 = px[:, 0].min() - pad, px[:, 0].max() + pad
-    y0, y1 = px[:, 1].min() - pad, px[:, 1].max() + pad
-    return math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1)
-
-
-# The edge pass (chart_main.glsl EDGE_PIXELS) draws a ring of triangles this many pixels to
-# either side of each silhouette. It must hold every pixel whose box the silhouette crosses:
-# their centres lie within half the box's diagonal (0.71 px) of the silhouette, which its
-# polygon follows within SILHOUETTE_CHORD_PX (inside it: chords cut the curve); the rest is
-# margin for the projection's rounding.
-SILHOUETTE_RING_PAD_PX = 2.0
-SILHOUETTE_CHORD_PX = 0.1
-
-
-def silhouette_ring(spec: ChartSpec, pad: float = SILHOUETTE_RING_PAD_PX) -> tuple[np.ndarray, int]:
-    """The edge pass's triangles: float32 (n, 2) GL pixels, three a triangle, and how many
-    times to draw them. Cells stage: one ring in a cell's frame, drawn once per cell (every
-    cell sees its sphere alike); shared stage: a ring per sphere in the image's frame, drawn
-    once. Each ring spans ``pad`` px to either side of its silhouette (the whole disc where the
-    sphere is smaller than that)."""
-    if stage(spec) == "cells":
-        cam, spheres = frame_cell(spec), [np.zeros(3)]
+    end. The silhouette is the circle where the rays from the eye touch the sphere (the great
+    circle facing the view, for an orthographic camera), projected from 256 of its points."""
+    cam = frame_cell(spec)
+    radius = spec.sphere_radius
+    if cam.orthographic:
+        centre, ring, axis = np.zeros(3), radius, cam.forward
     else:
-        cam, spheres = frame_grid(spec), list(sphere_centers(spec).reshape(-1, 3))
-    triangles = [_ring_triangles(*_outline(cam, c, spec.sphere_radius), pad) for c in spheres]
-    return np.concatenate(triangles).astype(np.float32), (spec.rows * spec.cols if stage(spec) == "cells" else 1)
-
-
-def _outline(cam: Camera, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """A sphere's silhouette as a polygon whose chords stay within SILHOUETTE_CHORD_PX of it,
-    and the outward unit normals at its points. A circle of rho px with n points strays
-    rho (1 - cos(pi / n)) ~ rho pi^2 / (2 n^2)."""
-    _, scale = cam.project(np.asarray(centre, float)[None])
-    rho = float(radius * scale[0]) * 1.1   # perspective stretches the outline a little
-    n = int(min(max(math.ceil(math.pi * math.sqrt(rho / (2.0 * SILHOUETTE_CHORD_PX))), 16), 4096))
-    p = silhouette(cam, centre, radius, n)
-    tangent = np.roll(p, -1, axis=0) - np.roll(p, 1, axis=0)
-    normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=-1)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    normal *= np.sign(np.sum(normal * (p - p.mean(axis=0)), axis=-1, keepdims=True))   # outward
-    return p, normal
-
-
-def _ring_triangles(p: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarray:
-    middle = p.mean(axis=0)
-    outer = p + pad * normal
-    inner = p - pad * normal
-    if np.linalg.norm(p - middle, axis=-1).min() <= 2.0 * pad:
-        inner[:] = middle   # a small disc: all of it
-    a, b = np.roll(inner, -1, axis=0), np.roll(outer, -1, axis=0)
-    return np.stack([inner, outer, b, inner, b, a], axis=1).reshape(-1, 2)
+        d = float(np.linalg.norm(cam.position))
+        axis = cam.position / d
+        centre, ring = axis * (radius * radius / d), radius * math.sqrt(max(1.0 - (radius / d) ** 2, 0.0))
+    u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(axis, u)
+    # The polygon's edges pass within ring (1 - cos(pi / 256)) of the circle: far under pad.
+    angle = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)[:, None]
+    px, _ = cam.project(centre + ring * (np.cos(angle) * u + np.sin(angle) * w))
+    x0, x1 = px[:, 0].min() - pad, px[:, 0].max() + pad
+    y0, y1 = cam.height - px[:, 1].max() - pad, cam.height - px[:, 1].min() + pad   # y up
+    return math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1)
 
 
 def frame(spec: ChartSpec) -> Camera:
