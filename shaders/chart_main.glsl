@@ -82,7 +82,11 @@ vec3 sphere_plate_tile(int index) {
 // shading is linear in it). The plate leaves the sphere's shading out of this program: a
 // software rasterizer runs both sides of a branch.
 vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
-#if SPHERE_PLATE
+#if SPHERE_PIXELS == skipped
+    // The spheres' pixels are drawn over by the sphere pass (SPHERE_PIXELS only, on each
+    // sphere's box): a software rasterizer would shade the sphere for every floor pixel too.
+    return vec3(0.0);
+#elif SPHERE_PLATE
     int slot = int(texelFetch(u_sphere_slots, cell, 0).r);
     float metallic = cell_texel(cell, 0).a;
     vec3 dielectric = sphere_plate_tile(2 * slot), metal = sphere_plate_tile(2 * slot + 1);
@@ -96,6 +100,11 @@ vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 // Radiance and coverage of what the primary ray through `position` (cell frame on the cells
 // stage) found: a hit's shading, or the background.
 vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
+#if SPHERE_PIXELS == only && !SEE_THROUGH
+    // The sphere pass keeps only the pixels whose ray meets a sphere (chart_pixel): the floor
+    // and the background are the chart pass's.
+    return vec4(sphere_radiance(ro + rd * hit.t, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
+#else
 #if FLOOR_PLATE
     // The plate holds what a miss sees too: the background is the same in every cell.
     vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
@@ -137,6 +146,7 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #endif
 #endif
     return vec4(radiance, 1.0);
+#endif
 }
 
 // Radiance along the primary ray through `position`, a = coverage. `hit` receives what the
@@ -144,7 +154,8 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 vec4 trace_pixel(vec2 position, vec2 footprint, out Hit hit, out vec3 rd) {
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     hit = intersect_scene(ro, rd, footprint);
-#if SEE_THROUGH
+// (On the chart pass, a sphere's pixels are the sphere pass's.)
+#if SEE_THROUGH && SPHERE_PIXELS != skipped
     if (hit.t >= 0.0 && hit.cell.x >= 0) {
         float alpha = sphere_alpha(hit.cell, hit.normal, footprint.x + footprint.y * hit.t);
         if (alpha < 1.0) {
@@ -210,7 +221,10 @@ void chart_pixel(vec2 frag_coord) {
 #endif
     vec4 radiance = trace_pixel(first, footprint, centre, centre_rd);
     float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
-#if SPHERE_SAMPLES > 1 && !SPHERE_PLATE
+#if SPHERE_PIXELS == only
+    if (sphere_share == 0.0) discard;   // the chart pass's pixel stands
+#endif
+#if SPHERE_SAMPLES > 1 && !SPHERE_PLATE && SPHERE_PIXELS != skipped
     // A small sphere's inside pixels average n x n points of their box, as the sphere plate's
     // do (stage_sphere_main.glsl), so both paths draw the same sphere.
     // The points whose rays meet the sphere (all but a few by the silhouette).

@@ -1,6 +1,7 @@
 """The chart as a compute shader (for GPUs that run few fragment units) draws what the fragment
 shader draws; which one a session uses follows its renderer, or $SDFPBR_CHART_STAGE."""
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -55,11 +56,14 @@ def test_the_stage_follows_the_renderer_or_the_environment(monkeypatch):
         chart_stage_for("llvmpipe")
 
 
+DATA = Path(__file__).parent / "data"
+
+
 def _inline(plan):
     """``plan`` with the chart's silhouette pixels drawn inline by the chart program itself."""
     from sdfpbr.shading.plan import compose_program
-    chart = compose_program("chart_main.glsl", {**plan.options, "EDGE_PIXELS": "inline"})
-    return dataclasses.replace(plan, chart=chart, edge_pass=None, edge_vertex=None)
+    chart = compose_program("chart_main.glsl", {**plan.options, "EDGE_PIXELS": "inline", "SPHERE_PIXELS": "inline"})
+    return dataclasses.replace(plan, chart=chart, edge_pass=None, sphere_pass=None, instances_vertex=None)
 
 
 # Layouts where a ring could miss a silhouette pixel: tiny spheres (whole discs), wide cells,
@@ -69,7 +73,12 @@ EDGE_CASES = [dict(), dict(width=256, height=256, rows=64, cols=64), dict(width=
               dict(width=333, height=271, rows=3, cols=4, tile=64), dict(stage="shared", camera_azimuth=20.0,
               camera_elevation=25.0), dict(stage="shared", rows=2, cols=7, width=420, height=160),
               dict(camera="orthographic"), dict(camera_distance_scale=1.7), dict(textures="procedural"),
-              dict(alpha=(0.3, 1.0), x_axis="alpha"), dict(transparent=True)]
+              dict(alpha=(0.3, 1.0), x_axis="alpha"), dict(transparent=True),
+              # no sphere plate (every cell its own material): the sphere pass too
+              dict(y_axis="clearcoat", sheen_color=(0.6, 0.3, 0.4), ior=2.0),
+              dict(row_materials=("gold", "copper", "silver"), rows=3, cols=4, transparent=True),
+              dict(gltf=str(DATA / "materials.glb"), width=300, height=200),
+              dict(y_axis="clearcoat", width=256, height=256, rows=20, cols=20)]
 
 
 @pytest.mark.parametrize("options", EDGE_CASES, ids=[",".join(f"{k}={v}" for k, v in c.items()) or "default"
@@ -86,6 +95,7 @@ def test_the_edge_pass_draws_what_the_chart_draws_inline(session, options):
     spec = make_spec(**{"width": 256, "height": 256, "quality": "draft", **options})
     plan = render_plan(spec)
     assert plan.edge_pass is not None and plan.options["EDGE_PIXELS"] == "skipped"
+    assert (plan.sphere_pass is not None) == (plan.options["STAGE"] == "cells" and not plan.options["SPHERE_PLATE"])
     fragment = Session(session.ctx, session.cache, chart_stage="fragment", tile=tile)
     with fragment:
         a = render_chart(fragment, spec, plan=_inline(plan))
@@ -114,3 +124,21 @@ def test_a_ring_too_thin_for_the_silhouette_leaves_pixels_out(session, monkeypat
     edges = (a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)
     missed = edges & ((b.aov["coverage"] == 0) | (b.aov["coverage"] == 1))
     assert missed.sum() > 0.2 * edges.sum()
+
+
+def test_boxes_too_small_for_the_spheres_leave_them_unshaded(session, monkeypatch):
+    """The comparison above can fail for the sphere pass too: boxes cut 10 px inside the
+    silhouettes leave sphere pixels with the chart pass's value (no sphere shaded there)."""
+    import sdfpbr.gpu.render as render
+    from sdfpbr.shading.silhouette import sphere_boxes
+    spec = make_spec(width=256, height=256, quality="draft", y_axis="clearcoat")
+    plan = render.render_plan(spec)
+    assert plan.sphere_pass is not None
+    fragment = Session(session.ctx, session.cache, chart_stage="fragment")
+    with fragment:
+        a = render.render_chart(fragment, spec, plan=_inline(plan))
+        monkeypatch.setattr(render, "sphere_boxes", lambda s: sphere_boxes(s, pad=-10.0))
+        b = render.render_chart(fragment, spec, plan=plan)
+    spheres = a.aov["coverage"] == 1
+    dark = spheres & (b.hdr.max(axis=-1) == 0) & (a.hdr.max(axis=-1) > 0)
+    assert dark.sum() > 0.2 * spheres.sum()

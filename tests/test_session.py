@@ -40,7 +40,7 @@ def test_the_plan_names_every_program_a_render_compiles(cache_dir):
         # a light orbit (Session.turning_light); and the chart is drawn by the fragment program
         # and its edge pass, or by the compute program (Session.chart_stage).
         unused = ({plan.chart_compute} if session.chart_stage == "fragment"
-                  else {plan.chart, plan.edge_pass, plan.edge_vertex})
+                  else {plan.chart, plan.edge_pass, plan.sphere_pass, plan.instances_vertex} - {None})
         assert planned - compiled == {plan.vertex.digest, plan.ibl.copy_to_cube.digest, plan.ibl.turn_probe.digest,
                                       *(s.digest for s in unused)}
     finally:

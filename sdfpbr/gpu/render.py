@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import SpecError
 from ..shading import camera as camera_mod
 from ..shading.camera import cell_sphere_box
-from ..shading.silhouette import silhouette_ring
+from ..shading.silhouette import silhouette_ring, sphere_boxes
 from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step, render_plan
@@ -182,9 +182,6 @@ class GridInstances:
         self.program, self.instances = program, instances
         self.uniforms = {"u_instance_origin": tuple(map(float, origin)), "u_instance_step": tuple(step),
                          "u_instances_x": per_row}
-        self.buffer = self.vao = None
-        if len(triangles) == 0:   # nothing to draw (a ring cut away whole)
-            return
         self.buffer = ctx.buffer(np.ascontiguousarray(triangles, np.float32).tobytes())
         try:
             self.vao = ctx.vertex_array(program, [(self.buffer, "2f", "in_position")])
@@ -195,29 +192,27 @@ class GridInstances:
     def render(self, target_origin, target_size) -> None:
         """Into the bound framebuffer, whose viewport is ``target_size`` pixels from the
         target's pixel ``target_origin``."""
-        if self.vao is None:
-            return
         set_uniforms(self.program, {**self.uniforms, "u_target_origin": tuple(map(float, target_origin)),
                                     "u_target_size": tuple(target_size)})
         self.vao.render(moderngl.TRIANGLES, instances=self.instances)
 
     def release(self) -> None:
-        for obj in (self.vao, self.buffer):
-            if obj is not None:
-                obj.release()
-        self.vao = self.buffer = None
+        self.vao.release()
+        self.buffer.release()
 
 
 class ChartDraw:
     """The chart's programs for a frame and what they draw with: the compute program, or the
-    fragment program over each whole tile and then (EDGE_PIXELS) its edge pass over a ring of
-    triangles round each silhouette, which draws over the silhouettes' pixels."""
+    fragment program over each whole tile, then (SPHERE_PIXELS) its sphere pass over each
+    sphere's box, which draws over the spheres' pixels, then (EDGE_PIXELS) its edge pass over a
+    ring round each silhouette, which draws over the silhouettes' pixels."""
 
     def __init__(self, session, plan: RenderPlan, stage: str | None = None):
         """``stage``: "fragment" or "compute" (None: the session's chart_stage)."""
         ctx = self.ctx = session.ctx
         self.compute = (stage or session.chart_stage) == "compute"
-        self.vao = self.edges = None
+        self.vao = None
+        self.overlays: list[GridInstances] = []   # the sphere and edge passes, in their order
         if self.compute:
             self.program = session.programs.compute(plan.chart_compute)
             self.programs = [self.program]
@@ -226,17 +221,19 @@ class ChartDraw:
         self.programs = [self.program]
         try:
             self.vao = ctx.vertex_array(self.program, [])
-            if plan.edge_pass is not None:
-                edge = session.programs.fragment(plan.edge_pass, plan.edge_vertex)
-                self.programs.append(edge)
-                ring, instances = silhouette_ring(plan.spec)
-                if instances > 1:   # the cells stage: a cell's ring, once per cell
+            for source, shapes in ((plan.sphere_pass, sphere_boxes), (plan.edge_pass, silhouette_ring)):
+                if source is None:
+                    continue
+                program = session.programs.fragment(source, plan.instances_vertex)
+                self.programs.append(program)
+                triangles, instances = shapes(plan.spec)
+                if instances > 1:   # the cells stage: a cell's shapes, once per cell
                     grid = cell_grid(plan.spec)
                     origin = grid.uniforms(plan.spec.height)["u_grid_origin"]
-                    self.edges = GridInstances(ctx, edge, ring, instances, origin, (grid.cell_width, grid.cell_height),
-                                               grid.cols)
+                    self.overlays.append(GridInstances(ctx, program, triangles, instances, origin,
+                                                       (grid.cell_width, grid.cell_height), grid.cols))
                 else:
-                    self.edges = GridInstances(ctx, edge, ring, 1)
+                    self.overlays.append(GridInstances(ctx, program, triangles, 1))
         except BaseException:
             self.release()
             raise
@@ -257,14 +254,14 @@ class ChartDraw:
         for program in self.programs:
             set_uniforms(program, {"u_tile_origin": (x0, y0)})
         self.vao.render(moderngl.TRIANGLES, vertices=3)
-        if self.edges is not None:
-            self.edges.render((x0, y0), (tw, th))
+        for overlay in self.overlays:
+            overlay.render((x0, y0), (tw, th))
 
     def release(self) -> None:
-        for obj in (self.vao, self.edges):
+        for obj in (self.vao, *self.overlays):
             if obj is not None:
                 obj.release()
-        self.vao = self.edges = None
+        self.vao, self.overlays = None, []
 
 
 def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs) -> None:

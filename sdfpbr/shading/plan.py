@@ -45,6 +45,7 @@ SCHEMA = OptionSchema(
         "CHART_STAGE": ("fragment", "compute"),
         "EXPOSURE_AXIS": ("none", "x", "y"),
         "EDGE_PIXELS": ("inline", "skipped", "only"),
+        "SPHERE_PIXELS": ("inline", "skipped", "only"),
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "IBL_TWO_TAP", "GROUND_IBL",
@@ -245,6 +246,14 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
               and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
               and not opts.get("BUG_FEWTAP_IBL", False) else None)
     opts["SPHERE_PLATE"] = layout is not None
+    # Without the plate, the cells stage's spheres' own pixels drawn by a pass of their own
+    # over each sphere's box (RenderPlan.sphere_pass), so that the floor's pixels do not shade
+    # a sphere (a software rasterizer runs both sides of a branch); where a pixel takes more
+    # than one ray (no analytic edge) the chart shades them inline. Not on the shared stage:
+    # there it measured slower (512²: the pass 124-150 ms, against 100-130 for the spheres'
+    # shading over the whole image inline), its shading's loops ending early where no sphere is.
+    opts["SPHERE_PIXELS"] = ("skipped" if opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and not opts["SPHERE_PLATE"]
+                             else "inline")
     # Small spheres average points of the pixel box (the plate's, or the chart's own where it
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
     if opts["ANALYTIC_AA"]:
@@ -308,6 +317,10 @@ class IBLPlan:
                       if s is not None]
 
 
+# The programs of a frame, in the order they draw (RenderPlan.frame_programs).
+FRAME_PROGRAMS = ("floor-plate", "bounce-plate", "sphere-plate", "chart", "chart-spheres", "chart-edges", "display")
+
+
 @dataclass(frozen=True)
 class RenderPlan:
     """Every program a chart render runs, composed, and the sizes its bakes use."""
@@ -327,7 +340,9 @@ class RenderPlan:
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
     sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
     edge_pass: ComposedSource | None = None     # EDGE_PIXELS: the chart's silhouette pixels, drawn
-    edge_vertex: ComposedSource | None = None   # over rings round them, repeated per cell
+                                                # over rings round them
+    sphere_pass: ComposedSource | None = None   # SPHERE_PIXELS: its spheres' pixels, over their boxes
+    instances_vertex: ComposedSource | None = None   # places those rings and boxes (a cell's, once per cell)
 
     @property
     def options(self) -> dict:
@@ -338,26 +353,24 @@ class RenderPlan:
         """The chart program as a compute shader (session.py picks which one draws), composed
         on first use: a software rasterizer never runs it (7 ms of a cold start saved). It
         draws the silhouettes' pixels itself: a GPU's branch skips the edge's work elsewhere."""
-        options = {**self.options, "CHART_STAGE": "compute"}
+        options = {**self.options, "CHART_STAGE": "compute", "SPHERE_PIXELS": "inline"}
         if "EDGE_PIXELS" in options:
             options["EDGE_PIXELS"] = "inline"
         return compose_program("chart_main.glsl", options)
 
     def frame_programs(self) -> dict[str, ComposedSource]:
-        """The programs each frame runs, by the names `sdfpbr shader --program` takes: the
-        cells stage's plates where the plan has them, the chart, its edge pass, the display."""
-        plates = {"floor-plate": self.floor_plate, "bounce-plate": self.bounce_plate,
-                  "sphere-plate": self.sphere_plate}
-        out = {**{k: v for k, v in plates.items() if v is not None}, "chart": self.chart}
-        if self.edge_pass is not None:
-            out["chart-edges"] = self.edge_pass
-        return {**out, "display": self.display}
+        """The programs each frame runs, by the names `sdfpbr shader --program` takes
+        (FRAME_PROGRAMS, in their order): the cells stage's plates where the plan has them, the
+        chart, its sphere and edge passes where it has them, the display."""
+        programs = dict(zip(FRAME_PROGRAMS, (self.floor_plate, self.bounce_plate, self.sphere_plate, self.chart,
+                                             self.sphere_pass, self.edge_pass, self.display)))
+        return {name: source for name, source in programs.items() if source is not None}
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys."""
         out = [self.vertex, self.chart, self.display, self.dfg]
         out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate, self.sphere_plate,
-                            self.edge_pass, self.edge_vertex) if s]
+                            self.sphere_pass, self.edge_pass, self.instances_vertex) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
 
@@ -428,10 +441,20 @@ def _sphere_plate(chart: dict) -> ComposedSource | None:
 
 def _edge_pass(chart: dict) -> ComposedSource | None:
     """The chart's silhouette pixels, drawn over the chart pass (which skips them) on a ring of
-    triangles round each silhouette: the chart program with only those pixels."""
+    triangles round each silhouette: the chart program with only those pixels, all of them
+    shaded (their inside ray meets a sphere)."""
     if chart.get("EDGE_PIXELS") != "skipped":
         return None
-    return compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only"})
+    return compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only", "SPHERE_PIXELS": "inline"})
+
+
+def _sphere_pass(chart: dict) -> ComposedSource | None:
+    """The pixels whose ray meets a sphere, drawn over the chart pass (which leaves the
+    spheres' shading out) on each sphere's box: the chart program with only those pixels.
+    The edge pass draws over its silhouette's pixels after it."""
+    if chart.get("SPHERE_PIXELS") != "skipped":
+        return None
+    return compose_program("chart_main.glsl", {**chart, "SPHERE_PIXELS": "only"})
 
 
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
@@ -461,7 +484,7 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
     q = quality(spec)
     chart, layout = _chart_options(spec)
     chart_source = compose_program("chart_main.glsl", chart)
-    edge_pass = _edge_pass(chart)
+    edge_pass, sphere_pass = _edge_pass(chart), _sphere_pass(chart)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
     return RenderPlan(
         spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
@@ -472,8 +495,8 @@ def render_plan(spec: ChartSpec) -> RenderPlan:
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
         floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart),
-        sphere_layout=layout, edge_pass=edge_pass,
-        edge_vertex=compose_program("grid_instances_vert.glsl") if edge_pass else None)
+        sphere_layout=layout, edge_pass=edge_pass, sphere_pass=sphere_pass,
+        instances_vertex=compose_program("grid_instances_vert.glsl") if edge_pass or sphere_pass else None)
 
 
 # ---- the reference's plan --------------------------------------------------------------------

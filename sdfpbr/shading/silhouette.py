@@ -1,6 +1,7 @@
 """The spheres' silhouettes on the image, as polygons: the rings of triangles the chart's edge
 pass draws over (chart_main.glsl EDGE_PIXELS), so that only the pixels a silhouette crosses
-shade its second ray."""
+shade its second ray, and the boxes its sphere pass draws over (SPHERE_PIXELS), so that only
+the pixels near a sphere shade it."""
 from __future__ import annotations
 
 import math
@@ -8,7 +9,7 @@ import math
 import numpy as np
 
 from ..spec.chart_spec import ChartSpec
-from .camera import Camera, frame_cell, frame_grid, sphere_centers
+from .camera import Camera, cell_sphere_box, frame_cell, frame_grid, sphere_centers
 from .cells import stage
 
 
@@ -36,10 +37,12 @@ def silhouette(cam: Camera, centre, radius: float, points: int = 256) -> np.ndar
 # The edge pass (chart_main.glsl EDGE_PIXELS) draws a ring of triangles this many pixels to
 # either side of each silhouette. It must hold every pixel whose box the silhouette crosses:
 # their centres lie within half the box's diagonal (0.71 px) of the silhouette, which its
-# polygon follows within SILHOUETTE_CHORD_PX (inside it: chords cut the curve); the rest is
-# margin for the projection's rounding.
+# polygon follows within SILHOUETTE_CHORD_PX (inside it: chords cut the curve), and the ring's
+# outer edge lies at least pad cos(pi / 16) = 1.96 px beyond the polygon: 0.5 px to spare.
+# Few, long chords: llvmpipe shades a 4 x 4 block once for every triangle that covers part of
+# it, so thin triangles cost (the 512² shared stage's rings 73-87 ms with 0.1 px chords, 58 with 0.75).
 SILHOUETTE_RING_PAD_PX = 2.0
-SILHOUETTE_CHORD_PX = 0.1
+SILHOUETTE_CHORD_PX = 0.75
 
 
 def silhouette_ring(spec: ChartSpec, pad: float = SILHOUETTE_RING_PAD_PX) -> tuple[np.ndarray, int]:
@@ -79,3 +82,14 @@ def _ring_triangles(p: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarray
         inner[:] = middle   # a small disc: all of it
     a, b = np.roll(inner, -1, axis=0), np.roll(outer, -1, axis=0)
     return np.stack([inner, outer, b, inner, b, a], axis=1).reshape(-1, 2)
+
+
+def sphere_boxes(spec: ChartSpec, pad: float = SILHOUETTE_RING_PAD_PX) -> tuple[np.ndarray, int]:
+    """The cells stage's sphere pass's triangles: two, a box round a cell's sphere's silhouette
+    ``pad`` px wider (every pixel whose ray can meet the sphere), in the cell's frame, and the
+    number of cells to draw it in. A box, not a disc: a software rasterizer shades a 4 x 4
+    block once for every triangle that covers part of it, so a disc's many thin triangles cost
+    more than a box's corners."""
+    x0, y0, x1, y1 = cell_sphere_box(spec, pad)
+    corners = ((x0, y0), (x1, y0), (x1, y1), (x0, y0), (x1, y1), (x0, y1))
+    return np.array(corners, np.float32), spec.rows * spec.cols
