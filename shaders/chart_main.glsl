@@ -101,10 +101,12 @@ vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 // stage) found: a hit's shading, or the background.
 vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #if SPHERE_PIXELS == only && !SEE_THROUGH
+#if EDGE_PIXELS == skipped
     // The sphere pass keeps only the pixels whose ray meets a sphere (chart_pixel): the floor
-    // and the background are the chart pass's.
+    // and the background are the chart pass's (and an edge's outer ray the edge pass's).
     return vec4(sphere_radiance(ro + rd * hit.t, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
-#else
+#endif
+#endif
 #if FLOOR_PLATE
     // The plate holds what a miss sees too: the background is the same in every cell.
     vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
@@ -146,7 +148,6 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #endif
 #endif
     return vec4(radiance, 1.0);
-#endif
 }
 
 // Radiance along the primary ray through `position`, a = coverage. `hit` receives what the
@@ -205,8 +206,9 @@ void chart_pixel(vec2 frag_coord) {
     // the pixel box (edge_coverage.glsl).
 #if EDGE_PIXELS == skipped
     // The silhouette's pixels are drawn over by the edge pass (EDGE_PIXELS only, on a ring of
-    // triangles round each silhouette: silhouette_ring_vert.glsl). A software rasterizer runs
-    // an if's body for every pixel, so the edge's second trace here would cost a whole trace.
+    // triangles round each silhouette: shading/silhouette.py), or without one by the sphere
+    // pass. A software rasterizer runs an if's body for every pixel, so the edge's second
+    // trace here would cost a whole trace.
     const bool edge = false;
     vec2 first = pixel + 0.5;
 #else

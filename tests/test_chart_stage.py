@@ -1,6 +1,5 @@
 """The chart as a compute shader (for GPUs that run few fragment units) draws what the fragment
 shader draws; which one a session uses follows its renderer, or $SDFPBR_CHART_STAGE."""
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -59,13 +58,6 @@ def test_the_stage_follows_the_renderer_or_the_environment(monkeypatch):
 DATA = Path(__file__).parent / "data"
 
 
-def _inline(plan):
-    """``plan`` with the chart's silhouette pixels drawn inline by the chart program itself."""
-    from sdfpbr.shading.plan import compose_program
-    chart = compose_program("chart_main.glsl", {**plan.options, "EDGE_PIXELS": "inline", "SPHERE_PIXELS": "inline"})
-    return dataclasses.replace(plan, chart=chart, edge_pass=None, sphere_pass=None, instances_vertex=None)
-
-
 # Layouts where a ring could miss a silhouette pixel: tiny spheres (whole discs), wide cells,
 # tiles the rings cross, the shared stage's spheres seen from round and above, orthographic,
 # a camera backed off, glTF-style see-through and textured spheres.
@@ -93,12 +85,12 @@ def test_the_edge_pass_draws_what_the_chart_draws_inline(session, options):
     options = dict(options)
     tile = options.pop("tile", None)
     spec = make_spec(**{"width": 256, "height": 256, "quality": "draft", **options})
-    plan = render_plan(spec)
+    plan = render_plan(spec, passes=True)
     assert plan.edge_pass is not None and plan.options["EDGE_PIXELS"] == "skipped"
     assert (plan.sphere_pass is not None) == (plan.options["STAGE"] == "cells" and not plan.options["SPHERE_PLATE"])
     fragment = Session(session.ctx, session.cache, chart_stage="fragment", tile=tile)
     with fragment:
-        a = render_chart(fragment, spec, plan=_inline(plan))
+        a = render_chart(fragment, spec, plan=render_plan(spec, passes=False))
         b = render_chart(fragment, spec, plan=plan)
     edges = (a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)
     assert edges.sum() > 0
@@ -115,10 +107,10 @@ def test_a_ring_too_thin_for_the_silhouette_leaves_pixels_out(session, monkeypat
     import sdfpbr.gpu.render as render
     from sdfpbr.shading.silhouette import silhouette_ring
     spec = make_spec(width=256, height=256, quality="draft")
-    plan = render.render_plan(spec)
+    plan = render.render_plan(spec, passes=True)
     fragment = Session(session.ctx, session.cache, chart_stage="fragment")
     with fragment:
-        a = render.render_chart(fragment, spec, plan=_inline(plan))
+        a = render.render_chart(fragment, spec, plan=render.render_plan(spec, passes=False))
         monkeypatch.setattr(render, "silhouette_ring", lambda s: silhouette_ring(s, pad=0.15))
         b = render.render_chart(fragment, spec, plan=plan)
     edges = (a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)
@@ -132,13 +124,47 @@ def test_boxes_too_small_for_the_spheres_leave_them_unshaded(session, monkeypatc
     import sdfpbr.gpu.render as render
     from sdfpbr.shading.silhouette import sphere_boxes
     spec = make_spec(width=256, height=256, quality="draft", y_axis="clearcoat")
-    plan = render.render_plan(spec)
+    plan = render.render_plan(spec, passes=True)
     assert plan.sphere_pass is not None
     fragment = Session(session.ctx, session.cache, chart_stage="fragment")
     with fragment:
-        a = render.render_chart(fragment, spec, plan=_inline(plan))
+        a = render.render_chart(fragment, spec, plan=render.render_plan(spec, passes=False))
         monkeypatch.setattr(render, "sphere_boxes", lambda s: sphere_boxes(s, pad=-10.0))
         b = render.render_chart(fragment, spec, plan=plan)
     spheres = a.aov["coverage"] == 1
     dark = spheres & (b.hdr.max(axis=-1) == 0) & (a.hdr.max(axis=-1) > 0)
     assert dark.sum() > 0.2 * spheres.sum()
+
+
+def test_a_sphere_pass_without_an_edge_pass_draws_the_edges_itself(session):
+    """Between the two passes' sizes (SPHERE_PASS_MIN_PIXELS, EDGE_PASS_MIN_PIXELS) a chart
+    without the sphere plate has a sphere pass alone, which draws the silhouettes' pixels too."""
+    from sdfpbr.gpu.render import render_chart
+    from sdfpbr.shading.plan import render_plan
+    spec = make_spec(width=600, height=500, rows=3, cols=4, quality="draft", y_axis="clearcoat")
+    plan = render_plan(spec)
+    assert plan.sphere_pass is not None and plan.edge_pass is None
+    fragment = Session(session.ctx, session.cache, chart_stage="fragment")
+    with fragment:
+        a = render_chart(fragment, spec, plan=render_plan(spec, passes=False))
+        b = render_chart(fragment, spec, plan=plan)
+    assert ((a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)).sum() > 0
+    np.testing.assert_allclose(b.hdr, a.hdr, rtol=0, atol=1e-6 * a.hdr.max())
+    np.testing.assert_array_equal(b.image, a.image)
+    for name in a.aov:
+        np.testing.assert_allclose(b.aov[name], a.aov[name], rtol=0, atol=1e-6, err_msg=name)
+
+
+@pytest.mark.parametrize("options, edges, spheres", [
+    (dict(width=1024, height=1024), True, False),            # the default: the sphere plate
+    (dict(width=512, height=512), False, False),             # too small to earn a program back
+    (dict(width=768, height=768, y_axis="clearcoat"), True, True),
+    (dict(width=600, height=500, y_axis="clearcoat"), False, True),
+    (dict(width=1024, height=1024, stage="shared"), True, False),   # no sphere pass there
+    (dict(width=1024, height=1024, spp=4), False, False),    # no analytic edge: all inline
+])
+def test_passes_where_they_earn_their_programs(options, edges, spheres):
+    from sdfpbr.shading.plan import render_plan
+    plan = render_plan(make_spec(**options))
+    assert (plan.edge_pass is not None, plan.sphere_pass is not None) == (edges, spheres)
+    assert (plan.instances_vertex is not None) == (edges or spheres)

@@ -149,15 +149,25 @@ def texture_maps(spec: ChartSpec) -> dict[str, bool]:
     return {name: name in baked or bool(given.get(name)) for name in MAP_NAMES}
 
 
-def chart_options(spec: ChartSpec) -> dict:
+# A pass of the chart's own (its edge pass, its sphere pass) costs a program: its link and
+# llvmpipe's code for it at its first draw, ~15-30 ms here; it saves per pixel of every draw:
+# the edge's second ray ~40 ns (the 1024² default 168 -> 128 ms), a sphere shaded for each floor
+# pixel ~150 ns (the 1024² lobes scene 401-431 -> 219-233 ms with both passes). Below these
+# sizes one render does not earn the program back (a 512² chart's first render was 15-25 ms
+# slower with the edge pass, its later ones 5-10 ms faster).
+EDGE_PASS_MIN_PIXELS = 500_000
+SPHERE_PASS_MIN_PIXELS = 200_000
+
+
+def chart_options(spec: ChartSpec, passes: bool | None = None) -> dict:
     """The chart program's options: every feature the spec leaves out is absent from the
-    composed source."""
-    return _chart_options(spec)[0]
+    composed source. ``passes``: as render_plan takes it."""
+    return _chart_options(spec, passes)[0]
 
 
-def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
-    """chart_options, and the sphere plate's layout where the options use one (worked out
-    once: the render needs it too)."""
+def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, SpherePlate | None, tuple[bool, bool]]:
+    """chart_options, the sphere plate's layout where the options use one (worked out once:
+    the render needs it too), and whether the chart has an edge pass and a sphere pass."""
     directional = sum(1 for light in spec.lights if light.kind == "directional")
     point = sum(1 for light in spec.lights if light.kind == "point")
     q = quality(spec)
@@ -201,10 +211,6 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
     opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["INTERSECT"] == "analytic"
                            and (opts["STAGE"] == "cells" or opts["SCENE_SDF"] == "nearest_cell")
                            and camera.silhouettes_apart(spec))
-    if opts["ANALYTIC_AA"]:
-        # The silhouettes' pixels drawn by a pass of their own over a ring round each one
-        # (RenderPlan.edge_pass); the compute variant draws them inline.
-        opts["EDGE_PIXELS"] = "skipped"
     opts["BOUNCE_PLATE"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
@@ -246,14 +252,21 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
               and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
               and not opts.get("BUG_FEWTAP_IBL", False) else None)
     opts["SPHERE_PLATE"] = layout is not None
-    # Without the plate, the cells stage's spheres' own pixels drawn by a pass of their own
-    # over each sphere's box (RenderPlan.sphere_pass), so that the floor's pixels do not shade
-    # a sphere (a software rasterizer runs both sides of a branch); where a pixel takes more
-    # than one ray (no analytic edge) the chart shades them inline. Not on the shared stage:
-    # there it measured slower (512²: the pass 124-150 ms, against 100-130 for the spheres'
-    # shading over the whole image inline), its shading's loops ending early where no sphere is.
-    opts["SPHERE_PIXELS"] = ("skipped" if opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and not opts["SPHERE_PLATE"]
-                             else "inline")
+    # Passes of the chart's own, each over only the pixels it concerns, since a software
+    # rasterizer runs both sides of a branch (the compute variant, a GPU's, draws inline):
+    # the silhouettes' pixels over a ring round each one (RenderPlan.edge_pass), and without
+    # the plate the cells stage's spheres' pixels over each sphere's box (sphere_pass), so
+    # that the floor's pixels do not shade a sphere. Where a pixel takes more than one ray (no
+    # analytic edge) the chart draws them inline. No sphere pass on the shared stage: there it
+    # measured slower (512²: the pass 124-150 ms, against 100-130 for the spheres' shading over
+    # the whole image inline), its shading's loops ending early where no sphere is.
+    pixels = spec.width * spec.height
+    edge_pass = opts["ANALYTIC_AA"] and (pixels >= EDGE_PASS_MIN_PIXELS if passes is None else passes)
+    sphere_pass = (opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and not opts["SPHERE_PLATE"]
+                   and (pixels >= SPHERE_PASS_MIN_PIXELS if passes is None else passes))
+    if opts["ANALYTIC_AA"]:   # the chart pass leaves the edge's pixels to whichever pass draws them
+        opts["EDGE_PIXELS"] = "skipped" if edge_pass or sphere_pass else "inline"
+    opts["SPHERE_PIXELS"] = "skipped" if sphere_pass else "inline"
     # Small spheres average points of the pixel box (the plate's, or the chart's own where it
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
     if opts["ANALYTIC_AA"]:
@@ -277,7 +290,7 @@ def _chart_options(spec: ChartSpec) -> tuple[dict, SpherePlate | None]:
         if opts.get("SHEEN") and q.sheen_lean:
             opts["SHEEN_LEAN"] = True
             opts["SHEEN_CENTROID_MU_STEPS"], opts["SHEEN_CENTROID_R_STEPS"] = SHEEN_CENTROID_STEPS
-    return opts, layout
+    return opts, layout, (edge_pass, sphere_pass)
 
 
 def display_options(spec: ChartSpec) -> dict:
@@ -439,22 +452,23 @@ def _sphere_plate(chart: dict) -> ComposedSource | None:
     return compose_program("stage_sphere_main.glsl", {**chart, "SPHERE_PLATE": False, "SPHERE_PLATE_PASS": True})
 
 
-def _edge_pass(chart: dict) -> ComposedSource | None:
+def _edge_pass(chart: dict, edge_pass: bool) -> ComposedSource | None:
     """The chart's silhouette pixels, drawn over the chart pass (which skips them) on a ring of
     triangles round each silhouette: the chart program with only those pixels, all of them
     shaded (their inside ray meets a sphere)."""
-    if chart.get("EDGE_PIXELS") != "skipped":
+    if not edge_pass:
         return None
     return compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only", "SPHERE_PIXELS": "inline"})
 
 
-def _sphere_pass(chart: dict) -> ComposedSource | None:
-    """The pixels whose ray meets a sphere, drawn over the chart pass (which leaves the
-    spheres' shading out) on each sphere's box: the chart program with only those pixels.
-    The edge pass draws over its silhouette's pixels after it."""
-    if chart.get("SPHERE_PIXELS") != "skipped":
+def _sphere_pass(chart: dict, edge_pass: bool, sphere_pass: bool) -> ComposedSource | None:
+    """The pixels whose first ray meets a sphere, drawn over the chart pass (which leaves the
+    spheres' shading out) on each sphere's box: the chart program with only those pixels, and
+    their edges where the chart has no edge pass (which would draw over them after it)."""
+    if not sphere_pass:
         return None
-    return compose_program("chart_main.glsl", {**chart, "SPHERE_PIXELS": "only"})
+    return compose_program("chart_main.glsl", {**chart, "SPHERE_PIXELS": "only",
+                                               "EDGE_PIXELS": "skipped" if edge_pass else "inline"})
 
 
 def _ground_table(q: Quality, chart: dict) -> ComposedSource | None:
@@ -480,11 +494,14 @@ def dfg_source(brdf: str, direct_k_bug: bool = False, sheen: bool = False) -> Co
     return compose_program("dfg_main.glsl", opts)
 
 
-def render_plan(spec: ChartSpec) -> RenderPlan:
+def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
+    """``passes``: whether the chart draws its silhouettes' and (without the sphere plate) its
+    spheres' pixels in passes of their own, where it can (None: where the image is large
+    enough to earn their programs back, EDGE_PASS_MIN_PIXELS and SPHERE_PASS_MIN_PIXELS)."""
     q = quality(spec)
-    chart, layout = _chart_options(spec)
+    chart, layout, (edges, spheres) = _chart_options(spec, passes)
     chart_source = compose_program("chart_main.glsl", chart)
-    edge_pass, sphere_pass = _edge_pass(chart), _sphere_pass(chart)
+    edge_pass, sphere_pass = _edge_pass(chart, edges), _sphere_pass(chart, edges, spheres)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
     return RenderPlan(
         spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
