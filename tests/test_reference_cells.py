@@ -40,15 +40,7 @@ def cell_rays(spec, offsets):
     iy = np.clip(np.floor((py - bottom) / g.cell_height), 0, g.rows - 1)
     lx = (px - g.left - ix * g.cell_width)[..., None] + offsets[:, 0]
     ly = (py - bottom - iy * g.cell_height)[..., None] + offsets[:, 1]
-    sx = (2 * lx / g.cell_width - 1) * (g.cell_width / g.cell_height) * cam.half_height
-    sy = (2 * ly / g.cell_height - 1) * cam.half_height
-    if cam.orthographic:
-        rd = np.broadcast_to(cam.forward, sx.shape + (3,))
-        ro = cam.position + sx[..., None] * cam.right + sy[..., None] * cam.up
-    else:
-        rd = cam.forward + sx[..., None] * cam.right + sy[..., None] * cam.up
-        rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
-        ro = np.broadcast_to(cam.position, rd.shape)
+    ro, rd = cam.rays(2 * lx / g.cell_width - 1, 2 * ly / g.cell_height - 1)
     cell = np.stack([ix, g.rows - 1 - iy], -1).astype(int)
     return ro, rd, cell
 

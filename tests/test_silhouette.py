@@ -19,16 +19,7 @@ def silhouette_distance_px(cam, centre, radius, x, y):
     """Distance in pixels (first order: s / |grad s|) from pixel centres (x, y: GL pixels of
     cam's frame) to the silhouette of the sphere at ``centre``, as edge_coverage.glsl measures it."""
     def s(px, py):
-        ndc_x, ndc_y = 2.0 * px / cam.width - 1.0, 2.0 * py / cam.height - 1.0
-        aspect = cam.width / cam.height
-        sx, sy = ndc_x * aspect * cam.half_height, ndc_y * cam.half_height
-        if cam.orthographic:
-            rd = np.broadcast_to(cam.forward, px.shape + (3,))
-            ro = cam.position + sx[..., None] * cam.right + sy[..., None] * cam.up
-        else:
-            rd = cam.forward + sx[..., None] * cam.right + sy[..., None] * cam.up
-            rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
-            ro = np.broadcast_to(cam.position, rd.shape)
+        ro, rd = cam.rays(2.0 * px / cam.width - 1.0, 2.0 * py / cam.height - 1.0)
         return np.linalg.norm(np.cross(centre - ro, rd), axis=-1) - radius
     s0 = s(x, y)
     gx, gy = s(x + 1.0, y) - s0, s(x, y + 1.0) - s0

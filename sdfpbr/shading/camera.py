@@ -30,6 +30,18 @@ class Camera:
                 "u_cam_up": tuple(self.up), "u_cam_forward": tuple(self.forward),
                 "u_cam_half_height": self.half_height, "u_resolution": (self.width, self.height)}
 
+    def rays(self, ndc_x, ndc_y) -> tuple[np.ndarray, np.ndarray]:
+        """Ray origins and unit directions (..., 3), float64, through points of the view in
+        NDC (x right, y up, -1..1 across it), as camera.glsl's camera_ray makes them."""
+        sx = (np.asarray(ndc_x, float) * (self.width / self.height) * self.half_height)[..., None]
+        sy = (np.asarray(ndc_y, float) * self.half_height)[..., None]
+        if self.orthographic:
+            ro = self.position + sx * self.right + sy * self.up
+            return ro, np.broadcast_to(self.forward, ro.shape)
+        rd = self.forward + sx * self.right + sy * self.up
+        rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
+        return np.broadcast_to(self.position, rd.shape), rd
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates (x right, y down, origin top-left) and the scale in px per world unit."""
         rel = np.asarray(points, float) - self.position
