@@ -95,27 +95,34 @@ def frame_cell(spec: ChartSpec) -> Camera:
     return Camera(-forward * distance, right, up, forward, tan_half, False, grid.cell_width, grid.cell_height)
 
 
-def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, int]:
-    """The pixels of a cell (GL frame: x right, y up from the cell's lower-left) whose box
-    comes within ``pad`` px of its sphere's silhouette: (x0, y0, x1, y1), x1 and y1 past the
-    end. The silhouette is the circle where the rays from the eye touch the sphere (the great
-    circle facing the view, for an orthographic camera), projected from 256 of its points."""
-    cam = frame_cell(spec)
-    radius = spec.sphere_radius
+def silhouette(cam: Camera, centre, radius: float, points: int = 256) -> np.ndarray:
+    """(points, 2) GL pixels (x right, y up from the lower-left of cam's frame) on the
+    silhouette of the sphere at ``centre``: the circle where the rays from the eye touch it (the
+    great circle facing the view, for an orthographic camera), projected."""
+    centre = np.asarray(centre, float)
     if cam.orthographic:
-        centre, ring, axis = np.zeros(3), radius, cam.forward
+        middle, ring, axis = centre, radius, cam.forward
     else:
-        d = float(np.linalg.norm(cam.position))
-        axis = cam.position / d
-        centre, ring = axis * (radius * radius / d), radius * math.sqrt(max(1.0 - (radius / d) ** 2, 0.0))
+        to_eye = cam.position - centre
+        d = float(np.linalg.norm(to_eye))
+        axis = to_eye / d
+        middle, ring = centre + axis * (radius * radius / d), radius * math.sqrt(max(1.0 - (radius / d) ** 2, 0.0))
     u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
     u /= np.linalg.norm(u)
     w = np.cross(axis, u)
-    # The polygon's edges pass within ring (1 - cos(pi / 256)) of the circle: far under pad.
-    angle = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)[:, None]
-    px, _ = cam.project(centre + ring * (np.cos(angle) * u + np.sin(angle) * w))
+    angle = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
+    px, _ = cam.project(middle + ring * (np.cos(angle) * u + np.sin(angle) * w))
+    return np.stack([px[:, 0], cam.height - px[:, 1]], axis=-1)
+
+
+def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, int]:
+    """The pixels of a cell (GL frame: x right, y up from the cell's lower-left) whose box
+    comes within ``pad`` px of its sphere's silhouette: (x0, y0, x1, y1), x1 and y1 past the
+    end. The silhouette is projected from 256 of its points, whose polygon's edges pass
+    within ring (1 - cos(pi / 256)) of the circle: far under pad."""
+    px = silhouette(frame_cell(spec), np.zeros(3), spec.sphere_radius)
     x0, x1 = px[:, 0].min() - pad, px[:, 0].max() + pad
-    y0, y1 = cam.height - px[:, 1].max() - pad, cam.height - px[:, 1].min() + pad   # y up
+    y0, y1 = px[:, 1].min() - pad, px[:, 1].max() + pad
     return math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1)
 
 

@@ -9,29 +9,8 @@ import math
 import numpy as np
 
 from ..spec.chart_spec import ChartSpec
-from .camera import Camera, cell_sphere_box, frame_cell, frame_grid, sphere_centers
+from .camera import Camera, cell_sphere_box, frame_cell, frame_grid, silhouette, sphere_centers
 from .cells import stage
-
-
-def silhouette(cam: Camera, centre, radius: float, points: int = 256) -> np.ndarray:
-    """(points, 2) GL pixels (x right, y up from the lower-left of cam's frame) on the
-    silhouette of the sphere at ``centre``: the circle where the rays from the eye touch it (the
-    great circle facing the view, for an orthographic camera), projected (as
-    camera.cell_sphere_box projects its cell's sphere's)."""
-    centre = np.asarray(centre, float)
-    if cam.orthographic:
-        middle, ring, axis = centre, radius, cam.forward
-    else:
-        to_eye = cam.position - centre
-        d = float(np.linalg.norm(to_eye))
-        axis = to_eye / d
-        middle, ring = centre + axis * (radius * radius / d), radius * math.sqrt(max(1.0 - (radius / d) ** 2, 0.0))
-    u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    w = np.cross(axis, u)
-    angle = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
-    px, _ = cam.project(middle + ring * (np.cos(angle) * u + np.sin(angle) * w))
-    return np.stack([px[:, 0], cam.height - px[:, 1]], axis=-1)
 
 
 # The edge pass (chart_main.glsl EDGE_PIXELS) draws a ring of triangles this many pixels to
