@@ -227,13 +227,12 @@ class ChartDraw:
                 program = session.programs.fragment(source, plan.instances_vertex)
                 self.programs.append(program)
                 triangles, instances = shapes(plan.spec)
-                if instances > 1:   # the cells stage: a cell's shapes, once per cell
+                placement = {}
+                if plan.options["STAGE"] == "cells":   # a cell's shapes, once in each cell
                     grid = cell_grid(plan.spec)
-                    origin = grid.uniforms(plan.spec.height)["u_grid_origin"]
-                    self.overlays.append(GridInstances(ctx, program, triangles, instances, origin,
-                                                       (grid.cell_width, grid.cell_height), grid.cols))
-                else:
-                    self.overlays.append(GridInstances(ctx, program, triangles, 1))
+                    placement = dict(origin=grid.uniforms(plan.spec.height)["u_grid_origin"],
+                                     step=(grid.cell_width, grid.cell_height), per_row=grid.cols)
+                self.overlays.append(GridInstances(ctx, program, triangles, instances, **placement))
         except BaseException:
             self.release()
             raise
