@@ -23,6 +23,9 @@
 #include "patterned_shadow.glsl"   // a see-through sphere's shadows in its map's pattern
 #endif
 #endif
+#if SHADOW_CATCHER && STAGE == cells
+#include "catcher_fade.glsl"   // no seams between the cells' own floors
+#endif
 
 // Chart program: one fullscreen triangle per tile (CHART_STAGE fragment), or one invocation
 // per pixel of the tile (compute: where a GPU runs few fragment units, session.py picks it);
@@ -141,11 +144,17 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
     }
 #endif
 #if SHADOW_CATCHER
+    if (hit.cell.x < 0) {
 #if FLOOR_PLATE
-    if (hit.cell.x < 0) return shadow_catcher(radiance, plate.a);
+        vec4 catcher = shadow_catcher(radiance, plate.a);
 #else
-    if (hit.cell.x < 0) return shadow_catcher(radiance, luminance(shade_open_ground(p, -rd, pixel_size)));
+        vec4 catcher = shadow_catcher(radiance, luminance(shade_open_ground(p, -rd, pixel_size)));
 #endif
+#if STAGE == cells
+        catcher.a *= catcher_fade(position);
+#endif
+        return catcher;
+    }
 #endif
     return vec4(radiance, 1.0);
 }

@@ -18,6 +18,9 @@
 #include "sampling.glsl"
 #include "sampling_env.glsl"
 #include "reference_path.glsl"
+#if SHADOW_CATCHER && STAGE == cells
+#include "catcher_fade.glsl"   // the chart's fade of a cell's catcher at its border
+#endif
 
 // Reference program: adds u_sample_count more paths per pixel to running sums. Pixel samples
 // follow the R2 sequence (Roberts 2018) under a per-pixel random rotation: stratified for
@@ -35,7 +38,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform image2D u_sum;       // rgb: sum of radiance, a: sum of coverage
 layout(rgba32f, binding = 1) uniform image2D u_moments;   // sum (Y-K), sum (Y-K)^2, K, non-finite samples
 #if SHADOW_CATCHER
-layout(rgba32f, binding = 2) uniform image2D u_catcher;   // over floor-first paths: sum L, sum L_open, count
+layout(rgba32f, binding = 2) uniform image2D u_catcher;   // over floor-first paths: sum L, sum L_open, count (faded)
 #endif
 uniform ivec2 u_tile_origin;   // pixel offset of this dispatch (GL convention, y up)
 uniform ivec2 u_tile_size;
@@ -72,7 +75,13 @@ void main() {
 #endif
         vec4 c = trace_path(ro, rd, rng);
 #if SHADOW_CATCHER
-        if (g_catcher.x >= 0.0 && !any(isnan(g_catcher)) && !any(isinf(g_catcher))) catcher += vec4(g_catcher, 1.0, 0.0);
+        if (g_catcher.x >= 0.0 && !any(isnan(g_catcher)) && !any(isinf(g_catcher))) {
+#if STAGE == cells
+            catcher += vec4(g_catcher, catcher_fade(base + offset), 0.0);
+#else
+            catcher += vec4(g_catcher, 1.0, 0.0);
+#endif
+        }
 #endif
         if (any(isnan(c)) || any(isinf(c))) {   // counted and reported, never silently kept
             moments.w += 1.0;

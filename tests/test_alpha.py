@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.shading.camera import frame, ground_height, sphere_centers
+from sdfpbr.shading.cells import CATCHER_BAND, cell_grid
 from sdfpbr.spec.chart_spec import make_spec
 
 SUN = {"kind": "directional", "direction": [0.45, 0.8, 0.35], "intensity": 3.0, "angular_radius_deg": 1.0}
@@ -66,7 +67,8 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
     from ray geometry here, not from the shader; the margin is the sun disc's penumbra (its
     angular radius times the distance to the sphere) and two pixels. The reference traces the
     floor's light with and without the sphere (direct light only: the share is then its exact
-    visibility, 0 or 1 on every path outside the penumbra)."""
+    visibility, 0 or 1 on every path outside the penumbra). Inside the band along the cell's
+    border where the catcher fades out (cells.CATCHER_BAND) the umbra may be fainter."""
     spec = make_spec(rows=1, cols=1, width=160, height=160, env="black", ibl=False, lights=[SUN],
                      transparent=True)
     if renderer == "chart":
@@ -83,11 +85,42 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
     passes = np.where(s > 0, np.linalg.norm(p + np.multiply.outer(s, sun), axis=-1), np.linalg.norm(p, axis=-1))
     margin = np.maximum(s, 0) * tan_sun + 2 * pixel
     umbra, lit = floor & (passes < r - margin), floor & (passes > r + margin)
+    umbra &= border_distance(spec) >= CATCHER_BAND * min(spec.width, spec.height)   # one cell: the whole image
     assert umbra.sum() > 100 and lit.sum() > 1000
     alpha, rgb = image[..., 3], image[..., :3]
     assert (alpha[umbra] == 255).all(), np.unique(alpha[umbra])
     assert (alpha[lit] == 0).all(), np.unique(alpha[lit])
     assert (rgb[floor & (alpha > 0)] == 0).all()            # a catcher has no colour of its own
+
+
+def border_distance(spec) -> np.ndarray:
+    """(H, W) pixels from each pixel's centre to the nearest border of its cell."""
+    g = cell_grid(spec)
+    x = (np.arange(spec.width) + 0.5 - g.left) % g.cell_width
+    y = (np.arange(spec.height) + 0.5 - g.top) % g.cell_height
+    return np.minimum.outer(np.minimum(y, g.cell_height - y), np.minimum(x, g.cell_width - x))
+
+
+def test_a_shadow_catchers_cells_meet_without_seams(session):
+    """Under the default lights and studio a sphere's long soft shadows and occlusion reach its
+    cell's border (8-bit alpha 18-25 there, 0 across the seam in the next cell, before the fade):
+    the catcher fades out over its band, so across every seam alpha steps by at most 1, the
+    grid's outer border and its margins are clear, and the shadows stay (opaque under each
+    sphere, partial around it)."""
+    spec = make_spec(rows=3, cols=4, width=403, height=307, transparent=True, labels=False)
+    alpha = session.render(spec).image[..., 3].astype(int)
+    g = cell_grid(spec)
+    xs = g.left + g.cell_width * np.arange(1, g.cols)      # first column of each cell but the first
+    ys = g.top + g.cell_height * np.arange(1, g.rows)
+    rows, cols = slice(g.top, g.top + g.rows * g.cell_height), slice(g.left, g.left + g.cols * g.cell_width)
+    assert np.abs(alpha[rows, xs] - alpha[rows, xs - 1]).max() <= 1
+    assert np.abs(alpha[ys, cols] - alpha[ys - 1, cols]).max() <= 1
+    inside = np.zeros(alpha.shape, bool)
+    inside[rows, cols] = True
+    assert (alpha[~inside] == 0).all() and (alpha[inside & (border_distance(spec) < 1)] <= 1).all()
+    band = inside & (border_distance(spec) < CATCHER_BAND * min(g.cell_width, g.cell_height))
+    assert ((alpha > 0) & (alpha < 255))[band].any()        # faded, not cut
+    assert (alpha == 255).any() and ((alpha > 0) & (alpha < 255))[inside & ~band].mean() > 0.1
 
 
 @pytest.mark.parametrize("stage, rows", [("cells", 1), ("shared", 2)])

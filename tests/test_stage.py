@@ -92,6 +92,28 @@ def test_the_key_lights_penumbra_stays_inside_the_cell(shape):
     assert (apart > touching).all()
 
 
+@pytest.mark.parametrize("side", [100, 203, 400])
+def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(side):
+    """Geometry alone, on square cells: from no floor point in the band where a shadow catcher
+    fades out (CATCHER_BAND of the side along every border, pixel centres) does the key light's
+    disc touch the sphere's, so the fade takes only the long soft shadows that would otherwise
+    be cut at the seams."""
+    from sdfpbr.shading.cells import CATCHER_BAND
+    from sdfpbr.spec.chart_spec import KEY_LIGHT
+    spec = make_spec(stage="cells", rows=1, cols=1, width=side, height=side)
+    cam = frame_cell(spec)
+    ys, xs = np.mgrid[0:side, 0:side] + 0.5
+    band = np.minimum(np.minimum(xs, side - xs), np.minimum(ys, side - ys)) < CATCHER_BAND * side
+    ndc_x, ndc_y = xs[band] / side * 2 - 1, 1 - ys[band] / side * 2
+    rays = cam.forward + ndc_x[:, None] * cam.half_height * cam.right + ndc_y[:, None] * cam.half_height * cam.up
+    points = cam.position + ((-spec.sphere_radius - cam.position[1]) / rays[:, 1])[:, None] * rays
+    to_centre = -points / np.linalg.norm(points, axis=1)[:, None]
+    light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
+    apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))
+    touching = np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=1)) + np.radians(KEY_LIGHT.angular_radius_deg)
+    assert (apart > touching).all(), np.degrees((touching - apart).max())
+
+
 @pytest.mark.parametrize("shape", CELL_SHAPES[::2])
 def test_shadows_leave_the_cells_border_as_it_is(session, shape):
     """Rendered: turning shadows off changes the floor at the cell's border by no more than the

@@ -246,8 +246,9 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
 
 def catcher_coverage(catcher: np.ndarray) -> np.ndarray:
     """The shadow catcher's summed coverage per pixel from (sum L, sum L_open, floor-first
-    paths): each such path counts 1 - sum L / sum L_open, clamped to [0, 1] as the chart's
-    shadow_catcher does (0 where the open floor is black)."""
+    paths, each counted by its cell's border fade on the cells stage): each such path counts
+    1 - sum L / sum L_open, clamped to [0, 1] as the chart's shadow_catcher does (0 where the
+    open floor is black)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         kept = np.where(catcher[..., 1] > 0.0, catcher[..., 0] / catcher[..., 1], 1.0)
     return catcher[..., 2] * (1.0 - np.clip(kept, 0.0, 1.0))
