@@ -34,21 +34,12 @@ def test_a_transparent_chart_composited_onto_a_colour_is_the_chart_rendered_onto
     assert np.abs(composite(transparent, backdrop) - onto[..., :3]).max() <= 1.5
 
 
-def camera_rays(spec) -> np.ndarray:
-    """(H, W, 3) unit directions of the pixel-centre rays of the grid's camera (perspective)."""
-    cam = frame(spec)
-    j, i = np.mgrid[:spec.height, :spec.width]
-    ndc_x, ndc_y = 2 * (i + 0.5) / spec.width - 1, 1 - 2 * (j + 0.5) / spec.height
-    d = (cam.forward + np.multiply.outer(ndc_x * cam.half_height * spec.width / spec.height, cam.right)
-         + np.multiply.outer(ndc_y * cam.half_height, cam.up))
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-
 def floor_points(spec, centres: np.ndarray):
     """Each pixel's camera ray on the floor plane: the point, a pixel's world size there, and
     whether the pixel shows open floor (rays passing within two pixels of a sphere at one of
     ``centres`` would hide or edge it, and are left out)."""
-    cam, d = frame(spec), camera_rays(spec)
+    cam = frame(spec)
+    d = cam.pixel_rays()[1]
     t = (ground_height(spec) - cam.position[1]) / d[..., 1]
     p = cam.position + d * t[..., None]
     pixel = 2 * cam.half_height * t / spec.height
@@ -130,7 +121,8 @@ def test_without_a_floor_transparency_is_the_spheres_coverage(session, stage, ro
     spec = make_spec(rows=rows, cols=rows, width=96 * rows, height=96 * rows, ground=False, transparent=True,
                      stage=stage)
     alpha = session.render(spec).image[..., 3].astype(float) / 255
-    cam, d = frame(spec), camera_rays(spec)
+    cam = frame(spec)
+    d = cam.pixel_rays()[1]
     dist = np.full(alpha.shape, np.inf)   # px outside the nearest silhouette: the ray's miss distance
     for c in sphere_centers(spec).reshape(-1, 3) if stage == "shared" else np.zeros((1, 3)):
         along = d @ (c - cam.position)

@@ -11,7 +11,6 @@ from sdfpbr.oracle import mirror
 from sdfpbr.shading.camera import frame
 from sdfpbr.spec.chart_spec import make_spec
 from sdfpbr.tools.reference import render_reference
-from sdfpbr.tools.stress.checks import pixel_rays
 
 SIZE = 400
 
@@ -43,7 +42,7 @@ def disc_image(spec, axis, theta):
     """Per pixel: whether the camera ray hits the sphere, and the angle between its mirror
     reflection and the light's axis; and the margin of one edge (see below)."""
     cam = frame(spec)
-    ro, rd = pixel_rays(cam, spec.width, spec.height)
+    ro, rd = cam.pixel_rays()
     r = spec.sphere_radius
     b = (ro * rd).sum(-1)
     disc = b * b - ((ro * ro).sum(-1) - r * r)
@@ -60,7 +59,7 @@ def disc_view_ratio(spec, axis):
     """Per pixel, V.H at the disc's centre over N.V: the chart sizes a disc's half vectors by
     the former (brdf.glsl disc_half_radius), a mirror's true half vector inside the image is N."""
     cam = frame(spec)
-    ro, rd = pixel_rays(cam, spec.width, spec.height)
+    ro, rd = cam.pixel_rays()
     b = (ro * rd).sum(-1)
     disc = b * b - ((ro * ro).sum(-1) - spec.sphere_radius ** 2)
     t = -b - np.sqrt(np.maximum(disc, 0.0))
@@ -132,7 +131,7 @@ def test_the_reference_lights_a_lambert_sphere_by_a_sphere_light_as_by_its_point
     position = [-20.0, 30.0, 40.0]
     point = {"kind": "point", "position": position, "intensity": 2500.0, "range": 1e9}
     a, b = (make_spec(**base, lights=[light]) for light in (point, dict(point, radius=2.0)))
-    ro, rd = pixel_rays(frame(a), a.width, a.height)
+    ro, rd = frame(a).pixel_rays()
     bq = (ro * rd).sum(-1)
     disc = bq * bq - ((ro * ro).sum(-1) - a.sphere_radius ** 2)
     hit = disc > 0

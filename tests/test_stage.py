@@ -66,15 +66,12 @@ CELL_SHAPES = [(100, 400), (100, 250), (100, 100), (150, 100), (300, 100)]   # c
 
 def _border_floor_points(cam, radius):
     """Where the rays through a cell's border pixels meet its floor (y = -radius)."""
-    w, h = cam.width, cam.height
-    ys, xs = np.mgrid[0:h, 0:w]
-    border = (xs == 0) | (xs == w - 1) | (ys == 0) | (ys == h - 1)
-    ndc_x, ndc_y = (xs[border] + 0.5) / w * 2 - 1, 1 - (ys[border] + 0.5) / h * 2
-    rays = (cam.forward + ndc_x[:, None] * cam.half_height * (w / h) * cam.right
-            + ndc_y[:, None] * cam.half_height * cam.up)
-    t = (-radius - cam.position[1]) / rays[:, 1]
+    ys, xs = np.mgrid[0:cam.height, 0:cam.width]
+    border = (xs == 0) | (xs == cam.width - 1) | (ys == 0) | (ys == cam.height - 1)
+    ro, rd = (a[border] for a in cam.pixel_rays())
+    t = (-radius - ro[:, 1]) / rd[:, 1]
     assert (t > 0).all()    # every border pixel sees the floor
-    return cam.position + t[:, None] * rays
+    return ro + t[:, None] * rd
 
 
 @pytest.mark.parametrize("shape", CELL_SHAPES)
@@ -101,12 +98,10 @@ def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(side):
     from sdfpbr.shading.cells import CATCHER_BAND
     from sdfpbr.spec.chart_spec import KEY_LIGHT
     spec = make_spec(stage="cells", rows=1, cols=1, width=side, height=side)
-    cam = frame_cell(spec)
     ys, xs = np.mgrid[0:side, 0:side] + 0.5
     band = np.minimum(np.minimum(xs, side - xs), np.minimum(ys, side - ys)) < CATCHER_BAND * side
-    ndc_x, ndc_y = xs[band] / side * 2 - 1, 1 - ys[band] / side * 2
-    rays = cam.forward + ndc_x[:, None] * cam.half_height * cam.right + ndc_y[:, None] * cam.half_height * cam.up
-    points = cam.position + ((-spec.sphere_radius - cam.position[1]) / rays[:, 1])[:, None] * rays
+    ro, rd = (a[band] for a in frame_cell(spec).pixel_rays())
+    points = ro + ((-spec.sphere_radius - ro[:, 1]) / rd[:, 1])[:, None] * rd
     to_centre = -points / np.linalg.norm(points, axis=1)[:, None]
     light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
     apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))

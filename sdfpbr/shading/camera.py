@@ -42,6 +42,12 @@ class Camera:
         rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
         return np.broadcast_to(self.position, rd.shape), rd
 
+    def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Ray origins and unit directions (height, width, 3) through the centres of the view's
+        pixels, row 0 on top."""
+        ys, xs = np.mgrid[0:self.height, 0:self.width]
+        return self.rays(2 * (xs + 0.5) / self.width - 1, 1 - 2 * (ys + 0.5) / self.height)
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates (x right, y down, origin top-left) and the scale in px per world unit."""
         rel = np.asarray(points, float) - self.position

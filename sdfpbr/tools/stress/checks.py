@@ -105,23 +105,6 @@ def interior_mask(ids: np.ndarray) -> np.ndarray:
     return out
 
 
-def pixel_rays(camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """Ray origins and unit directions (H, W, 3) of the pixel centres, as camera.glsl makes them."""
-    ys, xs = np.mgrid[0:height, 0:width]
-    ndc_x = 2 * (xs + 0.5) / width - 1
-    ndc_y = 1 - 2 * (ys + 0.5) / height
-    sx = (ndc_x * width / height * camera.half_height)[..., None]
-    sy = (ndc_y * camera.half_height)[..., None]
-    if camera.orthographic:
-        ro = camera.position + sx * camera.right + sy * camera.up
-        rd = np.broadcast_to(camera.forward, ro.shape)
-    else:
-        rd = camera.forward + sx * camera.right + sy * camera.up
-        rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
-        ro = np.broadcast_to(camera.position, rd.shape)
-    return ro, rd
-
-
 def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
     """Pixels where the continuous image must be smooth at the pixel scale (see
     isolated_outliers): all 9 pixels one surface, away from every highlight centre, from
@@ -152,7 +135,7 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
         alpha_px = np.maximum(np.where(ids >= 0, np.nan_to_num(aov["roughness"]), spec.ground_roughness),
                               mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
         test &= 2 * (2 * dn + dv) <= ENV_FEATURE_RAD.get(spec.env, 0.0) + 2 * alpha_px
-    ro, rd = pixel_rays(camera, W, H)
+    ro, rd = camera.pixel_rays()   # the shared stage's camera: the whole image
     depth = np.where(test, aov["depth"], 0.0)[..., None]
     p = ro + rd * depth
     v = -rd
