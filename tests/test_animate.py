@@ -206,14 +206,18 @@ def test_animation_bad_input_is_one_line_exit_2_no_file(tmp_path, args, needle):
 
 
 def test_animation_commands(tmp_path):
+    """Both commands report their frames on stderr though it is no terminal (a pipe here): long
+    work is never silent in a CI log."""
     r = run("chart", "--frames", "3", "--orbit", "camera", "--size", "48x48", "--quality", "draft",
             "-o", str(tmp_path / "c.webp"), "-v")
     assert r.returncode == 0, r.stderr
     assert "3 frames" in r.stdout and read_frames(tmp_path / "c.webp").shape[0] == 3
+    assert "orbit camera: 3/3 frames" in r.stderr
     r = run("compare", "--bug", "clamp-tonemap", "--frames", "2", "--size", "48x48", "--quality", "draft",
             "-o", str(tmp_path / "p.gif"))
     assert r.returncode == 0, r.stderr
     assert iio.imread(tmp_path / "p.gif", index=None).shape[0] == 2
+    assert "clamp-tonemap orbit light: 2/2 frames" in r.stderr
 
 
 def test_frames_after_the_first_leave_no_bakes_in_the_disk_cache():

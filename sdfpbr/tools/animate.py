@@ -215,7 +215,7 @@ def cmd_chart_animation(spec: ChartSpec, args) -> int:
     check_animation_output(args.output, args.fps)
     start = time.perf_counter()
     animation = animate(spec, args.frames, args.orbit, output=args.output, fps=args.fps,
-                        progress=args.verbose or None, lossless=args.lossless)
+                        progress=True, lossless=args.lossless)
     if args.verbose:
         w, h = animation.size
         print(f"{args.output}: {animation.count} frames {w}x{h} at {args.fps:g} fps, "

@@ -151,7 +151,7 @@ def _animate_bug(args, start: float) -> int:
     orbit_specs(spec, args.frames, args.orbit)
     check_animation_output(output, args.fps)
     animation = animate_compare(spec, name, args.frames, args.orbit, output=output, fps=args.fps,
-                                progress=args.verbose or None, lossless=args.lossless)
+                                progress=True, lossless=args.lossless)
     if args.verbose:
         (w, h), n = animation.size, animation.count
         print(f"{output}: {n} frames {w}x{h} at {args.fps:g} fps, orbit {args.orbit}, "
