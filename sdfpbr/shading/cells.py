@@ -12,12 +12,13 @@ from ..spec.chart_spec import ChartSpec
 CELL_FILL = 0.62   # the sphere's radius over the cell's half height (or half width if narrower)
 
 # A shadow catcher's alpha fades to nothing over a band along each cell's border, this share of
-# the cell's shorter side wide (catcher_fade.glsl; chart and reference alike). A cell's floor is
+# the cell's width at its sides and of its height at its top and bottom (catcher_fade.glsl;
+# chart and reference alike). A cell's floor is
 # its own: under the default lights its sphere's long soft shadows (the fill light's) and the
 # studio's occlusion still take ~10 % of the floor's light at the border, where the next cell's
 # floor starts clear, so a page would show every cell's edge. The key light's shadow, its
 # penumbra included, keeps 7.5 % of the side from the border on square cells and is left whole
-# there (tests/test_stage.py); on narrower cells its faintest edge may fade a little.
+# there (tests/test_stage.py); on cells narrower than 1:2 its faintest edge fades a little.
 CATCHER_BAND = 0.07
 
 # The irradiance a cells-stage sphere gets back from its floor of its own light, per unit
@@ -58,7 +59,7 @@ class CellGrid:
         """The grid in GL pixel coordinates (y up from the bottom row of the image)."""
         bottom = image_height - self.top - self.rows * self.cell_height
         return {"u_cell_size": (self.cell_width, self.cell_height), "u_grid_origin": (self.left, bottom),
-                "u_catcher_band": CATCHER_BAND * min(self.cell_width, self.cell_height)}
+                "u_catcher_band": (CATCHER_BAND * self.cell_width, CATCHER_BAND * self.cell_height)}
 
 
 def cell_grid(spec: ChartSpec) -> CellGrid:
