@@ -23,7 +23,8 @@ def stages(session):
 def test_the_compute_chart_is_the_fragment_chart(stages, options):
     """The same source with another entry point: the same arithmetic per pixel, so the same
     radiance up to how the driver groups pixels for SIMD (llvmpipe takes some cube-map
-    decisions per group: a few ulps), the same 8-bit image and AOVs."""
+    decisions per group: a few ulps), so the 8-bit images within one step (a few ulps can round
+    a value either side of a step) and the same AOVs."""
     fragment, compute = stages
     spec = make_spec(**{"width": 160, "height": 120, "quality": "draft", **options})
     a, b = fragment.render(spec), compute.render(spec)

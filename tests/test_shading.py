@@ -91,9 +91,10 @@ def test_dfg_lut_matches_float64_quadrature(ctx, session, model):
     err = np.abs(gpu - ref)
     assert err[:, 1:].max() < 5e-3
     # At NdotV -> 0 the integrand in u grows like 1/sqrt(1 - u); dfg_main.glsl samples t = sqrt(1 - u),
-    # which cancels it: 1.1e-4 (gltf), 1.8e-4 (schlick-ggx) measured on llvmpipe at 4096 samples
-    # (the rule in u gave 6.8e-3 here and 2.7e-2 on an H100, where rounding tilted h at r = 0).
-    assert err[:, 0].max() < 2.5e-2
+    # which cancels it: 1.1e-4 (gltf), 1.8e-4 (schlick-ggx) measured on llvmpipe at 4096 samples,
+    # so the column is held to the other columns' bound (the rule in u gave 6.8e-3 here and 2.7e-2
+    # on an H100, where rounding tilted h at r = 0: it fails this).
+    assert err[:, 0].max() < 5e-3
     # With the glTF visibility A + B falls with roughness, as the single-scatter loss grows
     # (Schlick-GGX with k = alpha/2 is not monotonic, in the float64 quadrature as well).
     if model == "gltf":

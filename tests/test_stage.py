@@ -55,7 +55,7 @@ def test_every_sphere_stands_on_its_own_floor_with_no_horizon_in_view(session):
     assert np.isfinite(res.aov["depth"][grid]).all()
     floor = res.aov["row"][grid] < 0
     assert np.abs(res.aov["normal"][grid][floor] - [0.0, 1.0, 0.0]).max() <= 1e-6
-    # Grounded: the contact point under each sphere is on screen and in contact shadow.
+    # Grounded: the contact point under each sphere projects into its own cell.
     cam = frame_cell(spec)
     (x, y), _ = (v[0] for v in cam.project(np.array([[0.0, -spec.sphere_radius, 0.0]])))
     assert 0 <= x < g.cell_width and 0 <= y < g.cell_height

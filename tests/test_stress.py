@@ -71,7 +71,9 @@ def test_firefly_check_flags_a_planted_spike_but_not_highlights(clean, session):
     assert checks.isolated_outliers(r.hdr, r.aov, shiny, frame_grid(shiny))[1] == 0
 
 
-def test_furnace_check_passes_the_renderer_and_catches_one_percent(session):
+def test_furnace_check_passes_the_renderer_and_catches_a_pixel_just_over_its_tolerance(session):
+    """The renderer is within half its 1 % tolerance everywhere; a pixel pushed past the
+    tolerance by more than the renderer's own worst error (whatever its sign there) is flagged."""
     spec = make_spec(env="uniform", lights=(), ao=False, ground=False, width=96, height=96, rows=3, cols=3,
                      quality="default", base_color=(1, 1, 1))
     res = session.render(spec)
@@ -80,7 +82,7 @@ def test_furnace_check_passes_the_renderer_and_catches_one_percent(session):
     assert bad == 0 and tested > 3000 and worst < 5e-3
     hdr = res.hdr.copy()
     m = np.argwhere(checks.interior_mask(checks.surface_ids(res.aov, 3)) & (res.aov["ndotv"] > 0.5))[0]
-    hdr[tuple(m)] *= 1.02
+    hdr[tuple(m)] *= 1.0 + checks.FURNACE_RTOL[spec.quality] + worst + 1e-3
     assert checks.furnace_error(hdr, res.aov, spec, table)[1] == 1
 
 
