@@ -44,7 +44,7 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
     for (scene, preset), row in rows.items():
         for key in suite.REQUIRED_KEYS[2:]:
             assert isinstance(row[key], (int, float)) and math.isfinite(row[key]), (scene, preset, key, row[key])
-        assert row["render_ms"] > 0 and row["compile_ms"] > 0 and row["cold_s"] > 0
+        assert row["render_ms"] > 0 and row["compile_ms"] > 0 and row["cold_s"] > 0 and row["start_s"] > 0
         assert 0.0 < row["flip_mean"] < 1.0 and row["rel_rmse"] >= 0.0
         assert (row["width"], row["height"]) == (cfg.width, cfg.height)
         # Independently: the composed source the row measured.

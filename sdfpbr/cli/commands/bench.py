@@ -14,6 +14,7 @@ columns:
   src kB      composed chart source (features a spec leaves out are not in it)
   cold s      fresh `python -m sdfpbr chart` process, Mesa shader cache off, empty sdfpbr cache
   cold* s     the same with the sdfpbr disk cache filled (IBL bakes, LUTs): a second run
+  start s     the same with Mesa's shader cache warm too: a user's every later run (median of 3)
   FLIP        mean LDR FLIP of the display image vs the reference, whole frame; FLIPsph over
               sphere pixels
   relRMSE     relative RMSE of linear radiance over sphere pixels, sqrt(mean((t-r)^2/(r^2+0.01)))

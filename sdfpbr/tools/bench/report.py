@@ -17,7 +17,7 @@ COLUMNS = (
     ("scene", "scene", "{:<12}"), ("preset", "preset", "{:<30}"), ("size", "size", "{:>9}"),
     ("spheres", "sph", "{:>4}"), ("render_ms", "render ms", "{:>10.1f}"), ("render_ms_mad", "±", "{:>6.1f}"),
     ("compile_ms", "compile ms", "{:>10.1f}"), ("source_bytes", "src kB", "{:>7.1f}"),
-    ("cold_s", "cold s", "{:>7.2f}"), ("cold_warm_cache_s", "cold* s", "{:>7.2f}"),
+    ("cold_s", "cold s", "{:>7.2f}"), ("cold_warm_cache_s", "cold* s", "{:>7.2f}"), ("start_s", "start s", "{:>7.2f}"),
     ("flip_mean", "FLIP", "{:>7.4f}"), ("flip_sphere_mean", "FLIPsph", "{:>7.4f}"),
     ("rel_rmse", "relRMSE", "{:>8.4f}"), ("ref_noise_flip", "noise", "{:>7.4f}"), ("extra", "", "{}"),
 )
