@@ -13,12 +13,12 @@ CELL_FILL = 0.62   # the sphere's radius over the cell's half height (or half wi
 
 # A shadow catcher's alpha fades to nothing over a band along each cell's border, this share of
 # the cell's width at its sides and of its height at its top and bottom (catcher_fade.glsl;
-# chart and reference alike). A cell's floor is
-# its own: under the default lights its sphere's long soft shadows (the fill light's) and the
-# studio's occlusion still take ~10 % of the floor's light at the border, where the next cell's
-# floor starts clear, so a page would show every cell's edge. The key light's shadow, its
-# penumbra included, keeps 7.5 % of the side from the border on square cells and is left whole
-# there (tests/test_stage.py); on cells narrower than 1:2 its faintest edge fades a little.
+# chart and reference alike). A cell's floor is its own: under the default lights its sphere's
+# long soft shadows (the fill light's) and the studio's occlusion still take ~10 % of the
+# floor's light at the border, where the next cell's floor starts clear, so a page would show
+# every cell's edge. The key light's shadow, its penumbra included, keeps 7.5 % of the side from
+# the border on square cells and is left whole there and on wider ones (tests/test_stage.py); on
+# cells taller than wide a few pixels of its penumbra's outer edge fade.
 CATCHER_BAND = 0.07
 
 # The irradiance a cells-stage sphere gets back from its floor of its own light, per unit
