@@ -115,8 +115,12 @@ def test_sphinx_rebuild_rereads_only_when_a_chart_key_changes(tmp_path, monkeypa
     first = [img["src"] for img, _ in figures(out)]
     assert len(first) == 2 and len(set(first)) == 2
 
+    def rendered():   # a render writes its image anew (a new file); a cache hit only reads it
+        return {p.name: p.stat().st_ino for p in (tmp_path / "cache" / "build").glob("*.png")}
+    before = rendered()
     r = sphinx_build(src, out, SDFPBR_SHADER_DIR=str(shaders))
     assert r.returncode == 0 and [img["src"] for img, _ in figures(out)] == first
+    assert rendered() == before and len(before) == 2      # nothing rendered again
 
     # Both charts use the display program; editing its tone-map module changes both keys.
     tonemap = shaders / "tonemap.glsl"
