@@ -262,12 +262,15 @@ void chart_pixel(vec2 frag_coord) {
     // SPP stratified rays over the pixel box; sample 0 is the centre.
     vec4 radiance = trace_pixel(pixel + sample_offset(0), footprint, centre, centre_rd);
     float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
+#if SUPERSAMPLE
+    // Only where spp > 1: llvmpipe runs a loop's body once even when it runs no turn.
     for (int s = 1; s < u_spp; ++s) {
         radiance += trace_pixel(pixel + sample_offset(s), footprint, other, other_rd);
         sphere_share += other.t >= 0.0 && other.cell.x >= 0 ? 1.0 : 0.0;
     }
     radiance /= float(u_spp);
     sphere_share /= float(u_spp);
+#endif
 #endif
     out_radiance = radiance;
     out_normal_depth = centre.t < 0.0 ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(centre.normal, centre.t);

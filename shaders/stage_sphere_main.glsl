@@ -4,12 +4,15 @@
 #include "camera.glsl"
 #include "surface_shading.glsl"
 #include "intersect.glsl"
+#if ANALYTIC_AA
 #include "edge_coverage.glsl"
+#endif
 
 // The cells stage's sphere plate (SPHERE_PLATE, sdfpbr/shading/cells.py): each slot's sphere
 // shaded once per cell pixel at metallic 0 (tile 2 k) and 1 (tile 2 k + 1), at the point the
-// chart's own ray of that pixel meets it (the centre, or the inside sample at the silhouette,
-// as chart_main.glsl's chart_pixel traces), with the material of a cell of the slot.
+// chart's own ray of that pixel meets it (the centre, or with the analytic edge the inside
+// sample at the silhouette, as chart_main.glsl's chart_pixel traces), with the material of a
+// cell of the slot.
 layout(location = 0) out vec4 out_radiance;
 uniform ivec2 u_sphere_origin;     // the cell pixel of a tile's texel (0, 0)
 uniform ivec2 u_sphere_tile;       // texels of a tile: a cell's pixels and the image's margins
@@ -31,18 +34,27 @@ void main() {
     g_plate_metallic = float(index % 2);
     out_radiance = vec4(0.0);
     vec2 footprint = pixel_footprint();
+#if ANALYTIC_AA
     EdgeSplit split = edge_split(pixel + 0.5);
     bool edge = split.coverage > 0.0 && split.coverage < 1.0;
     vec2 position = edge ? split.inside : pixel + 0.5;
+#else
+    vec2 position = pixel + 0.5;   // the chart's one ray, its sample 0
+#endif
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     Hit hit = intersect_scene(ro, rd, footprint);
     if (hit.t < 0.0 || hit.cell.x < 0) {
+#if ANALYTIC_AA
         // The chart's ray of a pixel the silhouette crosses might meet the sphere where this
         // one, rounded otherwise, passes it by: shade the sphere's point nearest the ray.
         if (split.coverage <= 0.0) return;
         hit = nearest_on_sphere(ro, rd);
+#else
+        return;   // the same ray as the chart's: it reads no texel here
+#endif
     }
+#if ANALYTIC_AA   // (without it the chart takes one ray a pixel, as the plate does below)
 #if SPHERE_SAMPLES > 1
     // A sphere only a few pixels wide: its pixels average n x n points of their box (the box
     // the reference integrates), so a highlight smaller than a pixel is a small disc, not one
@@ -68,6 +80,7 @@ void main() {
             return;
         }
     }
+#endif
 #endif
     vec3 p = ro + rd * hit.t;
     out_radiance = vec4(shade_sphere(p, hit.normal, -rd, g_cell, footprint.x + footprint.y * hit.t), 1.0);

@@ -108,6 +108,13 @@ def test_features_left_out_are_absent_from_the_source():
     for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light",
                    "lights_brdf_cos(m, n, v, l, n_dot_v, "):
         assert needle in full and needle not in bare, needle
+    # One ray a pixel, the edge not anti-aliased: no loop over further samples (llvmpipe would
+    # run its body once although it runs no turn), nor the sphere's shading (the sphere plate).
+    one = render_plan(make_spec(antialias=False)).chart.text
+    several = render_plan(make_spec(antialias=False, spp=4)).chart.text
+    assert "sample_offset(s)" in several and "sample_offset(s)" not in one
+    call = "return shade_sphere(p, n_geo, v, cell, pixel_size)"   # sphere_radiance's, in chart_main.glsl
+    assert call in several and call not in one
 
 
 def test_composer_refuses_unknown_options_and_maps_errors(tmp_path, session):

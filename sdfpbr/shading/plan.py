@@ -59,7 +59,7 @@ SCHEMA = OptionSchema(
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
     + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
-       "SPHERE_PLATE_PASS", "SHEEN_LEAN"),
+       "SPHERE_PLATE_PASS", "SHEEN_LEAN", "SUPERSAMPLE"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -211,6 +211,8 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["INTERSECT"] == "analytic"
                            and (opts["STAGE"] == "cells" or opts["SCENE_SDF"] == "nearest_cell")
                            and camera.silhouettes_apart(spec))
+    # Rays beyond the pixel's centre (chart_main.glsl), composed in only where there are some.
+    opts["SUPERSAMPLE"] = spec.spp > 1
     opts["BOUNCE_PLATE"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
@@ -242,13 +244,14 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     opts["NEIGHBOUR_LIGHT"] = (q.neighbour_light and opts["STAGE"] == "shared" and opts["USE_AO"]
                                and opts.get("AO_METHOD") == "analytic" and not opts.get("BUG_FEWTAP_IBL", False))
     # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
-    # by each cell's metallic (stage_sphere_main.glsl): one sphere per pixel (the analytic
-    # edge's), opaque, where cells share all but their metallic (cells.py). A map's metallic
+    # by each cell's metallic (stage_sphere_main.glsl): one ray per pixel (the centre's, or the
+    # analytic edge's), opaque, where cells share all but their metallic (cells.py). A map's metallic
     # scales the cell's (m_factor m_map), and the shading is linear in it, so a textured slot
     # is shaded at m_map and at 0 and mixed by m_factor alike; not a glTF asset's, whose maps
     # are each cell's own (the material table does not tell them apart). The few-tap bug's
     # shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
-    layout = (sphere_plate(spec) if opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and q.sphere_plate
+    one_ray = spec.spp == 1 and opts["INTERSECT"] == "analytic"
+    layout = (sphere_plate(spec) if one_ray and opts["STAGE"] == "cells" and q.sphere_plate
               and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
               and not opts.get("BUG_FEWTAP_IBL", False) else None)
     opts["SPHERE_PLATE"] = layout is not None
