@@ -208,7 +208,8 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): one sphere
     # near each pixel (the cells stage's own, the shared stage's nearest), intersected in
     # closed form.
-    opts["ANALYTIC_AA"] = (spec.antialias and spec.spp == 1 and opts["INTERSECT"] == "analytic"
+    one_ray = spec.spp == 1 and opts["INTERSECT"] == "analytic"   # a pixel's one ray, in closed form
+    opts["ANALYTIC_AA"] = (spec.antialias and one_ray
                            and (opts["STAGE"] == "cells" or opts["SCENE_SDF"] == "nearest_cell")
                            and camera.silhouettes_apart(spec))
     # Rays beyond the pixel's centre (chart_main.glsl), composed in only where there are some.
@@ -250,7 +251,6 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     # is shaded at m_map and at 0 and mixed by m_factor alike; not a glTF asset's, whose maps
     # are each cell's own (the material table does not tell them apart). The few-tap bug's
     # shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
-    one_ray = spec.spp == 1 and opts["INTERSECT"] == "analytic"
     layout = (sphere_plate(spec) if one_ray and opts["STAGE"] == "cells" and q.sphere_plate
               and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
               and not opts.get("BUG_FEWTAP_IBL", False) else None)
