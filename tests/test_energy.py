@@ -12,6 +12,7 @@ from sdfpbr.oracle import mirror
 from sdfpbr.cli.main import main
 from sdfpbr.tools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
 from sdfpbr.spec.chart_spec import make_spec
+from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
 
 
 @pytest.fixture(scope="module")
@@ -58,15 +59,23 @@ def test_smooth_dielectric_gains_energy_at_grazing_angles(report):
     weighted by 1 - F(VdotH), adds its own share -- 1.72 in all, more than it receives."""
     mu = 0.05
     rng = np.random.default_rng(7)
-    l = mirror.sample_sphere_cosine(rng, 400_000)
+    n = 400_000
+    l = mirror.sample_sphere_cosine(rng, n)
     v = np.array([math.sqrt(1 - mu * mu), 0.0, mu])
     h = l + v
     h /= np.linalg.norm(h, axis=1, keepdims=True)
     v_dot_h = np.clip(h @ v, 0, 1)
-    lambert = np.mean(1 - (0.04 + 0.96 * (1 - v_dot_h) ** 5))
+    body = 1 - (0.04 + 0.96 * (1 - v_dot_h) ** 5)
+    lambert, lambert_stderr = np.mean(body), np.std(body) / math.sqrt(n)
     coat = 0.04 + 0.96 * (1 - mu) ** 5
     model = mirror.furnace_expected(mu, 1.0, 0.0, 0.0)[0]
-    assert model == pytest.approx(coat + lambert, abs=1e-2)
+    # The model's coat is GGX at the roughness floor, not a mirror: its height-correlated Smith
+    # term loses at most 2 Lambda(mu) (compensation gives part back), and its microfacets spread
+    # VdotH by E[theta_h] <= E[tan theta_h] = pi alpha / 2 where F's slope is at most 5 x 0.96.
+    alpha = MIN_PERCEPTUAL_ROUGHNESS ** 2
+    smith = math.sqrt(1 + alpha ** 2 * (1 - mu * mu) / (mu * mu)) - 1            # 2 Lambda(mu)
+    clamp_bias = smith + 5 * 0.96 * math.pi * alpha / 2
+    assert model == pytest.approx(coat + lambert, abs=5 * lambert_stderr + clamp_bias)
     assert model == pytest.approx(1.72, abs=5e-3)
     _, _, cells = report
     smooth_dielectric = next(c for c in cells if c.metallic == 0 and c.roughness == 0)

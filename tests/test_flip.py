@@ -79,15 +79,27 @@ def test_identical_images_are_zero_and_order_does_not_matter_for_flat_colours():
     np.testing.assert_allclose(ldr_flip(flat_a, flat_b, PPD), ldr_flip(flat_b, flat_a, PPD), rtol=1e-6)
 
 
-def test_an_edge_adds_the_feature_term():
-    """A step of luminance moved by one pixel: the colour term alone (blurred by the CSF) is
-    small, the edge term raises the error on the step (error = colour ^ (1 - feature))."""
+def _shifted_step():
+    """A step of luminance and the same step moved right by one pixel (column 16 changes)."""
     a = np.full((32, 32, 3), 60, np.uint8)
     a[:, 16:] = 200
     b = np.full((32, 32, 3), 60, np.uint8)
     b[:, 17:] = 200
+    return a, b
+
+
+def test_a_moved_edge_errs_only_within_the_filters_reach():
+    """Only column 16 differs. The colour filters reach ceil(3 sqrt(b_max / (2 pi^2)) ppd) pixels,
+    b_max = 0.04 the paper's widest CSF scale (the blue-yellow channel): beyond that the filtered
+    images are equal and so is the error, exactly 0. The image is the same down every column, so
+    is its map. (Its values: test_agrees_with_flip_evaluator, case "moved edge".)"""
+    a, b = _shifted_step()
     error = ldr_flip(a, b, PPD)
-    assert error[:, 16].min() > 0.3 and error[:, :8].max() < 1e-3 and error[:, 26:].max() < 1e-3
+    reach = int(np.ceil(3 * np.sqrt(0.04 / (2 * np.pi ** 2)) * PPD))
+    assert reach == 10
+    assert not error[:, :16 - reach].any() and not error[:, 16 + reach + 1:].any()
+    assert (error == error[:1]).all()
+    assert error[:, 16].min() > 0 and error.max() <= 1
 
 
 def test_float_input_is_the_uint8_input_scaled():
@@ -127,6 +139,7 @@ def _pairs():
     yy, xx = np.mgrid[:61, :47]
     disc[(yy - 30) ** 2 + (xx - 23) ** 2 < 200] = (250, 180, 40)
     yield "disc vs half-tone disc", disc, (disc // 2)
+    yield "moved edge", *_shifted_step()
 
 
 @pytest.mark.requires_extra("flip_evaluator")
