@@ -32,6 +32,18 @@ def test_bad_input_is_one_line_exit_2_no_file(tmp_path, args, needle):
     assert out.read_bytes() == b"keep me"
 
 
+def test_values_that_start_with_a_minus_are_values():
+    """argparse reads "-1,0,1" or "-2:2" as an option; after a long option they are its value."""
+    from sdfpbr.cli.main import build_parser, joined_negative_values, spec_from_args
+    argv = joined_negative_values(["chart", "--x-axis", "exposure", "--x-values", "-1,0,1", "--cols", "3",
+                                   "--camera-azimuth", "-20", "--roughness", "-.5:1", "-o", "-1.png"])
+    assert argv[3:8] == ["--x-values=-1,0,1", "--cols", "3", "--camera-azimuth=-20", "--roughness=-.5:1"]
+    assert argv[-2:] == ["-o", "-1.png"]                  # short options keep their own rules
+    args = build_parser("chart").parse_args(argv[:7])
+    assert spec_from_args(args).x_values == (-1.0, 0.0, 1.0)
+    assert joined_negative_values(["chart", "--", "-1"]) == ["chart", "--", "-1"]
+
+
 def test_bad_toml_key_and_malformed_toml(tmp_path):
     bad_key = tmp_path / "a.toml"
     bad_key.write_text('roughnes = "0:1"\n')

@@ -199,6 +199,9 @@ def test_default_title_says_what_the_chart_shows():
     assert chart_labels.default_title(make_spec(materials=["gold", "copper"])) == "Roughness × measured metals — 2×5"
     assert chart_labels.default_title(make_spec(metallic=(1, 1), rows=1)) == "Roughness, metallic 1 — 1×5"
     assert chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0))) == "Roughness 0.3, metallic 0 — 5×5"
+    # Parameters by their own names in running text, as on their axes.
+    assert chart_labels.default_title(make_spec(x_axis="ior", y_axis="specular")) == "IOR × specular — 5×5"
+    assert chart_labels.default_title(make_spec(x_axis="base_color_hue", rows=1)) == "Base colour hue, metallic 0 — 1×5"
 
 
 def test_a_kept_layout_labels_every_render_alike_and_is_not_changed_by_its_charts():

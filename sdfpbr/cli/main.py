@@ -275,9 +275,23 @@ def add_shader_command(sub) -> None:
     p.set_defaults(run=cmd_shader)
 
 
+def joined_negative_values(argv: list[str]) -> list[str]:
+    """argparse takes a value such as "-2:2" or "-1,0,1" for an option (only a plain number like
+    "-2" passes); no option of ours starts with a digit or a point, so such a token after a long
+    option is that option's value: "--exposure -2:2" becomes "--exposure=-2:2"."""
+    out: list[str] = []
+    for token in argv:
+        if (out and re.match(r"-\.?\d", token) and out[-1].startswith("--") and "=" not in out[-1]
+                and out[-1] != "--"):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
-        argv = sys.argv[1:] if argv is None else list(argv)
+        argv = joined_negative_values(sys.argv[1:] if argv is None else list(argv))
         args = build_parser(argv[0] if argv else None).parse_args(argv)
         return args.run(args)
     except SdfpbrError as exc:

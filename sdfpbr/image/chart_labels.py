@@ -56,16 +56,16 @@ def default_title(spec: ChartSpec) -> str:
     if spec.gltf:
         count = spec.rows * spec.cols
         return f"{Path(spec.gltf).name} — {count} material{'s' * (count != 1)}"
-    def axis(name, values):
-        name = name.replace("_", " ")
+    def axis(which):
+        name, values = axis_param(spec, which).label, spec.axis_values(which)
         return (name, True) if len(set(values)) > 1 else (f"{name} {_number(values[0])}", False)
-    axes = [axis(spec.x_axis, spec.axis_values("x"))]
+    axes = [axis("x")]
     if spec.row_materials:
         axes.append(("measured metals", True))
         if spec.metallic != (1.0, 1.0) or spec.y_axis != "metallic":
-            axes.append(axis(spec.y_axis, spec.axis_values("y")))
+            axes.append(axis("y"))
     else:
-        axes.append(axis(spec.y_axis, spec.axis_values("y")))
+        axes.append(axis("y"))
     varying = " × ".join(a for a, v in axes if v)
     text = ", ".join([varying] * bool(varying) + [a for a, v in axes if not v])
     return f"{text[0].upper()}{text[1:]} — {spec.rows}×{spec.cols}"

@@ -38,6 +38,11 @@ class Param:
     lobe: str = ""      # the lobe it belongs to ('' = the core metallic-roughness material)
     axis_only: bool = False   # read only on an axis (base_color_hue)
     axis_range: tuple[float, float] | None = None   # its range when put on an axis unset; None: (lo, hi)
+    short: str = ""     # its name in running text (a chart's title); '' = the name with spaces
+
+    @property
+    def label(self) -> str:
+        return self.short or self.name.replace("_", " ")
 
     @property
     def sweep(self) -> tuple[float, float]:
@@ -51,8 +56,8 @@ PARAMS: tuple[Param, ...] = (
     Param("clearcoat_roughness", 0.0, 1.0, 0.0, "clearcoat roughness", "the clearcoat's perceptual roughness",
           "clearcoat"),
     Param("sheen_roughness", 0.0, 1.0, 0.5, "sheen roughness", "KHR_materials_sheen perceptual roughness", "sheen"),
-    Param("ior", 1.0, 5.0, 1.5, "ior", "KHR_materials_ior index of refraction (f0 = ((ior-1)/(ior+1))²)",
-          "specular", axis_range=(1.0, 2.5)),
+    Param("ior", 1.0, 5.0, 1.5, "IOR", "KHR_materials_ior index of refraction (f0 = ((ior-1)/(ior+1))²)",
+          "specular", axis_range=(1.0, 2.5), short="IOR"),
     Param("specular", 0.0, 1.0, 1.0, "specular", "KHR_materials_specular weight of the dielectric specular",
           "specular"),
     Param("emissive_strength", 0.0, 1e4, 1.0, "emissive strength", "KHR_materials_emissive_strength",
@@ -61,7 +66,7 @@ PARAMS: tuple[Param, ...] = (
           "behind it (alpha_mode: blend, or cut out below alpha_cutoff)"),
     Param("base_color_hue", 0.0, 360.0, 0.0, "base colour hue (°)",
           "hue of the base colour in degrees, on an axis only (saturation and value kept; 0.8 for a grey)",
-          axis_only=True, axis_range=(0.0, 300.0)),
+          axis_only=True, axis_range=(0.0, 300.0), short="base colour hue"),
 )
 PARAM_NAMES = tuple(p.name for p in PARAMS)
 # Exposure is no material parameter but can be an axis: the display pass then exposes each
