@@ -70,7 +70,7 @@ def test_furnace_chart_with_hdr_and_aov_from_the_cli(tmp_path):
     radiance, a = np.load(hdr), np.load(aov)
     assert radiance.shape == (200, 200, 3) and radiance.dtype == np.float32
     metal = (a["metallic"] == 1.0) & (a["ndotv"] > 0.15)
-    np.testing.assert_allclose(radiance[metal], 1.0, atol=6e-3)
+    np.testing.assert_allclose(radiance[metal], 1.0, atol=1e-5)   # (A + B) / E from one texel fetch
     assert set(a.files) == {"normal", "depth", "row", "col", "roughness", "metallic", "ndotv", "coverage"}
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

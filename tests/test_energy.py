@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import mirror
+from test_chart import FurnaceBudget
 from sdfpbr.cli.main import main
 from sdfpbr.tools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
 from sdfpbr.spec.chart_spec import make_spec
@@ -22,21 +23,26 @@ def report(session):
     return spec, res, cell_energy(res, spec)
 
 
-def test_every_cell_follows_the_float64_model(report):
+def test_every_cell_follows_the_float64_model(session, report):
+    """Every sphere pixel, grazing silhouettes included (NdotV down to 0.005 here), is the model
+    within what the chart's DFG table allows it (test_chart.FurnaceBudget); the report's own
+    figure per cell (against FurnaceTable, within 1e-5 of the model from NdotV 0.05) agrees."""
     spec, res, cells = report
     assert len(cells) == 9 and all(c.pixels > 100 for c in cells)
+    budget = FurnaceBudget(session, spec, res, res.aov["row"] >= 0)
+    budget.check()
+    allowed = (budget.interpolation + budget.spread + budget.filter).max(-1)
     for c in cells:
-        # Per pixel: the renderer adds under 1 % to the model; at grazing silhouettes (NdotV <
-        # 0.2, down to 0.005 here) the LUT's NdotV resolution allows up to 5 %.
-        assert c.max_err < 1e-2 * max(1.0, c.exp_max), c
-        assert c.min_n_dot_v < GRAZING_N_DOT_V and c.grazing_max_err < 5e-2 * max(1.0, c.exp_max), c
+        m = (res.aov["row"][res.aov["row"] >= 0] == c.row) & (res.aov["col"][res.aov["row"] >= 0] == c.col)
+        assert c.min_n_dot_v < GRAZING_N_DOT_V and c.max_err <= allowed[m].max() + 1e-5, c
 
 
 def test_compensated_white_metal_row_is_exactly_white(report):
     _, _, cells = report
     for c in (c for c in cells if c.metallic == 1.0):
         assert abs(c.exp_min - 1) < 1e-9 and abs(c.exp_max - 1) < 1e-9
-        assert abs(c.rendered_min - 1) < 6e-3 and abs(c.rendered_max - 1) < 6e-3
+        # The chart reads A + B and E = A + B from one texel fetch: (A + B) / E is 1 in float32.
+        assert abs(c.rendered_min - 1) < 1e-5 and abs(c.rendered_max - 1) < 1e-5
 
 
 def test_mixed_metallic_row_is_the_mix_of_its_lobes(report):
@@ -85,11 +91,12 @@ def test_smooth_dielectric_gains_energy_at_grazing_angles(report):
 
 def test_single_scatter_metal_loses_what_the_albedo_says(session):
     spec = furnace_spec(make_spec(width=120, height=60, rows=1, cols=3, metallic=(1, 1), multiscatter=False))
-    cells = cell_energy(session.render(spec), spec)
+    res = session.render(spec)
+    cells = cell_energy(res, spec)
     rough = next(c for c in cells if c.roughness == 1.0)
     # REFERENCE §2: E(mu = 1, r = 1) = 1 - ln 2 exactly; the cell's darkest pixel faces the camera.
     assert rough.exp_min == pytest.approx(1 - math.log(2), abs=2e-3)
-    assert rough.rendered_min == pytest.approx(rough.exp_min, abs=6e-3)
+    FurnaceBudget(session, spec, res, res.aov["row"] >= 0).check()   # every pixel is what the model loses
     assert any("loses energy" in line and "multiple scattering is off" in line for line in model_summary(cells, True))
 
 

@@ -9,6 +9,7 @@ from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program as compose, display_options, render_plan
 from sdfpbr.gpu.programs import set_uniforms
 from sdfpbr.spec.chart_spec import QUALITY_PRESETS, make_spec
+from test_chart import dfg_read
 
 BRDF_KERNEL = """
 #include "common.glsl"
@@ -106,14 +107,9 @@ def test_default_lut_hits_reference_vectors(ctx, session):
     q = QUALITY_PRESETS["default"]
     source = compose("dfg_main.glsl", {"BRDF_MODEL": "gltf"})
     table = session.ibl.compute_dfg_table(source, q.dfg_size, q.dfg_samples)
-    size = q.dfg_size
 
     def lookup(mu, r):
-        x, y = mu * (size - 1), r * (size - 1)
-        i, j = min(int(x), size - 2), min(int(y), size - 2)
-        fx, fy = x - i, y - j
-        t = table[..., :2]
-        return ((1 - fy) * ((1 - fx) * t[j, i] + fx * t[j, i + 1]) + fy * ((1 - fx) * t[j + 1, i] + fx * t[j + 1, i + 1]))
+        return [t[0] for t in dfg_read(table.astype(float), np.array([mu]), np.array([r]))[:2]]
     for r, mu, e, a, b in [(0.25, 0.25, 0.96157, 0.75803, 0.20354), (0.5, 0.5, 0.85726, 0.83492, 0.02235),
                            (0.75, 0.5, 0.66318, 0.65469, 0.00848), (1.0, 0.5, 0.45069, 0.44771, 0.00299),
                            (1.0, 1.0, 1 - np.log(2), 0.30682, 0.00003)]:
