@@ -34,6 +34,17 @@ def test_a_transparent_chart_composited_onto_a_colour_is_the_chart_rendered_onto
     assert np.abs(composite(transparent, backdrop) - onto[..., :3]).max() <= 1.5
 
 
+def test_a_backdrop_is_the_page_under_the_labels_too(session):
+    """A chart laid onto a page colour is laid onto it whole: its label margins are that colour
+    (transparent or not), not the chart's dark ground."""
+    from sdfpbr.image.chart_labels import label
+    for transparent in (False, True):
+        spec = make_spec(rows=1, cols=2, width=128, height=96, backdrop=(1.0, 0.9, 0.8), transparent=transparent)
+        chart = label(spec, session.render(spec))
+        for corner in (chart[0, 0], chart[-1, -1]):
+            np.testing.assert_array_equal(corner, [255, 230, 204, 255])
+
+
 def floor_points(spec, centres: np.ndarray):
     """Each pixel's camera ray on the floor plane: the point, a pixel's world size there, and
     whether the pixel shows open floor (rays passing within two pixels of a sphere at one of

@@ -322,7 +322,8 @@ def test_the_key_follows_the_python_that_makes_images_only():
 
 def test_the_project_gallery_covers_the_issue_list():
     """charts/: the default chart, the metals, every bug (own image + contact sheet), the tone
-    mapper, exposure and environment sweeps, the furnace; parsed, not rendered."""
+    mapper, exposure and environment sweeps, the furnace, a chart laid onto a page; parsed, not
+    rendered."""
     from sdfpbr.spec.bugs import BUGS
     from sdfpbr.spec.chart_spec import MATERIAL_PRESETS
     items = {i.name: i for i in collect(Path(__file__).resolve().parent.parent / "charts")}
@@ -336,6 +337,8 @@ def test_the_project_gallery_covers_the_issue_list():
     furnace = items["furnace"].specs[0]
     assert (furnace.env, furnace.lights, furnace.ground, furnace.ao, furnace.base_color) == (
         "uniform", (), False, False, (1.0, 1.0, 1.0))
+    page = items["on-a-page"].specs[0]
+    assert page.transparent and page.backdrop == (0.96, 0.95, 0.92)
     assert all(max(s.width, s.height) <= 1024 for i in items.values() for s in i.specs)
 
 

@@ -166,6 +166,39 @@ def test_transparent_mode():
     np.testing.assert_allclose(found, expected, atol=2.0)
 
 
+def _contrast(a, b):
+    def luminance(rgb):
+        c = np.asarray(rgb[:3], float) / 255
+        return (np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4) @ [0.2126, 0.7152, 0.0722])
+    la, lb = sorted((luminance(a), luminance(b)))
+    return (lb + 0.05) / (la + 0.05)
+
+
+@pytest.mark.parametrize("page", [(1.0, 1.0, 1.0), (0.95, 0.93, 0.85), (0.2, 0.3, 0.6), (0.0, 0.0, 0.0)])
+def test_labels_laid_onto_a_page_colour(page):
+    """A render laid onto a backdrop puts its labels on that page too: opaque margins of the
+    page's colour (transparent or not), plain text that reads on it (WCAG contrast of the title
+    and the value labels at least 4.5, no outline: every text pixel lies between the page and
+    the text colour)."""
+    img, cells = synthetic_render(300, 450, 2, 3)
+    page8 = np.round(255 * np.array(page)).astype(np.uint8)
+    for transparent in (False, True):
+        chart = compose_chart(img, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER, transparent=transparent, page_srgb=page)
+        x0, y0 = render_area_offset(img.shape, 2, 3, TITLE, FOOTER)
+        np.testing.assert_array_equal(chart[y0:y0 + 300, x0:x0 + 450], img)
+        for corner in (chart[0, 0], chart[0, -1], chart[-1, 0], chart[-1, -1]):
+            np.testing.assert_array_equal(corner, [*page8, 255])
+        margin = chart[:y0, x0:x0 + 450].reshape(-1, 4).astype(int)
+        text = margin[np.abs(margin[:, :3] - page8).max(1) > 0]
+        farthest = text[np.abs(text[:, :3] - page8).sum(1).argmax()]
+        assert _contrast(farthest, page8) >= 4.5 and (text[:, 3] == 255).all()
+        # Anti-aliased text mixes page and ink: each channel on one side of the page's.
+        side = np.sign(farthest[:3] - page8.astype(int))
+        assert ((text[:, :3] - page8) * side >= 0).all()
+        found, expected, _ = column_label_centres(chart, (x0, y0), img.shape, cells, 3, np.array([*page8, 255]))
+        np.testing.assert_allclose(found, expected, atol=2.0)
+
+
 def test_small_render_still_labeled():
     img, cells = synthetic_render(256, 256, 3, 3)
     values = [0, 0.5, 1]

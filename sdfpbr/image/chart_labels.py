@@ -92,7 +92,8 @@ def labelled_canvas(spec: ChartSpec, camera, title: str | None = None,
 def finish_labels(spec: ChartSpec, chart: np.ndarray, camera, origin: tuple[int, int]) -> np.ndarray:
     """A labelled_canvas chart with its render drawn in: the glTF cells' names over it."""
     names = cell_names(spec)
-    return name_cells(chart, chart_cells(spec, camera), names, origin, (spec.height, spec.width)) if names else chart
+    return name_cells(chart, chart_cells(spec, camera), names, origin, (spec.height, spec.width),
+                      spec.backdrop or None) if names else chart
 
 
 def _layout(spec: ChartSpec, camera, title: str | None, footer: str | None) -> dict:
@@ -102,10 +103,12 @@ def _layout(spec: ChartSpec, camera, title: str | None, footer: str | None) -> d
     cells = chart_cells(spec, camera)
     if spec.gltf:   # named cells, no axes
         return dict(cells=cells, column_values=[], row_values=[], title=title, footer=footer,
-                    transparent=spec.transparent, column_axis_title="", row_axis_title="")
+                    transparent=spec.transparent, column_axis_title="", row_axis_title="",
+                    page_srgb=spec.backdrop or None)
     return dict(cells=cells, column_values=spec.axis_values("x"), row_values=spec.axis_values("y"), title=title,
                 footer=footer, row_names=row_names(spec), transparent=spec.transparent,
-                column_axis_title=axis_title(spec, "x"), row_axis_title=axis_title(spec, "y"))
+                column_axis_title=axis_title(spec, "x"), row_axis_title=axis_title(spec, "y"),
+                page_srgb=spec.backdrop or None)
 
 
 def axis_title(spec: ChartSpec, axis: str) -> str:

@@ -21,7 +21,7 @@ import functools
 import importlib.util
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
@@ -44,10 +44,12 @@ FOOTER_SEPARATOR = "  |  "   # between a footer's parts; a wrapped footer breaks
 BACKGROUND = (24, 24, 24, 255)   # of charts, sheets and heat maps
 _TRANSPARENT = (0, 0, 0, 0)
 _OUTLINE = (16, 16, 16, 255)  # drawn around text only in transparent mode
-_TITLE_COLOR = (240, 240, 240, 255)
-_LABEL_COLOR = (225, 225, 225, 255)
-_AXIS_COLOR = (175, 175, 175, 255)
-_FOOTER_COLOR = (150, 150, 150, 255)
+# Text colours by style: on the chart's dark ground, and on a light page (a chart laid onto a
+# backdrop, `--backdrop 1,1,1`) the same steps, dark.
+_DARK_GROUND_INK = {"title": (240, 240, 240, 255), "label": (225, 225, 225, 255), "axis": (175, 175, 175, 255),
+                    "footer": (150, 150, 150, 255)}
+_LIGHT_PAGE_INK = {"title": (25, 25, 25, 255), "label": (40, 40, 40, 255), "axis": (90, 90, 90, 255),
+                   "footer": (105, 105, 105, 255)}
 _ROW_LABEL_RESERVE = "0.00"  # widest plain value label; reserved even when the labels are not known
 
 
@@ -83,16 +85,43 @@ def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
     return _Style(size, color, load_font(size), max(1, round(size / 16)))
 
 
+def _relative_luminance(rgb8) -> float:
+    c = np.asarray(rgb8[:3], float) / 255
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return float(linear @ [0.2126, 0.7152, 0.0722])
+
+
+def _contrast(a, b) -> float:
+    """WCAG 2 contrast ratio of two sRGB colours."""
+    la, lb = sorted((_relative_luminance(a), _relative_luminance(b)))
+    return (lb + 0.05) / (la + 0.05)
+
+
+def page_colour(page_srgb: Sequence[float] | None) -> tuple[int, int, int, int] | None:
+    """A page colour (sRGB 0..1) as the labels' opaque 8-bit background."""
+    return None if page_srgb is None else (*(round(255 * min(max(v, 0.0), 1.0)) for v in page_srgb), 255)
+
+
+def _text_colour(style_name: str, page: tuple[int, int, int, int] | None) -> tuple[int, int, int, int]:
+    """The text colour of a style on the chart's own ground (page None) or on a page: the light
+    steps or the dark ones, whichever contrasts more with it."""
+    light = _DARK_GROUND_INK[style_name]
+    if page is None:
+        return light
+    dark = _LIGHT_PAGE_INK[style_name]
+    return dark if _contrast(dark, page) > _contrast(light, page) else light
+
+
 def _styles(render_side: int) -> dict[str, _Style]:
     """Font sizes scale with the render's longer side (a figure is read at its width on a page,
     however few rows it has): 1024 px -> 22 px labels, 30 px title."""
     scale = render_side / 1024
     label = max(11, round(22 * scale))
     return {
-        "title": _style(max(14, round(30 * scale)), _TITLE_COLOR),
-        "label": _style(label, _LABEL_COLOR),
-        "axis": _style(label, _AXIS_COLOR),
-        "footer": _style(max(11, round(17 * scale)), _FOOTER_COLOR),
+        "title": _style(max(14, round(30 * scale)), _DARK_GROUND_INK["title"]),
+        "label": _style(label, _DARK_GROUND_INK["label"]),
+        "axis": _style(label, _DARK_GROUND_INK["axis"]),
+        "footer": _style(max(11, round(17 * scale)), _DARK_GROUND_INK["footer"]),
     }
 
 
@@ -241,18 +270,21 @@ def compose_chart(render_rgba: np.ndarray, cells: Sequence[Cell], column_values:
                   row_names: Sequence[str] | None = None, transparent: bool = False,
                   column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
                   row_axis_title: str = DEFAULT_ROW_AXIS_TITLE,
-                  cell_names: Sequence[str] | None = None) -> np.ndarray:
+                  cell_names: Sequence[str] | None = None,
+                  page_srgb: Sequence[float] | None = None) -> np.ndarray:
     """Return a new RGBA uint8 chart: the render pasted pixel-exactly, with all text in margins;
     ``cell_names`` (one per cell, row by row): a name under each sphere, over the render, for
-    charts whose cells are named materials rather than axis values."""
+    charts whose cells are named materials rather than axis values. The margins are the chart's
+    dark ground, or nothing (``transparent``: text outlined to read on any page), or the page
+    colour ``page_srgb`` (a render laid onto a backdrop) with text that contrasts with it."""
     render = np.asarray(render_rgba)
     if render.dtype != np.uint8 or render.ndim != 3 or render.shape[2] != 4:
         raise ValueError(f"expected an RGBA uint8 image, got {render.dtype} {render.shape}")
     chart, (x0, y0) = chart_canvas(render.shape, cells, column_values, row_values, title, footer, row_names,
-                                   transparent, column_axis_title, row_axis_title)
+                                   transparent, column_axis_title, row_axis_title, page_srgb=page_srgb)
     chart[y0:y0 + render.shape[0], x0:x0 + render.shape[1]] = render
     if cell_names:
-        chart = name_cells(chart, cells, cell_names, (x0, y0), render.shape[:2])
+        chart = name_cells(chart, cells, cell_names, (x0, y0), render.shape[:2], page_srgb)
     return chart
 
 
@@ -261,20 +293,22 @@ def chart_canvas(render_shape: Sequence[int], cells: Sequence[Cell], column_valu
                  row_names: Sequence[str] | None = None, transparent: bool = False,
                  column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
                  row_axis_title: str = DEFAULT_ROW_AXIS_TITLE,
-                 on_disk: bool = False) -> tuple[np.ndarray, tuple[int, int]]:
+                 on_disk: bool = False, page_srgb: Sequence[float] | None = None) -> tuple[np.ndarray, tuple[int, int]]:
     """A new RGBA uint8 chart without its render: the background and every label, and the
     (x, y) where a render of ``render_shape`` goes (a renderer may draw straight into it).
     ``on_disk``: the labels are also read from and kept in the disk cache (a still chart's; an
     animation's frames, each a layout of its own when the camera turns, are not kept)."""
+    page = page_colour(page_srgb)
+    transparent = transparent and page is None   # a page under the render is under its labels too
     key = (tuple(render_shape[:2]), tuple(cells), tuple(column_values), tuple(row_values), title, footer,
-           tuple(row_names or ()), transparent, column_axis_title, row_axis_title)
+           tuple(row_names or ()), transparent, column_axis_title, row_axis_title, page)
     labels = _labels.pop(key, None)
     stored_key = _stored_key(key) if on_disk and labels is None else None
     if stored_key:
         labels = _read_labels(stored_key)
     if labels is None:
         labels = _draw_labels(render_shape, cells, column_values, row_values, title, footer, row_names,
-                              transparent, column_axis_title, row_axis_title)
+                              transparent, column_axis_title, row_axis_title, page)
         if stored_key:
             ArrayCache().put(LABELS_CACHE_KIND, stored_key, labels.arrays())
     _labels[key] = labels   # the most recently used last
@@ -291,13 +325,15 @@ def _fitted(style: _Style, text: str, room: float) -> str:
 
 
 def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], origin: tuple[int, int],
-               render_shape: Sequence[int]) -> np.ndarray:
+               render_shape: Sequence[int], page_srgb: Sequence[float] | None = None) -> np.ndarray:
     """Each cell's name centred under its sphere, outlined so it reads over any floor, and cut
     to its column's width so that neighbours' names never run into each other. ``origin``: the
     render's (x, y) in the chart."""
     from PIL import Image, ImageDraw
     x0, y0 = origin
     style = _styles(max(render_shape[:2]))["label"]
+    page = page_colour(page_srgb)   # the floor a name sits on is the page: plain text of its colour
+    colour, stroke = _text_colour("label", page), (0 if page else max(1, style.size // 8))
     layer = Image.new("RGBA", (chart.shape[1], chart.shape[0]), _TRANSPARENT)
     draw = ImageDraw.Draw(layer)
     xs = sorted({round(c.cx, 3) for c in cells})
@@ -308,8 +344,8 @@ def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], o
         text = _fitted(style, drawable_text(name, style.font), room)
         left, _, right, _ = _ink(style, text)
         baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - cap_top
-        draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=style.color,
-                  anchor="ls", stroke_width=max(1, style.size // 8), stroke_fill=_OUTLINE)
+        draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=colour,
+                  anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
     return np.array(Image.alpha_composite(Image.fromarray(chart), layer))
 
 
@@ -539,17 +575,17 @@ def _drawn_text_patch(style: _Style, text: str, stroke: int, size: tuple[int, in
 
 
 def _draw_labels(render_shape, cells, column_values, row_values, title, footer, row_names, transparent,
-                 column_axis_title, row_axis_title) -> _Labels:
+                 column_axis_title, row_axis_title, page) -> _Labels:
     """Every label of the layout drawn on its own patch, at the same sub-pixel position as on
     the whole chart (a patch's corner is a whole pixel: the fraction of the text's origin is kept)."""
     from PIL import Image
     row_labels = _row_labels(row_values, row_names)
     lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
     width, height = lay.width, lay.height
-    background = _TRANSPARENT if transparent else BACKGROUND
+    background = page or (_TRANSPARENT if transparent else BACKGROUND)
     patches = []
     for t in _placements(lay, render_shape, cells, column_values, row_labels):
-        style = lay.styles[t.style]
+        style = replace(lay.styles[t.style], color=_text_colour(t.style, page))
         stroke = style.stroke if transparent else 0
         if t.rotated:
             x, y, patch = int(t.x), int(t.baseline), _text_patch(style, t.text, stroke, None, None)
