@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from sdfpbr.shading.camera import frame, ground_height, sphere_centers
-from sdfpbr.shading.cells import CATCHER_BAND, cell_grid
+from sdfpbr.shading.catcher import catcher_bands
+from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import make_spec
 
 SUN = {"kind": "directional", "direction": [0.45, 0.8, 0.35], "intensity": 3.0, "angular_radius_deg": 1.0}
@@ -70,7 +71,7 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
     angular radius times the distance to the sphere) and two pixels. The reference traces the
     floor's light with and without the sphere (direct light only: the share is then its exact
     visibility, 0 or 1 on every path outside the penumbra). Inside the band along the cell's
-    border where the catcher fades out (cells.CATCHER_BAND) the umbra may be fainter."""
+    border where the catcher fades out (catcher.py) the umbra may be fainter."""
     spec = make_spec(rows=1, cols=1, width=160, height=160, env="black", ibl=False, lights=[SUN],
                      transparent=True)
     if renderer == "chart":
@@ -87,12 +88,21 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
     passes = np.where(s > 0, np.linalg.norm(p + np.multiply.outer(s, sun), axis=-1), np.linalg.norm(p, axis=-1))
     margin = np.maximum(s, 0) * tan_sun + 2 * pixel
     umbra, lit = floor & (passes < r - margin), floor & (passes > r + margin)
-    umbra &= border_distance(spec) >= CATCHER_BAND * min(spec.width, spec.height)   # one cell: the whole image
+    umbra &= ~fade_band(spec)
     assert umbra.sum() > 100 and lit.sum() > 1000
     alpha, rgb = image[..., 3], image[..., :3]
     assert (alpha[umbra] == 255).all(), np.unique(alpha[umbra])
     assert (alpha[lit] == 0).all(), np.unique(alpha[lit])
     assert (rgb[floor & (alpha > 0)] == 0).all()            # a catcher has no colour of its own
+
+
+def fade_band(spec) -> np.ndarray:
+    """(H, W) whether a pixel lies in one of its cell's fade bands (catcher.catcher_bands)."""
+    g = cell_grid(spec)
+    left, right, top, bottom = catcher_bands(spec)
+    x = (np.arange(spec.width) + 0.5 - g.left) % g.cell_width / g.cell_width
+    y = (np.arange(spec.height) + 0.5 - g.top) % g.cell_height / g.cell_height
+    return np.logical_or.outer((y < top) | (1 - y < bottom), (x < left) | (1 - x < right))
 
 
 def border_distance(spec) -> np.ndarray:
@@ -120,7 +130,7 @@ def test_a_shadow_catchers_cells_meet_without_seams(session):
     inside = np.zeros(alpha.shape, bool)
     inside[rows, cols] = True
     assert (alpha[~inside] == 0).all() and (alpha[inside & (border_distance(spec) < 1)] <= 1).all()
-    band = inside & (border_distance(spec) < CATCHER_BAND * min(g.cell_width, g.cell_height))
+    band = inside & fade_band(spec)
     assert ((alpha > 0) & (alpha < 255))[band].any()        # faded, not cut
     assert (alpha == 255).any() and ((alpha > 0) & (alpha < 255))[inside & ~band].mean() > 0.1
 

@@ -89,24 +89,33 @@ def test_the_key_lights_penumbra_stays_inside_the_cell(shape):
     assert (apart > touching).all()
 
 
-@pytest.mark.parametrize("side", [100, 203, 400])
-def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(side):
-    """Geometry alone, on square cells: from no floor point in the band where a shadow catcher
-    fades out (CATCHER_BAND of the side along every border, pixel centres) does the key light's
-    disc touch the sphere's, so the fade takes only the long soft shadows that would otherwise
-    be cut at the seams."""
-    from sdfpbr.shading.cells import CATCHER_BAND
+@pytest.mark.parametrize("shape", [(100, 100), (203, 203), (400, 400), *CELL_SHAPES])
+def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(shape):
+    """Geometry alone, at full resolution: from no floor point in a side's fade band (catcher.py,
+    found on a coarser grid) does the key light's disc touch the sphere's, unless that side's
+    band is already down to CATCHER_BAND_MIN (a few pixels of penumbra on cells taller than
+    wide); the fade takes only the long soft shadows that would otherwise be cut at the seams.
+    A side the key shadow leaves free fades over the widest band."""
+    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, CATCHER_BAND_MIN, catcher_bands
     from sdfpbr.spec.chart_spec import KEY_LIGHT
-    spec = make_spec(stage="cells", rows=1, cols=1, width=side, height=side)
-    ys, xs = np.mgrid[0:side, 0:side] + 0.5
-    band = np.minimum(np.minimum(xs, side - xs), np.minimum(ys, side - ys)) < CATCHER_BAND * side
-    ro, rd = (a[band] for a in frame_cell(spec).pixel_rays())
-    points = ro + ((-spec.sphere_radius - ro[:, 1]) / rd[:, 1])[:, None] * rd
-    to_centre = -points / np.linalg.norm(points, axis=1)[:, None]
+    w, h = shape
+    spec = make_spec(stage="cells", rows=1, cols=1, width=w, height=h)
+    bands = catcher_bands(spec)
+    ys, xs = np.mgrid[0:h, 0:w] + 0.5
+    ro, rd = frame_cell(spec).pixel_rays()
+    points = ro + ((-spec.sphere_radius - ro[..., 1]) / rd[..., 1])[..., None] * rd
+    to_centre = -points / np.linalg.norm(points, axis=-1, keepdims=True)
     light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
     apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))
-    touching = np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=1)) + np.radians(KEY_LIGHT.angular_radius_deg)
-    assert (apart > touching).all(), np.degrees((touching - apart).max())
+    touching = np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=-1)) + np.radians(KEY_LIGHT.angular_radius_deg)
+    shadow = apart <= touching
+    slack = 4 / 128   # the coarse grid's step and margin
+    for band, depth in zip(bands, (xs / w, 1 - xs / w, ys / h, 1 - ys / h)):   # left, right, top, bottom
+        assert CATCHER_BAND_MIN <= band <= CATCHER_BAND_MAX
+        assert band == CATCHER_BAND_MIN or not (shadow & (depth < band)).any(), (bands, band)
+        # As wide as it may be: at its widest, or the shadow comes close behind it.
+        assert band in (CATCHER_BAND_MIN, CATCHER_BAND_MAX) or (shadow & (depth < band + slack)).any(), (bands, band)
+    assert bands[2] == CATCHER_BAND_MAX   # the key light shines from behind: its shadow falls to the front
 
 
 @pytest.mark.parametrize("shape", CELL_SHAPES[::2])

@@ -10,7 +10,9 @@ import moderngl
 import numpy as np
 
 from ..shading import camera as camera_mod
+from ..shading.catcher import catcher_band_pixels
 from ..shading.cells import FLOOR_RETURN_G, cell_grid, stage
+from ..shading.plan import has_shadow_catcher
 from ..shading.material_table import upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
 from ..spec.material import exposure_axis
@@ -162,6 +164,8 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
     if stage(spec) == "cells":
         u.update(cell_grid(spec).uniforms(spec.height))
         u["u_floor_return"] = FLOOR_RETURN_G
+        if has_shadow_catcher(spec):
+            u["u_catcher_band"] = catcher_band_pixels(spec)
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]
         u["u_dir_light_illuminance"] = [tuple(c * light.intensity for c in light.color) for light in directional]

@@ -11,16 +11,6 @@ from ..spec.chart_spec import ChartSpec
 
 CELL_FILL = 0.62   # the sphere's radius over the cell's half height (or half width if narrower)
 
-# A shadow catcher's alpha fades to nothing over a band along each cell's border, this share of
-# the cell's width at its sides and of its height at its top and bottom (catcher_fade.glsl;
-# chart and reference alike). A cell's floor is its own: under the default lights its sphere's
-# long soft shadows (the fill light's) and the studio's occlusion still take ~10 % of the
-# floor's light at the border, where the next cell's floor starts clear, so a page would show
-# every cell's edge. The key light's shadow, its penumbra included, keeps 7.5 % of the side from
-# the border on square cells and is left whole there and on wider ones (tests/test_stage.py); on
-# cells taller than wide a few pixels of its penumbra's outer edge fade.
-CATCHER_BAND = 0.07
-
 # The irradiance a cells-stage sphere gets back from its floor of its own light, per unit
 # floor albedo and sphere radiance (floor_return.glsl): G(n.y) at the sphere's point with
 # normal n, for n.y = -1, -1 + 1/16, ..., 1. A sphere of uniform radiance K resting on a
@@ -58,8 +48,7 @@ class CellGrid:
     def uniforms(self, image_height: int) -> dict:
         """The grid in GL pixel coordinates (y up from the bottom row of the image)."""
         bottom = image_height - self.top - self.rows * self.cell_height
-        return {"u_cell_size": (self.cell_width, self.cell_height), "u_grid_origin": (self.left, bottom),
-                "u_catcher_band": (CATCHER_BAND * self.cell_width, CATCHER_BAND * self.cell_height)}
+        return {"u_cell_size": (self.cell_width, self.cell_height), "u_grid_origin": (self.left, bottom)}
 
 
 def cell_grid(spec: ChartSpec) -> CellGrid:

@@ -93,6 +93,11 @@ def has_alpha(spec: ChartSpec) -> bool:
     return spec.transparent or bool(spec.backdrop)
 
 
+def has_shadow_catcher(spec: ChartSpec) -> bool:
+    """A render with alpha keeps of its floor only the light its spheres take away."""
+    return has_alpha(spec) and spec.ground
+
+
 def bounce_step(spec: ChartSpec) -> int:
     """Cell pixels between the bounce plate's texels (stage_bounce_main.glsl): the preset's
     bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no plate), where the
@@ -184,8 +189,7 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
         "USE_SHADOWS": spec.shadows and spec.ground and (directional > 0 or (point > 0 and stage(spec) == "cells")),
         "MULTISCATTER": spec.multiscatter,
         "TRANSPARENT": has_alpha(spec),
-        # A render with alpha keeps of its floor only the light its spheres take away.
-        "SHADOW_CATCHER": has_alpha(spec) and spec.ground,
+        "SHADOW_CATCHER": has_shadow_catcher(spec),
         "NUM_DIR_LIGHTS": directional,
         "NUM_POINT_LIGHTS": point,
         "HALF_RADIANCE": spec.hdr_precision == "float16",
