@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from sdfpbr.image import chart_labels
-from sdfpbr.image.layout import Cell, compose_chart, forget_layouts, label_text, render_area_offset
+from sdfpbr.image.layout import (DEFAULT_COLUMN_AXIS_TITLE, Cell, compose_chart, forget_layouts, label_text,
+                                 render_area_offset)
 from sdfpbr.spec.chart_spec import make_spec
 
 TITLE = "Material chart"
@@ -197,6 +198,17 @@ def test_labels_laid_onto_a_page_colour(page):
         assert ((text[:, :3] - page8) * side >= 0).all()
         found, expected, _ = column_label_centres(chart, (x0, y0), img.shape, cells, 3, np.array([*page8, 255]))
         np.testing.assert_allclose(found, expected, atol=2.0)
+        # The hierarchy of the chart's own ground kept as far as the page allows: each piece of
+        # text's ink has at least the contrast the next less prominent one has.
+        from sdfpbr.image.layout import label_boxes
+        boxes = dict(label_boxes(img.shape, cells, [0, 0.5, 1], [0, 1], TITLE, FOOTER))
+        order = [TITLE, "0.5", DEFAULT_COLUMN_AXIS_TITLE, FOOTER]      # title, label, axis, footer
+        contrasts = []
+        for name in order:
+            left, top, right, bottom = (int(round(v)) for v in boxes[name])
+            ink = chart[top:bottom, left:right].reshape(-1, 4).astype(int)
+            contrasts.append(max(_contrast(p, page8) for p in ink[np.abs(ink[:, :3] - page8).sum(1) > 0][::7]))
+        assert all(a >= b - 0.05 for a, b in zip(contrasts, contrasts[1:])) and contrasts[-1] >= 3.0, contrasts
 
 
 def test_small_render_still_labeled():

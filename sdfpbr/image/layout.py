@@ -44,12 +44,10 @@ FOOTER_SEPARATOR = "  |  "   # between a footer's parts; a wrapped footer breaks
 BACKGROUND = (24, 24, 24, 255)   # of charts, sheets and heat maps
 _TRANSPARENT = (0, 0, 0, 0)
 _OUTLINE = (16, 16, 16, 255)  # drawn around text only in transparent mode
-# Text colours by style: on the chart's dark ground, and on a light page (a chart laid onto a
-# backdrop, `--backdrop 1,1,1`) the same steps, dark.
+# Text colours by style on the chart's dark ground. On a page colour (a chart laid onto a
+# backdrop) each style keeps the contrast it has here, as far as the page allows (_text_colour).
 _DARK_GROUND_INK = {"title": (240, 240, 240, 255), "label": (225, 225, 225, 255), "axis": (175, 175, 175, 255),
                     "footer": (150, 150, 150, 255)}
-_LIGHT_PAGE_INK = {"title": (25, 25, 25, 255), "label": (40, 40, 40, 255), "axis": (90, 90, 90, 255),
-                   "footer": (105, 105, 105, 255)}
 _ROW_LABEL_RESERVE = "0.00"  # widest plain value label; reserved even when the labels are not known
 
 
@@ -102,14 +100,26 @@ def page_colour(page_srgb: Sequence[float] | None) -> tuple[int, int, int, int] 
     return None if page_srgb is None else (*(round(255 * min(max(v, 0.0), 1.0)) for v in page_srgb), 255)
 
 
+@functools.lru_cache(maxsize=64)
 def _text_colour(style_name: str, page: tuple[int, int, int, int] | None) -> tuple[int, int, int, int]:
-    """The text colour of a style on the chart's own ground (page None) or on a page: the light
-    steps or the dark ones, whichever contrasts more with it."""
-    light = _DARK_GROUND_INK[style_name]
+    """The text colour of a style on the chart's own ground (page None) or on a page: the grey
+    between the page and white or black (whichever the page contrasts more with) whose WCAG
+    contrast with the page is the style's on the chart's ground, or the most the page allows;
+    so a title stays brighter than an axis title, dark on a light page."""
+    ground = _DARK_GROUND_INK[style_name]
     if page is None:
-        return light
-    dark = _LIGHT_PAGE_INK[style_name]
-    return dark if _contrast(dark, page) > _contrast(light, page) else light
+        return ground
+    target = _contrast(ground, BACKGROUND)
+    extreme = max((0, 255), key=lambda v: _contrast((v, v, v), page))
+    lo, hi = 0.0, 1.0                     # the extreme's share of the mix
+    for _ in range(24):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _contrast(_mix(page, extreme, mid), page) < target else (lo, mid)
+    return (*_mix(page, extreme, hi), 255)
+
+
+def _mix(page, extreme: int, share: float) -> tuple[int, int, int]:
+    return tuple(round(c + (extreme - c) * share) for c in page[:3])
 
 
 def _styles(render_side: int) -> dict[str, _Style]:
