@@ -211,6 +211,31 @@ def test_labels_laid_onto_a_page_colour(page):
         assert all(a >= b - 0.05 for a, b in zip(contrasts, contrasts[1:])) and contrasts[-1] >= 3.0, contrasts
 
 
+@pytest.mark.parametrize("shape", [(300, 400), (128, 128)])
+def test_a_long_title_wraps_instead_of_widening_the_chart(shape):
+    """A title wider than the chart's other text wraps at its spaces to that width (a word
+    wider than it is cut with an ellipsis): the canvas is as wide as with no title at all, and
+    every line lies inside it."""
+    from sdfpbr.image.layout import label_boxes
+    img, cells = synthetic_render(*shape, 2, 3)
+    words = "Roughness and metallic of a measured gold under the studio environment, ACES at +1 EV"
+    for title in (words, "x" * 300):
+        chart = compose_chart(img, cells, [0, 0.5, 1], [0, 1], title, FOOTER)
+        untitled = compose_chart(img, cells, [0, 0.5, 1], [0, 1], "", FOOTER)
+        assert chart.shape[1] == untitled.shape[1]
+        boxes = label_boxes(img.shape, cells, [0, 0.5, 1], [0, 1], title, FOOTER)
+        lines = []
+        for text, box in boxes:          # the title's lines come first
+            if not (text in title or text.endswith("…")):
+                break
+            lines.append((text, box))
+        assert all(0 <= b[0] and b[2] <= chart.shape[1] for _, b in lines)
+        if title == words:
+            assert len(lines) > 1 and " ".join(t for t, _ in lines) == words
+        else:
+            assert len(lines) == 1 and lines[0][0].endswith("…")
+
+
 def test_small_render_still_labeled():
     img, cells = synthetic_render(256, 256, 3, 3)
     values = [0, 0.5, 1]

@@ -118,6 +118,20 @@ def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(shape):
     assert bands[2] == CATCHER_BAND_MAX   # the key light shines from behind: its shadow falls to the front
 
 
+@pytest.mark.requires_extra("pygltflib")
+def test_the_catchers_bands_follow_the_cell_and_the_lights_not_the_materials():
+    """Per-cell materials (a glTF asset's, colours, axis values) change no band; the lights and
+    the camera do; with no light to keep whole every side fades over the widest band."""
+    from pathlib import Path
+    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, catcher_bands
+    plain = make_spec(rows=2, cols=3, transparent=True)
+    listed = make_spec(plain, base_colors=[(i / 5, 0.5, 0.5) for i in range(6)], x_values=[0, 0.3, 1])
+    asset = make_spec(plain, gltf=str(Path(__file__).parent / "data" / "materials.glb"))
+    assert catcher_bands(listed) == catcher_bands(plain) == catcher_bands(asset)
+    assert catcher_bands(make_spec(plain, lights="none")) == (CATCHER_BAND_MAX,) * 4
+    assert catcher_bands(make_spec(plain, camera_azimuth=40.0)) != catcher_bands(plain)
+
+
 @pytest.mark.parametrize("shape", CELL_SHAPES[::2])
 def test_shadows_leave_the_cells_border_as_it_is(session, shape):
     """Rendered: turning shadows off changes the floor at the cell's border by no more than the

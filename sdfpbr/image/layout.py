@@ -164,7 +164,7 @@ def _baseline(style: _Style, line_top: float) -> float:
 @dataclass(frozen=True)
 class _Layout:
     styles: dict[str, _Style]
-    title: str
+    title: tuple[str, ...]    # its lines
     footer: tuple[str, ...]   # its lines
     column_axis_title: str
     row_axis_title: str
@@ -191,51 +191,55 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     label, axis = styles["label"], styles["axis"]
     pad, gap = label.size, max(4, label.size // 2)
 
-    # Top margin: title, column axis title, column labels.
-    y = pad
-    title_top = y
-    if text["title"]:
-        y += _line_height(styles["title"]) + gap
-    axis_top = y
-    if text["col"]:
-        y += _line_height(axis) + max(2, gap // 3)
-    labels_top = y
-    top = y + _line_height(label) + max(2, gap // 2)
-
     # Left margin: rotated row axis title, right-aligned row labels.
     labels = [drawable_text(t, label.font) for t in row_labels]
     label_w = max(_width(label, t) for t in [_ROW_LABEL_RESERVE, *labels])
     left = pad + (_line_height(axis) + gap if text["row"] else 0) + label_w + gap
     right = pad
 
-    # Grow the margins so that centred text (on the render area) never clips; the footer first
-    # wraps at its separators to the width the rest of the chart takes (a long reference footer
-    # under a small render set a 702-px canvas around a 256-px chart).
-    for key in ("title", "col"):
-        half = _width(styles[font_of[key]], text[key]) / 2 + pad - rw / 2
-        left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
-    footer = _wrapped(styles["footer"], text["footer"], rw + 2 * (min(left, right) - pad))   # centred on the render
-    for line in footer:
-        half = _width(styles["footer"], line) / 2 + pad - rw / 2
-        left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
+    # Grow the margins so that centred text (on the render area) never clips; the title and the
+    # footer first wrap (at spaces, at separators) to the width the rest of the chart takes (a
+    # long reference footer under a small render set a 702-px canvas around a 256-px chart, a
+    # 500-character title a 4166-px one around 400 px).
+    half = _width(axis, text["col"]) / 2 + pad - rw / 2
+    left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
+    room = rw + 2 * (min(left, right) - pad)       # centred on the render
+    title = tuple(_fitted(styles["title"], line, room) for line in _wrapped(styles["title"], text["title"], room, " "))
+    footer = _wrapped(styles["footer"], text["footer"], room)
+    for style, lines in ((styles["footer"], footer), (styles["title"], title)):
+        for line in lines:
+            half = _width(style, line) / 2 + pad - rw / 2
+            left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
+
+    # Top margin: title, column axis title, column labels.
+    y = pad
+    title_top = y
+    if title:
+        y += len(title) * _line_height(styles["title"]) + gap
+    axis_top = y
+    if text["col"]:
+        y += _line_height(axis) + max(2, gap // 3)
+    labels_top = y
+    top = y + _line_height(label) + max(2, gap // 2)
+
     bottom = (gap + len(footer) * _line_height(styles["footer"]) if footer else 0) + pad
     half = _width(axis, text["row"]) / 2 + pad - rh / 2
     top, bottom = max(top, math.ceil(half)), max(bottom, math.ceil(half))
 
-    return _Layout(styles, text["title"], footer, text["col"], text["row"], pad, gap,
+    return _Layout(styles, title, footer, text["col"], text["row"], pad, gap,
                    x0=left, y0=top, width=left + rw + right, height=top + rh + bottom,
                    title_top=title_top, axis_top=axis_top, labels_top=labels_top,
                    footer_top=top + rh + gap, row_axis_x=left - gap - label_w - gap - _line_height(axis))
 
 
-def _wrapped(style: _Style, text: str, room: float) -> tuple[str, ...]:
+def _wrapped(style: _Style, text: str, room: float, separator: str = FOOTER_SEPARATOR) -> tuple[str, ...]:
     """``text`` as lines no wider than ``room`` where it can be, broken between its parts (a
     part wider than ``room`` keeps a line of its own)."""
     if not text:
         return ()
     lines: list[str] = []
-    for part in text.split(FOOTER_SEPARATOR):
-        joined = lines[-1] + FOOTER_SEPARATOR + part if lines else part
+    for part in text.split(separator):
+        joined = lines[-1] + separator + part if lines else part
         if lines and _width(style, joined) <= room:
             lines[-1] = joined
         else:
@@ -501,8 +505,9 @@ def _placements(lay: _Layout, render_shape, cells, column_values, row_labels) ->
         return at(key, text, min(max(centre_x - (left + right) / 2, -left), width - right), baseline)  # inside
 
     centre_x = x0 + rw / 2
-    if lay.title:
-        out.append(centred("title", lay.title, centre_x, _baseline(styles["title"], lay.title_top)))
+    for i, line in enumerate(lay.title):
+        top = lay.title_top + i * _line_height(styles["title"])
+        out.append(centred("title", line, centre_x, _baseline(styles["title"], top)))
     if lay.column_axis_title:
         out.append(centred("axis", lay.column_axis_title, centre_x, _baseline(styles["axis"], lay.axis_top)))
     for i, line in enumerate(lay.footer):

@@ -34,8 +34,7 @@ def catcher_bands(spec: ChartSpec) -> tuple[float, float, float, float]:
     grid = cell_grid(spec)
     scale = min(_GRID / min(grid.cell_width, grid.cell_height), 8 * _GRID / max(grid.cell_width, grid.cell_height))
     w, h = max(2, round(grid.cell_width * scale)), max(2, round(grid.cell_height * scale))
-    cell = make_spec(spec, rows=1, cols=1, width=w, height=h, labels=False)
-    return _bands(cell.camera, cell.camera_azimuth, cell.camera_distance_scale, cell.sphere_radius, w, h,
+    return _bands(spec.camera, spec.camera_azimuth, spec.camera_distance_scale, spec.sphere_radius, w, h,
                   tuple(main_lights(spec)))
 
 
