@@ -30,6 +30,7 @@ import numpy as np
 
 from ..cache import ArrayCache, content_key
 from ..kept import Kept
+from ..oracle.display import srgb_eotf
 from .text import SYSTEM_FONTS, drawable_text, load_font
 
 if TYPE_CHECKING:   # Pillow is imported where text is set: a chart whose labels are kept on disk needs none
@@ -84,9 +85,7 @@ def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
 
 
 def _relative_luminance(rgb8) -> float:
-    c = np.asarray(rgb8[:3], float) / 255
-    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    return float(linear @ [0.2126, 0.7152, 0.0722])
+    return float(srgb_eotf(np.asarray(rgb8[:3], float) / 255) @ [0.2126, 0.7152, 0.0722])
 
 
 def _contrast(a, b) -> float:

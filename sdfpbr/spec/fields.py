@@ -294,8 +294,8 @@ FIELDS: tuple[Field, ...] = (
     _bool("transparent", False, "transparent background; the floor becomes a shadow catcher (only its "
           "shadows and contact occlusion stay, in alpha)"),
     _other("color", "backdrop", (), _backdrop, "a page colour (sRGB, 0..1, as the page shows it) behind the "
-           "spheres and their caught shadows: the transparent render laid onto it, labels and all, their "
-           "text dark on a light page (default: none)", "R,G,B",
+           "spheres and their caught shadows: the transparent render laid onto it, labels and all, in "
+           "text that reads on it (default: none)", "R,G,B",
            annotation=tuple),
     _other("text", "title", "", lambda v: text(v, "title"), "chart title (default: rows x cols)", "TEXT",
            annotation=str),
