@@ -33,15 +33,15 @@ def test_bad_input_is_one_line_exit_2_no_file(tmp_path, args, needle):
 
 
 def test_values_that_start_with_a_minus_are_values():
-    """argparse reads "-1,0,1" or "-2:2" as an option; after a long option they are its value."""
-    from sdfpbr.cli.main import build_parser, joined_negative_values, spec_from_args
-    argv = joined_negative_values(["chart", "--x-axis", "exposure", "--x-values", "-1,0,1", "--cols", "3",
-                                   "--camera-azimuth", "-20", "--roughness", "-.5:1", "-o", "-1.png"])
-    assert argv[3:8] == ["--x-values=-1,0,1", "--cols", "3", "--camera-azimuth=-20", "--roughness=-.5:1"]
-    assert argv[-2:] == ["-o", "-1.png"]                  # short options keep their own rules
-    args = build_parser("chart").parse_args(argv[:7])
-    assert spec_from_args(args).x_values == (-1.0, 0.0, 1.0)
-    assert joined_negative_values(["chart", "--", "-1"]) == ["chart", "--", "-1"]
+    """argparse reads "-1,0,1" or "-2:2" as an option; after a numeric field's option they are
+    its value (and a bad one gets the field's own message, not "expected one argument")."""
+    from sdfpbr.cli.main import build_parser, spec_from_args
+    args = build_parser("chart").parse_args(["chart", "--x-axis", "exposure", "--x-values", "-1,0,1", "--cols", "3",
+                                             "--camera-azimuth", "-20.5", "--exposure", "-.5"])
+    spec = spec_from_args(args)
+    assert (spec.x_values, spec.camera_azimuth, spec.exposure) == ((-1.0, 0.0, 1.0), -20.5, -0.5)
+    r = run("chart", "--roughness", "-0.5:1", "-o", "never.png")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "roughness must be in [0, 1]" in r.stderr
 
 
 def test_bad_toml_key_and_malformed_toml(tmp_path):

@@ -46,10 +46,11 @@ class Parser(argparse.ArgumentParser):
         cut = args.index("--") if "--" in args else len(args)
         args = [_dashed(a) for a in args[:cut]] + args[cut:]
         # "--values -2,0,2" -> "--values=-2,0,2": argparse reads a value that starts with '-'
-        # as an option unless it is a plain negative number.
+        # as an option unless it is a plain negative number (another option stays one).
         joined, i = [], 0
         while i < len(args):
-            if args[i] in self._dash_value_options() and i + 1 < len(args) and args[i + 1].startswith("-"):
+            if (args[i] in self._dash_value_options() and i + 1 < len(args)
+                    and re.match(r"-[\d.]", args[i + 1])):
                 joined.append(f"{args[i]}={args[i + 1]}")
                 i += 2
             else:
@@ -114,6 +115,10 @@ def add_animation_options(p: Parser, frames_help: str) -> None:
                    help=f"WebP animation frames stored exactly (about 4x larger than the default quality {WEBP_QUALITY})")
 
 
+# Fields whose values are numbers (or lists of them) and so may start with a minus.
+NUMERIC_KINDS = ("int", "float", "size", "range", "color", "colors", "numbers")
+
+
 def add_chart_options(p: Parser) -> None:
     """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
     one per field of the spec table, named as the field, plus its aliases. A flag the command
@@ -141,6 +146,8 @@ def add_chart_options(p: Parser) -> None:
             p.add_argument(*opts, dest=dest, metavar=f.metavar, default=None,
                            action="append" if f.kind == "bugs" else "store",
                            help=f.help + default + ("; repeatable" if f.kind == "bugs" else ""))
+            if f.kind in NUMERIC_KINDS:   # `--x-values -1,0,1`, `--exposure -2`: values, not options
+                p.dash_values.update(opts)
         dests[f.name] = dest
     p.set_defaults(spec_dests=dests)
 
@@ -275,23 +282,9 @@ def add_shader_command(sub) -> None:
     p.set_defaults(run=cmd_shader)
 
 
-def joined_negative_values(argv: list[str]) -> list[str]:
-    """argparse takes a value such as "-2:2" or "-1,0,1" for an option (only a plain number like
-    "-2" passes); no option of ours starts with a digit or a point, so such a token after a long
-    option is that option's value: "--exposure -2:2" becomes "--exposure=-2:2"."""
-    out: list[str] = []
-    for token in argv:
-        if (out and re.match(r"-\.?\d", token) and out[-1].startswith("--") and "=" not in out[-1]
-                and out[-1] != "--"):
-            out[-1] = f"{out[-1]}={token}"
-        else:
-            out.append(token)
-    return out
-
-
 def main(argv: list[str] | None = None) -> int:
     try:
-        argv = joined_negative_values(sys.argv[1:] if argv is None else list(argv))
+        argv = sys.argv[1:] if argv is None else list(argv)
         args = build_parser(argv[0] if argv else None).parse_args(argv)
         return args.run(args)
     except SdfpbrError as exc:
