@@ -16,14 +16,15 @@ def _interior(res, min_ndotv=0.15):
     return (res.aov["row"] >= 0) & (res.aov["ndotv"] > min_ndotv) & (res.aov["coverage"] >= 1.0)
 
 
-def dfg_read(table, n_dot_v, perceptual_roughness, weight=lambda f: f):
+def dfg_read(table, n_dot_v, perceptual_roughness, rounding=(None, None)):
     """(A, B, C) read bilinearly from a (size, size, 4) table at dfg.glsl's mapping (0 and 1 on
-    the first and last texel centres); ``weight`` may round the filter's fractions."""
+    the first and last texel centres); ``rounding``: per axis, None or how the filter's fraction
+    is held in 8 bits (np.floor, np.ceil)."""
     size = table.shape[0]
     x, y = n_dot_v * (size - 1), perceptual_roughness * (size - 1)
     i = np.minimum(np.floor(x).astype(int), size - 2)
     j = np.minimum(np.floor(y).astype(int), size - 2)
-    fx, fy = (weight(f)[:, None] for f in (x - i, y - j))
+    fx, fy = ((f if q is None else q(f * 256) / 256)[:, None] for f, q in zip((x - i, y - j), rounding))
     near, far = (1 - fx) * table[j, i] + fx * table[j, i + 1], (1 - fx) * table[j + 1, i] + fx * table[j + 1, i + 1]
     return ((1 - fy) * near + fy * far)[:, :3].T
 
@@ -49,17 +50,18 @@ class FurnaceBudget:
         r = np.maximum(res.aov["roughness"][mask].astype(float), MIN_PERCEPTUAL_ROUGHNESS)
         metallic = res.aov["metallic"][mask].astype(float)
 
-        def expected(t, weight=lambda f: f):
-            return mirror.furnace_from_dfg(*dfg_read(t, mu, r, weight), np.ones(3), metallic, spec.multiscatter)
+        def expected(t, rounding=(None, None)):
+            return mirror.furnace_from_dfg(*dfg_read(t, mu, r, rounding), np.ones(3), metallic, spec.multiscatter)
 
         self.through_table = expected(table)
-        rounded = [expected(table, lambda f, q=q: q(f * 256) / 256) for q in (np.floor, np.ceil)]
-        self.filter = np.maximum(*(np.abs(e - self.through_table) for e in rounded)) + 1e-5 * (1 + self.through_table)
+        rounded = [expected(table, (qx, qy)) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
+        self.filter = np.max([np.abs(e - self.through_table) for e in rounded], 0) + 1e-5 * (1 + self.through_table)
         # The float64 table on the rows these roughnesses read.
         rows = np.unique(np.minimum(np.floor(r * (size - 1)).astype(int), size - 2)[:, None] + [0, 1])
         grid = np.arange(size) / (size - 1)
         exact = table.copy()
-        exact[rows, :, :3] = np.stack(mirror.dfg_integrate(np.maximum(grid[None, :], 1e-4), grid[rows][:, None]), -1)
+        exact[rows, :, :3] = np.stack(mirror.dfg_integrate(np.maximum(grid[None, :], mirror.MIN_N_DOT_V),
+                                                           grid[rows][:, None]), -1)
         self.texel_error = np.abs(table[rows, :, :3] - exact[rows, :, :3]).max()
         self.model = mirror.furnace_expected(mu, np.ones(3), metallic, r, multiscatter=spec.multiscatter)
         self.interpolation = np.abs(expected(exact) - self.model)
@@ -180,7 +182,7 @@ def test_marched_and_analytic_paths_agree(session):
     b = session.render(spec)
     quality, cam, r = spec.quality_settings(), b.camera, spec.sphere_radius
     pixel = 2 * cam.half_height / cam.height                 # footprint per unit distance (camera.glsl)
-    assert not cam.orthographic
+    assert not cam.orthographic and quality.normal_method == "tetrahedron"   # the forms below are theirs
     # The tetrahedron normal at step e: its second-order term turns the normal by
     # e / r |(nynz, nxnz, nxny)| <= e / (r sqrt 3), its third-order term by at most 4.5 (e / r)^2.
     def tetrahedron(t):
@@ -194,7 +196,7 @@ def test_marched_and_analytic_paths_agree(session):
     differ = (a.aov["row"] != b.aov["row"]) | (a.aov["col"] != b.aov["col"])
     assert (hit_b | ~hit_a).all()
     t_b = np.where(hit_b, b.aov["depth"], 0.0)
-    eps_b = quality.hit_scale * pixel * t_b
+    eps_b = quality.hit_scale * pixel * t_b + quality.hit_epsilon
     shell = np.sqrt(2 * eps_b / r + (eps_b / r) ** 2) + tetrahedron(t_b)
     assert differ.any() and (b.aov["ndotv"][differ] <= shell[differ] + 1e-4).all()
     # Same sphere: the marched point lies s before the analytic one on the same ray, with
@@ -202,7 +204,7 @@ def test_marched_and_analytic_paths_agree(session):
     # then the tetrahedron's error. eps and e grow with t: the analytic t bounds both.
     m = ~differ & hit_a & (a.aov["ndotv"] > 0.05)
     mu, t = a.aov["ndotv"][m].astype(float), a.aov["depth"][m].astype(float)
-    eps = quality.hit_scale * pixel * t
+    eps = quality.hit_scale * pixel * t + quality.hit_epsilon
     s = -r * mu + np.sqrt((r * mu) ** 2 + 2 * r * eps + eps ** 2)
     bound = np.arctan2(s * np.sqrt(1 - mu ** 2), r + s * mu) + tetrahedron(t)
     na, nb = a.aov["normal"][m].astype(float), b.aov["normal"][m].astype(float)

@@ -90,8 +90,9 @@ def _shifted_step():
 
 def test_a_moved_edge_errs_only_within_the_filters_reach():
     """Only column 16 differs. The colour filters reach ceil(3 sqrt(b_max / (2 pi^2)) ppd) pixels,
-    b_max = 0.04 the paper's widest CSF scale (the blue-yellow channel): beyond that the filtered
-    images are equal and so is the error, exactly 0. The image is the same down every column, so
+    b_max = 0.04 the paper's widest CSF scale (the blue-yellow channel), the feature filters
+    ceil(3 x 0.5 x 0.082 ppd) = 9: beyond the wider the filtered images are equal and so is the
+    error, exactly 0. The image is the same down every column, so
     is its map. (Its values: test_agrees_with_flip_evaluator, case "moved edge".)"""
     a, b = _shifted_step()
     error = ldr_flip(a, b, PPD)

@@ -236,6 +236,17 @@ def test_a_long_title_wraps_instead_of_widening_the_chart(shape):
             assert len(lines) == 1 and lines[0][0].endswith("…")
 
 
+def test_a_title_keeps_its_own_line_breaks_and_control_characters_are_spaces():
+    """A title's newline starts a line of it (it crashed the font's layout); tabs and carriage
+    returns read as spaces there and in every other label."""
+    from sdfpbr.image.layout import label_boxes
+    img, cells = synthetic_render(200, 200, 2, 2)
+    boxes = label_boxes(img.shape, cells, [0, 1], [0, 1], "Line one\nline\ttwo", FOOTER)
+    assert [t for t, _ in boxes[:2]] == ["Line one", "line two"] and boxes[0][1][3] < boxes[1][1][1]
+    chart = compose_chart(img, cells, [0, 1], [0, 1], "Line one\nline\ttwo", "a\nb", cell_names=["x\ny"] * 4)
+    assert chart.shape[0] > img.shape[0]
+
+
 def test_small_render_still_labeled():
     img, cells = synthetic_render(256, 256, 3, 3)
     values = [0, 0.5, 1]

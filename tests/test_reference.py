@@ -154,22 +154,26 @@ def test_stderr_shrinks_as_one_over_sqrt_n_and_is_honest(session):
     m = interior(spec, hits, 0.15)
     want_sub = furnace_curve((hits[3] * hits[4]).sum(-1), 0.0, 0.5, True)[m]    # (pixels, subsamples)
     want, var_pos = want_sub.mean(-1), want_sub.var(-1)
-    mean_se = {}
+    variance, variance_noise = {}, {}
     for n in (16, 64):
         runs = [render_reference(spec, samples=n, max_bounces=1, seed=seed, session=session) for seed in (4, 5, 6, 7)]
         got = np.array([r.hdr[..., 0][m] for r in runs], float)
         se2 = np.array([r.stderr[m] for r in runs], float) ** 2
         count = got.size
         squared_error, expected = np.mean((got - want) ** 2), np.mean(se2)
-        noise = 5 * np.sqrt(2 / count + 2 / (count * (n - 1)))
+        # Relative standard deviations of the two means: a squared Gaussian error's is sqrt(2 /
+        # count); the stderr^2's is read from its own spread over the pixels.
+        variance_noise[n] = np.std(se2) / expected / np.sqrt(count)
+        noise = 5 * np.hypot(np.sqrt(2 / count), variance_noise[n])
         assert expected * (1 - noise) - np.mean(var_pos) / n <= squared_error <= expected * (1 + noise), \
             (n, squared_error / expected)
         # No bias: the mean over pixels and seeds within 4 of its standard errors plus the bound.
         assert abs((got - want).mean()) <= 4 * np.sqrt(se2.sum()) / count + BIAS * want.mean()
-        mean_se[n] = np.sqrt(se2).mean()
-    # sqrt(64 / 16) = 2; each mean of stderr varies by sqrt(1 / (2 (n - 1) count)) relatively.
-    spread = 5 * np.sqrt(1 / (2 * 15 * count) + 1 / (2 * 63 * count))
-    assert abs(mean_se[16] / mean_se[64] / 2 - 1) <= spread, mean_se
+        variance[n] = expected
+    # 64 samples hold a quarter of 16's variance (the root mean square stderr: half); the ratio
+    # of the two means varies by their relative deviations, halved under the square root.
+    ratio = np.sqrt(variance[16] / variance[64])
+    assert abs(ratio / 2 - 1) <= 5 * 0.5 * np.hypot(variance_noise[16], variance_noise[64]), ratio
 
 
 def test_target_error_stops_early_and_reports_what_it_reached(session):

@@ -130,10 +130,12 @@ def test_same_material_gives_statistically_identical_cells(session):
     npix = g.cell_width * g.cell_height
     means = y.reshape(g.rows, g.cols, -1).mean(-1)
     mean_se = np.sqrt((se.reshape(g.rows, g.cols, -1) ** 2).sum(-1)) / npix
-    # Per pixel, z is a difference over its estimated standard error: Student's t with at least
-    # nu = samples - 1 degrees of freedom, so z^2 has mean nu / (nu - 2) and variance
-    # 2 nu^2 (nu - 1) / ((nu - 2)^2 (nu - 4)); the mean over a cell's pixels stays within 5 of its
-    # standard deviations of that.
+    # Per pixel, z is a difference over its estimated standard error: for near-Gaussian sample
+    # means, Student's t with at least nu = samples - 1 degrees of freedom (Welch), so z^2 has
+    # mean nu / (nu - 2) and variance 2 nu^2 (nu - 1) / ((nu - 2)^2 (nu - 4)) (nu > 4); the mean
+    # over a cell's pixels stays within 5 of its standard deviations of that. Heavy-tailed
+    # samples (a penumbra's 0/1 visibility) would raise E[z^2] by ~kurtosis / n: at 32 samples
+    # that stays inside the 5 sigma here, and a second seed (test_..._one_pixel_off) keeps power.
     nu = res.samples - 1
     bound = nu / (nu - 2) + 5 * np.sqrt(2 * nu ** 2 * (nu - 1) / ((nu - 2) ** 2 * (nu - 4)) / npix)
     for j in range(g.rows):

@@ -49,7 +49,7 @@ class Parser(argparse.ArgumentParser):
         # as an option unless it is a plain negative number (another option stays one).
         joined, i = [], 0
         while i < len(args):
-            if (args[i] in self._dash_value_options() and i + 1 < len(args)
+            if (args[i] in self._dash_value_options() and i + 1 < cut
                     and re.match(r"-[\d.]", args[i + 1])):
                 joined.append(f"{args[i]}={args[i + 1]}")
                 i += 2
@@ -115,10 +115,6 @@ def add_animation_options(p: Parser, frames_help: str) -> None:
                    help=f"WebP animation frames stored exactly (about 4x larger than the default quality {WEBP_QUALITY})")
 
 
-# Fields whose values are numbers (or lists of them) and so may start with a minus.
-NUMERIC_KINDS = ("int", "float", "size", "range", "color", "colors", "numbers")
-
-
 def add_chart_options(p: Parser) -> None:
     """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
     one per field of the spec table, named as the field, plus its aliases. A flag the command
@@ -146,7 +142,7 @@ def add_chart_options(p: Parser) -> None:
             p.add_argument(*opts, dest=dest, metavar=f.metavar, default=None,
                            action="append" if f.kind == "bugs" else "store",
                            help=f.help + default + ("; repeatable" if f.kind == "bugs" else ""))
-            if f.kind in NUMERIC_KINDS:   # `--x-values -1,0,1`, `--exposure -2`: values, not options
+            if f.numeric:   # `--x-values -1,0,1`, `--exposure -2`: values, not options
                 p.dash_values.update(opts)
         dests[f.name] = dest
     p.set_defaults(spec_dests=dests)

@@ -31,7 +31,7 @@ import numpy as np
 from ..cache import ArrayCache, content_key
 from ..kept import Kept
 from ..oracle.display import srgb_eotf
-from .text import SYSTEM_FONTS, drawable_text, load_font
+from .text import SYSTEM_FONTS, drawable_text, load_font, wrap_text
 
 if TYPE_CHECKING:   # Pillow is imported where text is set: a chart whose labels are kept on disk needs none
     from PIL import ImageFont
@@ -99,17 +99,26 @@ def page_colour(page_srgb: Sequence[float] | None) -> tuple[int, int, int, int] 
     return None if page_srgb is None else (*(round(255 * min(max(v, 0.0), 1.0)) for v in page_srgb), 255)
 
 
+# The least WCAG contrast a style keeps on a page that cannot give it its own (the value labels
+# and the title are read; the axis titles and the footer are large or secondary).
+_LEAST_CONTRAST = {"title": 4.5, "label": 4.5, "axis": 3.0, "footer": 3.0}
+
+
 @functools.lru_cache(maxsize=64)
 def _text_colour(style_name: str, page: tuple[int, int, int, int] | None) -> tuple[int, int, int, int]:
     """The text colour of a style on the chart's own ground (page None) or on a page: the grey
     between the page and white or black (whichever the page contrasts more with) whose WCAG
-    contrast with the page is the style's on the chart's ground, or the most the page allows;
-    so a title stays brighter than an axis title, dark on a light page."""
+    contrast with the page is the style's on the chart's ground; where the page cannot reach the
+    title's, every style's is scaled down alike (so a title stays above an axis title), but not
+    under its least, nor over what the page allows. Dark on a light page."""
     ground = _DARK_GROUND_INK[style_name]
     if page is None:
         return ground
-    target = _contrast(ground, BACKGROUND)
     extreme = max((0, 255), key=lambda v: _contrast((v, v, v), page))
+    most = _contrast((extreme,) * 3, page)
+    title = _contrast(_DARK_GROUND_INK["title"], BACKGROUND)
+    scaled = 1 + (_contrast(ground, BACKGROUND) - 1) * min(1.0, (most - 1) / (title - 1))
+    target = min(max(scaled, _LEAST_CONTRAST[style_name]), most)
     lo, hi = 0.0, 1.0                     # the extreme's share of the mix
     for _ in range(24):
         mid = 0.5 * (lo + hi)
@@ -186,7 +195,8 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     styles = _styles(max(rh, rw))
     text = {"title": title, "footer": footer, "col": column_axis_title, "row": row_axis_title}
     font_of = {"title": "title", "footer": "footer", "col": "axis", "row": "axis"}
-    text = {k: drawable_text(v, styles[font_of[k]].font) for k, v in text.items()}
+    raw_title = title   # wrapped below, at its spaces and its own line breaks
+    text = {k: drawable_text(" ".join(v.split("\n")), styles[font_of[k]].font) for k, v in text.items()}
     label, axis = styles["label"], styles["axis"]
     pad, gap = label.size, max(4, label.size // 2)
 
@@ -203,7 +213,8 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     half = _width(axis, text["col"]) / 2 + pad - rw / 2
     left, right = max(left, math.ceil(half)), max(right, math.ceil(half))
     room = rw + 2 * (min(left, right) - pad)       # centred on the render
-    title = tuple(_fitted(styles["title"], line, room) for line in _wrapped(styles["title"], text["title"], room, " "))
+    title = tuple(line if " " in line else _fitted(styles["title"], line, room)   # a word wider than the chart is cut
+                  for line in wrap_text(raw_title, styles["title"].font, room) if line) if raw_title.strip() else ()
     footer = _wrapped(styles["footer"], text["footer"], room)
     for style, lines in ((styles["footer"], footer), (styles["title"], title)):
         for line in lines:
@@ -231,14 +242,14 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
                    footer_top=top + rh + gap, row_axis_x=left - gap - label_w - gap - _line_height(axis))
 
 
-def _wrapped(style: _Style, text: str, room: float, separator: str = FOOTER_SEPARATOR) -> tuple[str, ...]:
+def _wrapped(style: _Style, text: str, room: float) -> tuple[str, ...]:
     """``text`` as lines no wider than ``room`` where it can be, broken between its parts (a
     part wider than ``room`` keeps a line of its own)."""
     if not text:
         return ()
     lines: list[str] = []
-    for part in text.split(separator):
-        joined = lines[-1] + separator + part if lines else part
+    for part in text.split(FOOTER_SEPARATOR):
+        joined = lines[-1] + FOOTER_SEPARATOR + part if lines else part
         if lines and _width(style, joined) <= room:
             lines[-1] = joined
         else:
@@ -331,10 +342,15 @@ def chart_canvas(render_shape: Sequence[int], cells: Sequence[Cell], column_valu
 
 
 def _fitted(style: _Style, text: str, room: float) -> str:
-    """``text``, cut with an ellipsis until its ink is at most ``room`` px wide."""
-    while text and _width(style, text) > room:
-        text = text[:-2] + "…" if len(text) > 2 else ""
-    return text
+    """``text``, or its longest start that fits ``room`` px with an ellipsis after it (found by
+    bisection: a title may be thousands of characters)."""
+    if _width(style, text) <= room:
+        return text
+    kept, over = 0, len(text)          # a start of ``kept`` characters fits, one of ``over`` does not
+    while over - kept > 1:
+        mid = (kept + over) // 2
+        kept, over = (mid, over) if _width(style, text[:mid] + "…") <= room else (kept, mid)
+    return text[:kept] + "…" if kept or _width(style, "…") <= room else ""
 
 
 def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], origin: tuple[int, int],
@@ -354,7 +370,7 @@ def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], o
     cap_top = _ink(style, "H")[1]   # one baseline for every name, whether it has ascenders or not
     for cell in cells:
         name = names[cell.row * (max(c.col for c in cells) + 1) + cell.col]
-        text = _fitted(style, drawable_text(name, style.font), room)
+        text = _fitted(style, drawable_text(" ".join(name.split("\n")), style.font), room)
         left, _, right, _ = _ink(style, text)
         baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - cap_top
         draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=colour,

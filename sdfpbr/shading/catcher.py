@@ -81,11 +81,14 @@ def _bands(camera: str, azimuth: float, distance_scale: float, radius: float, wi
         else:
             to_light = np.asarray(light.position, float) - points
             size = np.arcsin(np.minimum(light.radius / np.linalg.norm(to_light, axis=-1), 1.0))
+        reach = np.linalg.norm(to_light, axis=-1) if light.kind == "point" else np.inf
         to_light = to_light / np.linalg.norm(to_light, axis=-1, keepdims=True)
         distance = np.linalg.norm(points, axis=-1)
         apart = np.arccos(np.clip((-points / distance[..., None] * to_light).sum(-1), -1.0, 1.0))
-        # The light's disc touches the sphere's as seen from the floor point: umbra or penumbra.
-        shadowed |= down & (apart < np.arcsin(np.minimum(radius / distance, 1.0)) + size)
+        # The light's disc touches the sphere's as seen from the floor point (umbra or penumbra),
+        # and the sphere lies between the two (a point light may be nearer than the sphere).
+        between = (-points * to_light).sum(-1) < reach
+        shadowed |= down & between & (apart < np.arcsin(np.minimum(radius / distance, 1.0)) + size)
     ys, xs = np.nonzero(shadowed)
     if not len(xs):
         return (CATCHER_BAND_MAX,) * 4

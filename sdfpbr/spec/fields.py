@@ -49,6 +49,11 @@ class Field:
     def stored(self) -> tuple[str, ...]:
         return self.attrs or (self.name,)
 
+    @property
+    def numeric(self) -> bool:
+        """Its values are numbers or lists of them, so their text may start with a minus."""
+        return self.kind in ("int", "float", "size", "range", "color", "colors", "numbers")
+
     @functools.cached_property   # read ~500 times a spec made
     def attr(self) -> str:
         """The one attribute of a stored field (every field but size)."""
