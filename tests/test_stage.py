@@ -89,6 +89,27 @@ def test_the_key_lights_penumbra_stays_inside_the_cell(shape):
     assert (apart > touching).all()
 
 
+def _cell_floor_points(spec):
+    """Where the rays through every pixel of a one-cell spec meet its floor, (h, w, 3), the
+    sphere at the origin."""
+    ro, rd = frame_cell(spec).pixel_rays()
+    return ro + ((-spec.sphere_radius - ro[..., 1]) / rd[..., 1])[..., None] * rd
+
+
+def _assert_bands_keep_the_shadow_whole(bands, shadow):
+    """No side's fade band (left, right, top, bottom) reaches ``shadow`` (h, w) unless it is at
+    its floor, and each is as wide as it may be: at its widest, or the shadow close behind it
+    (within the coarse grid's step and margin)."""
+    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, CATCHER_BAND_MIN, SHADOW_GRID
+    h, w = shadow.shape
+    ys, xs = np.mgrid[0:h, 0:w] + 0.5
+    slack = 4 / SHADOW_GRID
+    for band, depth in zip(bands, (xs / w, 1 - xs / w, ys / h, 1 - ys / h)):
+        assert CATCHER_BAND_MIN <= band <= CATCHER_BAND_MAX
+        assert band == CATCHER_BAND_MIN or not (shadow & (depth < band)).any(), (bands, band)
+        assert band == CATCHER_BAND_MAX or (shadow & (depth < band + slack)).any(), (bands, band)
+
+
 @pytest.mark.parametrize("shape", [(100, 100), (203, 203), (400, 400), *CELL_SHAPES])
 def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(shape):
     """Geometry alone, at full resolution: from no floor point in a side's fade band (catcher.py,
@@ -96,25 +117,16 @@ def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(shape):
     band is already down to CATCHER_BAND_MIN (a few pixels of penumbra on cells taller than
     wide); the fade takes only the long soft shadows that would otherwise be cut at the seams.
     A side the key shadow leaves free fades over the widest band."""
-    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, CATCHER_BAND_MIN, catcher_bands
+    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, catcher_bands
     from sdfpbr.spec.chart_spec import KEY_LIGHT
-    w, h = shape
-    spec = make_spec(stage="cells", rows=1, cols=1, width=w, height=h)
-    bands = catcher_bands(spec)
-    ys, xs = np.mgrid[0:h, 0:w] + 0.5
-    ro, rd = frame_cell(spec).pixel_rays()
-    points = ro + ((-spec.sphere_radius - ro[..., 1]) / rd[..., 1])[..., None] * rd
+    spec = make_spec(stage="cells", rows=1, cols=1, width=shape[0], height=shape[1])
+    points = _cell_floor_points(spec)
     to_centre = -points / np.linalg.norm(points, axis=-1, keepdims=True)
     light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
     apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))
     touching = np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=-1)) + np.radians(KEY_LIGHT.angular_radius_deg)
-    shadow = apart <= touching
-    slack = 4 / 128   # the coarse grid's step and margin
-    for band, depth in zip(bands, (xs / w, 1 - xs / w, ys / h, 1 - ys / h)):   # left, right, top, bottom
-        assert CATCHER_BAND_MIN <= band <= CATCHER_BAND_MAX
-        assert band == CATCHER_BAND_MIN or not (shadow & (depth < band)).any(), (bands, band)
-        # As wide as it may be: at its widest, or the shadow comes close behind it.
-        assert band == CATCHER_BAND_MAX or (shadow & (depth < band + slack)).any(), (bands, band)
+    bands = catcher_bands(spec)
+    _assert_bands_keep_the_shadow_whole(bands, apart <= touching)
     assert bands[2] == CATCHER_BAND_MAX   # the key light shines from behind: its shadow falls to the front
 
 
@@ -125,24 +137,17 @@ def test_the_shadow_catchers_fade_leaves_a_point_lights_shadow_whole(position):
     the sphere's centre (closest point of the segment, not of the line: a light nearer than
     the sphere shadows nothing beyond itself). No side's band reaches that shadow unless at
     its floor, and each is as wide as it may be."""
-    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, CATCHER_BAND_MIN, catcher_bands
+    from sdfpbr.shading.catcher import catcher_bands
     from sdfpbr.spec.chart_spec import Light
-    w = h = 160
-    base = make_spec(stage="cells", rows=1, cols=1, width=w, height=h)
+    base = make_spec(stage="cells", rows=1, cols=1, width=160, height=160)
     r = base.sphere_radius
     light = Light("point", position=tuple(r * np.asarray(position)), intensity=10.0)
     spec = make_spec(base, lights=(light,))
-    bands = catcher_bands(spec)
-    ys, xs = np.mgrid[0:h, 0:w] + 0.5
-    ro, rd = frame_cell(spec).pixel_rays()
-    points = ro + ((-r - ro[..., 1]) / rd[..., 1])[..., None] * rd
+    points = _cell_floor_points(spec)
     segment = np.asarray(light.position) - points
     t = np.clip((-points * segment).sum(-1) / (segment * segment).sum(-1), 0.0, 1.0)
-    shadow = np.linalg.norm(points + t[..., None] * segment, axis=-1) < r
-    slack = 4 / 128
-    for band, depth in zip(bands, (xs / w, 1 - xs / w, ys / h, 1 - ys / h)):
-        assert band == CATCHER_BAND_MIN or not (shadow & (depth < band)).any(), (bands, band)
-        assert band == CATCHER_BAND_MAX or (shadow & (depth < band + slack)).any(), (bands, band)
+    _assert_bands_keep_the_shadow_whole(catcher_bands(spec),
+                                        np.linalg.norm(points + t[..., None] * segment, axis=-1) < r)
 
 
 @pytest.mark.requires_extra("pygltflib")

@@ -615,7 +615,9 @@ def _draw_labels(render_shape, cells, column_values, row_values, title, footer, 
     background = page or (_TRANSPARENT if transparent else BACKGROUND)
     patches = []
     for t in _placements(lay, render_shape, cells, column_values, row_labels):
-        style = replace(lay.styles[t.style], color=_text_colour(t.style, page))
+        style = lay.styles[t.style]
+        if page is not None:   # the styles' own colours are the chart's dark ground's
+            style = replace(style, color=_text_colour(t.style, page))
         stroke = style.stroke if transparent else 0
         if t.rotated:
             x, y, patch = int(t.x), int(t.baseline), _text_patch(style, t.text, stroke, None, None)

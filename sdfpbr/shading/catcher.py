@@ -25,14 +25,14 @@ from .cells import cell_grid
 CATCHER_BAND_MIN = 0.07
 CATCHER_BAND_MAX = 0.25    # the sphere's silhouette starts at 0.19 of a square cell's width
 MAIN_LIGHT_SHARE = 0.25
-_GRID = 128                # floor points across the cell's shorter side where the shadows are found
+SHADOW_GRID = 128          # floor points across the cell's shorter side where the shadows are found
 
 
 def catcher_bands(spec: ChartSpec) -> tuple[float, float, float, float]:
     """(left, right, top, bottom): each border's fade band as a share of the cell's width (left,
     right) or height (top, bottom)."""
     grid = cell_grid(spec)
-    scale = min(_GRID / min(grid.cell_width, grid.cell_height), 8 * _GRID / max(grid.cell_width, grid.cell_height))
+    scale = min(SHADOW_GRID / min(grid.cell_width, grid.cell_height), 8 * SHADOW_GRID / max(grid.cell_width, grid.cell_height))
     w, h = max(2, round(grid.cell_width * scale)), max(2, round(grid.cell_height * scale))
     return _bands(spec.camera, spec.camera_azimuth, spec.camera_distance_scale, spec.sphere_radius, w, h,
                   tuple(main_lights(spec)))
