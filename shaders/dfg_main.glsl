@@ -60,9 +60,11 @@ void main() {
 #if SHEEN
         // The sheen's albedo E_s = int D_charlie V_sheen cos dl, r clamped as the shading clamps
         // it: h drawn from D_charlie cos(theta_h) (sin theta_h = u^(alpha / (2 alpha + 1))),
-        // l = reflect(-v, h), weight f cos / pdf = V_sheen NdotL 4 VdotH / NdotH.
+        // l = reflect(-v, h), weight f cos / pdf = V_sheen NdotL 4 VdotH / NdotH. u on cell
+        // midpoints: at u = 0 h is N, where a smooth sheen has no lobe, and that one sample
+        // added 1 / N to E_s at r 0 and N.V 1, where E_s is 0.
         float alpha_s = sq(max(r, MIN_PERCEPTUAL_ROUGHNESS));
-        float sin_h = pow(u.x, alpha_s / (2.0 * alpha_s + 1.0));
+        float sin_h = pow(u.x + 0.5 * inv_count, alpha_s / (2.0 * alpha_s + 1.0));
         vec3 hs = vec3(sin_h * cos(phi_d), sin_h * sin(phi_d), sqrt(max(1.0 - sin_h * sin_h, 0.0)));
         vec3 ls = reflect(-v, hs);
         float vh_s = dot(v, hs);

@@ -16,17 +16,18 @@ def _interior(res, min_ndotv=0.15):
     return (res.aov["row"] >= 0) & (res.aov["ndotv"] > min_ndotv) & (res.aov["coverage"] >= 1.0)
 
 
-def dfg_read(table, n_dot_v, perceptual_roughness, rounding=(None, None)):
-    """(A, B, C) read bilinearly from a (size, size, 4) table at dfg.glsl's mapping (0 and 1 on
-    the first and last texel centres); ``rounding``: per axis, None or how the filter's fraction
-    is held in 8 bits (np.floor, np.ceil)."""
+def dfg_read(table, n_dot_v, perceptual_roughness, rounding=(None, None), channels=3):
+    """(A, B, C) -- or the first ``channels`` of (A, B, C, E_s) -- read bilinearly from a
+    (size, size, 4) table at dfg.glsl's mapping (0 and 1 on the first and last texel centres);
+    ``rounding``: per axis, None or how the filter's fraction is held in 8 bits (np.floor,
+    np.ceil)."""
     size = table.shape[0]
     x, y = n_dot_v * (size - 1), perceptual_roughness * (size - 1)
     i = np.minimum(np.floor(x).astype(int), size - 2)
     j = np.minimum(np.floor(y).astype(int), size - 2)
     fx, fy = ((f if q is None else q(f * 256) / 256)[:, None] for f, q in zip((x - i, y - j), rounding))
     near, far = (1 - fx) * table[j, i] + fx * table[j, i + 1], (1 - fx) * table[j + 1, i] + fx * table[j + 1, i + 1]
-    return ((1 - fy) * near + fy * far)[:, :3].T
+    return ((1 - fy) * near + fy * far)[:, :channels].T
 
 
 class FurnaceBudget:

@@ -92,6 +92,18 @@ def srgb_eotf(encoded):
     return np.where(y <= 0.04045, y / 12.92, np.power((y + 0.055) / 1.055, 2.4))
 
 
+def srgb_half_step(linear):
+    """Half an 8-bit step of the sRGB encoding, in linear units, at each value: how far a value
+    may move before its 8-bit code moves by more than half a step -- the slope of srgb_oetf
+    taken at the value (the bound a table's error must stay under to be invisible). Above 1,
+    where tone mapping takes over, the step at 1 relative to the value."""
+    x = np.asarray(linear, dtype=np.float64)
+    at = np.clip(x, 0.0, 1.0)
+    slope = np.where(at <= 0.0031308, 12.92, 1.055 / 2.4 * np.power(np.maximum(at, 0.0031308), 1.0 / 2.4 - 1.0))
+    half = 0.5 / 255.0 / slope
+    return np.where(x > 1.0, half * np.maximum(x, 1.0), half)
+
+
 def gamma_oetf(linear, gamma=2.2):
     """Pure power encoding x^(1/gamma), input clipped to [0, 1] (wrong in shadows vs sRGB)."""
     x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
