@@ -308,8 +308,9 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
     and interpolated as dfg.glsl does) against the float64 E_s, on radiance up to 1 + |g|; the
     mean direction as the chart reads it (shading.sheen's table, interpolated as lobes_ibl.glsl
     does) against the float64 one, on a gradient |g|; the chart's SH9 of the map against the
-    exact one, read along that direction; float32 (1e-5). (Measured: the pixels use 0.73 of it.) Read along N as a cosine lobe, the pixels would be E_s (1 + 2/3 g . N):
-    the Charlie lobe leans to V and the horizon, so that misses most pixels by more."""
+    exact one, read along that direction; float32 (1e-5). (The pixels use 0.73 of it here.)
+    Read along N as a cosine lobe, the pixels would be E_s (1 + 2/3 g . N): the Charlie lobe
+    leans to V and the horizon, so that misses most pixels by more."""
     from sdfpbr.gpu.ibl import make_environment
     from sdfpbr.shading.camera import frame_grid, sphere_centers
     sky = LinearSky()
