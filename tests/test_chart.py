@@ -36,10 +36,11 @@ class FurnaceBudget:
     is exact but for the filter's fractions -- GPUs may hold them in 8 bits: the bound takes the
     worse of rounding them down and up -- and float32 (1e-5). Against the float64 model it is
     off by the table's interpolation (the same read of a float64 table) and by its texels' own
-    error, which the materials pass on at most 3-fold: the dielectric's C + (0.04 A + B) comp
-    moves by |dC| + 1.1 |dB| + 0.1 |dA|; a white metal's (A + B) comp is 1 whatever the table."""
+    error, as the material passes it on: the pixel's change with each of A, B and C moved by
+    that error (to first order; a white metal's (A + B) comp is 1 whatever the table, a
+    dielectric's C + (0.04 A + B) comp moves by about |dC| + |dB| + 0.04 |dA|). White by default."""
 
-    def __init__(self, session, spec, res, mask):
+    def __init__(self, session, spec, res, mask, base_color=(1.0, 1.0, 1.0)):
         from sdfpbr.shading.plan import render_plan
         from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
         with session.ctx:
@@ -51,8 +52,10 @@ class FurnaceBudget:
         r = np.maximum(res.aov["roughness"][mask].astype(float), MIN_PERCEPTUAL_ROUGHNESS)
         metallic = res.aov["metallic"][mask].astype(float)
 
+        base = np.asarray(base_color, float)
+
         def expected(t, rounding=(None, None)):
-            return mirror.furnace_from_dfg(*dfg_read(t, mu, r, rounding), np.ones(3), metallic, spec.multiscatter)
+            return mirror.furnace_from_dfg(*dfg_read(t, mu, r, rounding), base, metallic, spec.multiscatter)
 
         self.through_table = expected(table)
         rounded = [expected(table, (qx, qy)) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
@@ -64,10 +67,12 @@ class FurnaceBudget:
         exact[rows, :, :3] = np.stack(mirror.dfg_integrate(np.maximum(grid[None, :], mirror.MIN_N_DOT_V),
                                                            grid[rows][:, None]), -1)
         self.texel_error = np.abs(table[rows, :, :3] - exact[rows, :, :3]).max()
-        self.model = mirror.furnace_expected(mu, np.ones(3), metallic, r, multiscatter=spec.multiscatter)
+        self.model = mirror.furnace_expected(mu, base, metallic, r, multiscatter=spec.multiscatter)
         self.interpolation = np.abs(expected(exact) - self.model)
-        # Without compensation a metal reads A + B: 2-fold.
-        self.spread = 3 * self.texel_error * ((1 - metallic[:, None]) if spec.multiscatter else 1.0)
+        terms = dfg_read(table, mu, r)
+        moved = [mirror.furnace_from_dfg(*(t + self.texel_error * (k == i) for k, t in enumerate(terms)), base,
+                                         metallic, spec.multiscatter) for i in range(3)]
+        self.spread = np.sum([np.abs(m - self.through_table) for m in moved], 0)
 
     def check(self):
         assert (np.abs(self.got - self.through_table) <= self.filter).all(), np.abs(self.got - self.through_table).max()
