@@ -10,6 +10,7 @@ from contextlib import redirect_stdout
 
 import numpy as np
 import pytest
+from test_chart import FurnaceBudget
 
 from sdfpbr.oracle import mirror
 
@@ -72,14 +73,19 @@ def test_firefly_check_flags_a_planted_spike_but_not_highlights(clean, session):
 
 
 def test_furnace_check_passes_the_renderer_and_catches_a_pixel_just_over_its_tolerance(session):
-    """The renderer is within half its 1 % tolerance everywhere; a pixel pushed past the
-    tolerance by more than the renderer's own worst error (whatever its sign there) is flagged."""
+    """The renderer's worst error is what the chart's DFG table allows it on the pixels the
+    check tests (test_chart.FurnaceBudget, plus the check's FurnaceTable, within 1e-5 of the
+    model there), far inside the check's 1 % tolerance; a pixel pushed past the tolerance by
+    more than the renderer's own worst error (whatever its sign there) is flagged."""
     spec = make_spec(env="uniform", lights=(), ao=False, ground=False, width=96, height=96, rows=3, cols=3,
                      quality="default", base_color=(1, 1, 1))
     res = session.render(spec)
     table = furnace.FurnaceTable()
     worst, bad, tested = checks.furnace_error(res.hdr, res.aov, spec, table)
-    assert bad == 0 and tested > 3000 and worst < 5e-3
+    tested_spheres = checks.interior_mask(checks.surface_ids(res.aov, 3)) & (res.aov["ndotv"] >= checks.FURNACE_MIN_NDOTV)
+    budget = FurnaceBudget(session, spec, res, tested_spheres & (res.aov["row"] >= 0))
+    allowed = ((budget.interpolation + budget.spread + budget.filter) / budget.model).max() + 1e-5
+    assert bad == 0 and tested > 3000 and worst <= allowed < 0.5 * checks.FURNACE_RTOL[spec.quality]
     hdr = res.hdr.copy()
     m = np.argwhere(checks.interior_mask(checks.surface_ids(res.aov, 3)) & (res.aov["ndotv"] > 0.5))[0]
     hdr[tuple(m)] *= 1.0 + checks.FURNACE_RTOL[spec.quality] + worst + 1e-3
