@@ -185,13 +185,14 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
     return out.reshape(np.shape(n_dot_v) + (3,))
 
 
-_SHEEN_GRID = np.linspace(0.0, 1.0, 257)
+_SHEEN_GRID = np.linspace(0.0, 1.0, 513) ** 2   # even in sqrt(N.V): E_s is steep at grazing
 _sheen_tables: dict = {}
 
 
 def _sheen_albedo_interp(n_dot_l, rs):
-    """E_s at many N.L: the float64 quadrature on 257 N.V points, linearly interpolated
-    (spacing 1/256; E_s is smooth in N.V, error below 1e-5 on this grid)."""
+    """E_s at many N.L: the float64 quadrature on 513 N.V points even in sqrt(N.V), linearly
+    interpolated (within 7e-4 of the quadrature below N.V 0.001, 3.3e-5 above 0.05, r 0.045-1;
+    an even grid of 257 was 0.036 off in its first step)."""
     if rs not in _sheen_tables:
         _sheen_tables[rs] = sheen_albedo(np.maximum(_SHEEN_GRID, MIN_N_DOT_V), rs)
     return np.interp(n_dot_l, _SHEEN_GRID, _sheen_tables[rs])
