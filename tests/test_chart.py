@@ -30,6 +30,17 @@ def dfg_read(table, n_dot_v, perceptual_roughness, rounding=(None, None), channe
     return ((1 - fy) * near + fy * far)[:, :channels].T
 
 
+# How a GPU may hold a bilinear filter's fractions: exact, or in 8 bits, rounded down or up per axis.
+FILTER_ROUNDINGS = [(None, None)] + [(qx, qy) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
+
+
+def dfg_read_error(table, n_dot_v, perceptual_roughness, exact, channel):
+    """|a channel of a DFG table read as dfg.glsl reads it - its float64 value ``exact``|, the
+    worst over FILTER_ROUNDINGS; channel 0-3 (A, B, C, E_s) or "E" for A + B."""
+    reads = [dfg_read(table, n_dot_v, perceptual_roughness, q, channels=4) for q in FILTER_ROUNDINGS]
+    return np.max([np.abs((t[0] + t[1] if channel == "E" else t[channel]) - exact) for t in reads], 0)
+
+
 class FurnaceBudget:
     """A furnace pixel is the split-sum model (REFERENCE.md §2-3) read through the chart's DFG
     table. Through that table (its texels as the GPU baked them, read here in float64) the pixel
@@ -58,7 +69,7 @@ class FurnaceBudget:
             return mirror.furnace_from_dfg(*dfg_read(t, mu, r, rounding), base, metallic, spec.multiscatter)
 
         self.through_table = expected(table)
-        rounded = [expected(table, (qx, qy)) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
+        rounded = [expected(table, q) for q in FILTER_ROUNDINGS[1:]]
         self.filter = np.max([np.abs(e - self.through_table) for e in rounded], 0) + 1e-5 * (1 + self.through_table)
         # The float64 table on the rows these roughnesses read.
         rows = np.unique(np.minimum(np.floor(r * (size - 1)).astype(int), size - 2)[:, None] + [0, 1])

@@ -7,7 +7,7 @@ import shutil
 
 import numpy as np
 import pytest
-from test_chart import dfg_read
+from test_chart import dfg_read_error
 from test_shading import rounding_bound
 from test_reference import FURNACE, check_converged, interior, luminance, primary_hits, table_bias
 
@@ -133,9 +133,8 @@ def test_glsl_layers_match_the_float64_mirror(ctx, session, tmp_path, lobe):
         table64 = table.astype(np.float64)
         read_error = 0.0
         for x in (n_dot_v, np.where((n * l).sum(1) > 0, n_dot_l, 1.0)):
-            exact = lobes.sheen_albedo(x, np.full(count, r_s))
-            read_error = np.maximum(read_error, np.max([np.abs(dfg_read(table64, x, np.full(count, r_s), q, channels=4)[3] - exact)
-                                                        for q in [(None, None)] + [(a, b) for a in (np.floor, np.ceil) for b in (np.floor, np.ceil)]], 0))
+            rs = np.full(count, r_s)
+            read_error = np.maximum(read_error, dfg_read_error(table64, x, rs, lobes.sheen_albedo(x, rs), 3))
         base_layer = layered_cos(n, v, l, e, dataclasses.replace(m, sheen_color=(0.0, 0.0, 0.0)))
         bound = bound + base_layer * max(m.sheen_color) * read_error[:, None]
     assert (np.abs(got - want) <= bound).all()
@@ -158,18 +157,6 @@ def test_reference_furnace_matches_the_mirror_per_lobe(session, lobe):
     want = np.stack([np.interp(ndotv, grid, albedo[:, c]).mean(-1) for c in range(3)], -1)
     check_converged(luminance(res.hdr)[mask], luminance(want)[mask], res.stderr[mask],
                     bias=table_bias(session, spec, hits, sheen=lobe == "sheen")[mask])
-
-
-ROUNDINGS_8BIT = [(None, None)] + [(qx, qy) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
-
-
-def table_read_error(table, n_dot_v, roughness, exact, channel):
-    """|a channel of the chart's DFG table, read as dfg.glsl reads it (GPUs may hold the filter's
-    fractions in 8 bits: the worst of rounding them down and up) - its float64 value|; channel
-    "E" is A + B."""
-    reads = [dfg_read(table, n_dot_v, roughness, q, channels=4) for q in ROUNDINGS_8BIT]
-    values = [t[0] + t[1] if channel == "E" else t[channel] for t in reads]
-    return np.max([np.abs(v - exact) for v in values], 0)
 
 
 def sheen_diffuse_scaling_error(c, e_view, sheen_roughness):
@@ -249,21 +236,21 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe):
     base_max = max(m.base_color)
     r = np.full(mu.shape, max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS))
     a, b, c = mirror.dfg_integrate(mu, r)
-    core = 2.0 * (table_read_error(table, mu, r, a, 0) + table_read_error(table, mu, r, b, 1)) / (a + b) \
-        + base_max * table_read_error(table, mu, r, c, 2)
+    core = 2.0 * (dfg_read_error(table, mu, r, a, 0) + dfg_read_error(table, mu, r, b, 1)) / (a + b) \
+        + base_max * dfg_read_error(table, mu, r, c, 2)
     bound = core + 4.0 / 3.0 * np.abs(want - want_finer).max(-1) + 1e-5 * (1.0 + want.max(-1))
     if m.clearcoat > 0.0:
         r_c = np.full(mu.shape, max(m.clearcoat_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS))
         weight = m.clearcoat * (mirror.DIELECTRIC_F0 + (1.0 - mirror.DIELECTRIC_F0) * mirror.fresnel_weight(mu))
-        bound = bound + weight * table_read_error(table, mu, r_c, sum(mirror.dfg_integrate(mu, r_c)[:2]), "E")
+        bound = bound + weight * dfg_read_error(table, mu, r_c, sum(mirror.dfg_integrate(mu, r_c)[:2]), "E")
     if max(m.sheen_color) > 0.0:
         shade = max(m.sheen_color)
         r_s = max(m.sheen_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
         e_view = lobes.sheen_albedo(mu, np.full(mu.shape, r_s))
         rule_error, u8 = sheen_diffuse_scaling_error(shade, e_view, r_s)
         nodes = np.sqrt(u8)
-        node_error = table_read_error(table, nodes, np.full(8, r_s), lobes.sheen_albedo(nodes, np.full(8, r_s)), 3).max()
-        view_error = table_read_error(table, mu, np.full(mu.shape, r_s), e_view, 3)
+        node_error = dfg_read_error(table, nodes, np.full(8, r_s), lobes.sheen_albedo(nodes, np.full(8, r_s)), 3).max()
+        view_error = dfg_read_error(table, mu, np.full(mu.shape, r_s), e_view, 3)
         bound = bound + view_error * (shade * base_max + shade) + base_max * (rule_error + shade * node_error) \
             + base_max * sheen_factorisation_gap(mu, m)
     got = res.hdr[mask][:, :3].astype(np.float64)
@@ -456,10 +443,7 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
         texture = session.ibl.dfg(render_plan(spec))
         size = texture.size[0]
         table = np.frombuffer(texture.read(), np.float32).reshape(size, size, 4).astype(np.float64)
-    e_s_read = dfg_read(table, n_dot_v, r, channels=4)[3]
-    # GPUs may hold the filter's fractions in 8 bits (tests/test_chart.py's FurnaceBudget).
-    e_s_filter = np.max([np.abs(dfg_read(table, n_dot_v, r, (qx, qy), channels=4)[3] - e_s_read)
-                         for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)], 0)
+    e_s_read_error = dfg_read_error(table, n_dot_v, r, e_s, 3)   # 8-bit filter fractions included
     c_read = sheen_centroid_read(n_dot_v, r)
     # The chart's SH9 of the map against the exact one of 1 + g . d (E = pi + 2 pi / 3 g . n),
     # read as lobes_ibl.glsl reads it: along the lobe's axis, bands 1 and 2 scaled.
@@ -476,8 +460,8 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
                       band1 ** 2 * (3 * z * z - 1), band1 ** 2 * x * z, band1 ** 2 * (x * x - y * y)], -1)
     sh_error = np.abs(basis @ (sh - exact_sh)).max(-1) / np.pi
     g = np.linalg.norm(sky.g)
-    bound = ((np.abs(e_s_read - e_s) + e_s_filter) * (1.0 + g) + e_s * g * np.linalg.norm(c_read - c_exact, axis=-1)
-             + e_s_read * sh_error + 1e-5 * (1.0 + g))
+    bound = (e_s_read_error * (1.0 + g) + e_s * g * np.linalg.norm(c_read - c_exact, axis=-1)
+             + (e_s + e_s_read_error) * sh_error + 1e-5 * (1.0 + g))
     assert np.all(np.abs(got - truth) <= bound), np.max(np.abs(got - truth) / bound)
     along_n = e_s * (1.0 + (2.0 / 3.0) * (n @ sky.g))
     assert np.mean(np.abs(along_n - truth) > bound) > 0.5

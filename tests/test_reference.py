@@ -79,7 +79,7 @@ def table_bias(session, spec, hits, model="gltf", sheen=False):
     pixel's subsamples; plus BIAS for float32."""
     from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
     from sdfpbr.tools.reference.tables import compensation_table
-    from test_chart import dfg_read
+    from test_chart import dfg_read_error
     table = compensation_table(model, session.cache, sheen).astype(np.float64)
     hit, row, col, normal, view = hits
     mu = np.clip((normal * view).sum(-1), mirror.MIN_N_DOT_V, 1.0).ravel()
@@ -87,13 +87,10 @@ def table_bias(session, spec, hits, model="gltf", sheen=False):
     roughness = np.maximum(spec.material_array("roughness")[cells[:, 0], cells[:, 1]], MIN_PERCEPTUAL_ROUGHNESS)
     a, b, _ = mirror.dfg_integrate(mu, roughness, model=model, n=32)
     exact = a + b
-    roundings = [(None, None)] + [(qx, qy) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
-    reads = [dfg_read(table, mu, roughness, q, channels=4) for q in roundings]
-    error = np.max([np.abs(t[0] + t[1] - exact) / exact for t in reads], 0)
+    error = dfg_read_error(table, mu, roughness, exact, "E") / exact
     if sheen:
         sheen_r = np.maximum(spec.material_array("sheen_roughness")[cells[:, 0], cells[:, 1]], MIN_PERCEPTUAL_ROUGHNESS)
-        e_s = lobes.sheen_albedo(mu, sheen_r)
-        error = np.maximum(error, np.max([np.abs(dfg_read(table, mu, sheen_r, q, channels=4)[3] - e_s) for q in roundings], 0))
+        error = np.maximum(error, dfg_read_error(table, mu, sheen_r, lobes.sheen_albedo(mu, sheen_r), 3))
     return error.reshape(hit.shape).max(-1) + BIAS
 
 
