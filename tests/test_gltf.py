@@ -284,7 +284,8 @@ def test_each_cell_reads_its_own_materials_textures(session, tmp_path):
         return hdr[(aov["row"] == r) & (aov["col"] == c) & (aov["coverage"] == 1)]
     r, g, b = cell(0, 0).mean(0), cell(0, 1).mean(0), cell(1, 0).mean(0)
     assert r[0] > 4 * r[1] and g[1] > 4 * g[0] and b[2] > 2 * b[0]
-    # The same material by texels and by factors: the same arithmetic in another order.
+    # The same material by texels and by factors: the same arithmetic in another order. (Its
+    # texels are 0 and 255, the ends of the sRGB curve, which decode to 0 and 1.)
     np.testing.assert_allclose(cell(0, 1), cell(1, 1), rtol=PROGRAM_RTOL, atol=PROGRAM_RTOL * cell(1, 1).max())
 
 

@@ -70,13 +70,14 @@ def interior(spec, hits, min_ndotv):
     return same & (ndotv.min(-1) >= min_ndotv)
 
 
-def table_bias(session, spec, hits, model="gltf", sheen=False):
-    """Per pixel, the relative bias the reference's tables give it (tools/reference/tables.py):
-    the energy compensation scales a pixel by at most E / E_read (f0 = 1, less below), and the
-    sheen's albedo scaling moves a pixel of radiance up to 1 by E_s - E_s_read; E and E_s read
-    bilinearly from the 128^2 float32 table of the float64 quadrature, GPUs holding the
-    filter's fractions in 8 bits (the worst of rounding them down and up), at the worst of the
-    pixel's subsamples; plus BIAS for float32."""
+def table_bias(session, spec, hits, want, model="gltf", sheen=False):
+    """Per pixel, the relative bias the reference's tables give a pixel of value ``want``
+    (tools/reference/tables.py: the float64 quadrature in a 128^2 float32 table, read
+    bilinearly, GPUs holding the filter's fractions in 8 bits): the energy compensation scales
+    a pixel by at most E / E_read (f0 = 1, less below), at the worst of the pixel's
+    subsamples; the sheen's albedo scaling min(1 - c E_s(N.V), 1 - c E_s(N.L)) moves a pixel of
+    radiance up to 1 by c times the read error at N.V plus the worst at any N.L; plus BIAS for
+    float32."""
     from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
     from sdfpbr.tools.reference.tables import compensation_table
     from test_chart import dfg_read_error
@@ -84,14 +85,24 @@ def table_bias(session, spec, hits, model="gltf", sheen=False):
     hit, row, col, normal, view = hits
     mu = np.clip((normal * view).sum(-1), mirror.MIN_N_DOT_V, 1.0).ravel()
     cells = np.stack([np.maximum(row, 0), np.maximum(col, 0)], -1).reshape(-1, 2)
-    roughness = np.maximum(spec.material_array("roughness")[cells[:, 0], cells[:, 1]], MIN_PERCEPTUAL_ROUGHNESS)
+
+    def per_subsample(name):
+        return spec.material_array(name)[cells[:, 0], cells[:, 1]]
+    roughness = np.maximum(per_subsample("roughness"), MIN_PERCEPTUAL_ROUGHNESS)
     a, b, _ = mirror.dfg_integrate(mu, roughness, model=model, n=32)
-    exact = a + b
-    error = dfg_read_error(table, mu, roughness, exact, "E") / exact
-    if sheen:
-        sheen_r = np.maximum(spec.material_array("sheen_roughness")[cells[:, 0], cells[:, 1]], MIN_PERCEPTUAL_ROUGHNESS)
-        error = np.maximum(error, dfg_read_error(table, mu, sheen_r, lobes.sheen_albedo(mu, sheen_r), 3))
-    return error.reshape(hit.shape).max(-1) + BIAS
+    relative = (dfg_read_error(table, mu, roughness, a + b, "E") / (a + b)).reshape(hit.shape).max(-1)
+    if not sheen:
+        return relative + BIAS
+    sheen_r = np.maximum(per_subsample("sheen_roughness"), MIN_PERCEPTUAL_ROUGHNESS)
+    shade = per_subsample("sheen_color").max(-1)
+    at_view = dfg_read_error(table, mu, sheen_r, lobes.sheen_albedo(mu, sheen_r), 3)
+    at_light = 0.0
+    for r_s in np.unique(sheen_r):
+        n_dot_l = np.maximum(np.linspace(0.0, 1.0, 1025) ** 2, mirror.MIN_N_DOT_V)
+        rs = np.full(n_dot_l.shape, r_s)
+        at_light = max(at_light, float(dfg_read_error(table, n_dot_l, rs, lobes.sheen_albedo(n_dot_l, rs), 3).max()))
+    absolute = (shade * (at_view + at_light)).reshape(hit.shape).max(-1)
+    return relative + absolute / np.abs(want) + BIAS
 
 
 def check_converged(got, want, stderr, k=5.0, bias=BIAS):
@@ -129,7 +140,7 @@ def test_uniform_environment_converges_to_directional_albedo(session, metallic, 
     ndotv = (hits[3] * hits[4]).sum(-1)
     want = furnace_curve(ndotv, metallic, roughness, multiscatter).mean(-1)
     check_converged(luminance(res.hdr)[m], want[m], res.stderr[m],
-                    bias=table_bias(session, spec, hits)[m] if multiscatter else BIAS)
+                    bias=table_bias(session, spec, hits, want)[m] if multiscatter else BIAS)
     np.testing.assert_array_equal(res.hdr[..., 0], res.hdr[..., 2])   # white stays white
     if metallic == 1.0 and multiscatter:
         np.testing.assert_allclose(want[m], 1.0, atol=1e-9)   # REFERENCE.md §3: the sphere vanishes

@@ -707,14 +707,14 @@ def test_the_floor_parallax_brings_the_spheres_lower_half_towards_the_reference(
     """A white sphere where it faces the floor (n.y < -0.3) against the path tracer (512 spp).
     The probe sees the floor from the sphere's centre, where the contact's shadow fills the view
     below: under the key light alone on a black sky a dielectric's lower half was 14 % dark
-    (asserted: dark beyond five standard errors of the reference's mean). With the table a
-    dielectric's gap shrinks to under a quarter; a metal's (its rough lobe's wide share, read
-    along N) by more than five of those standard errors."""
+    (asserted: at least 4 % dark, and beyond five standard errors of the reference's mean).
+    With the table a dielectric's gap shrinks to under a quarter; a metal's (its rough lobe's
+    wide share, read along N) by more than five of those standard errors."""
     from sdfpbr.spec.presets import KEY_LIGHT
     extra = {"lights": (KEY_LIGHT,), "env": "black"} if lights == "key" else {}
     gap_off, gap_on, se = lower_half_gaps(session, monkeypatch, "floor_parallax", metallic, **extra)
     if metallic == 0.0:
-        assert gap_off < -5 * se and abs(gap_on) <= 0.25 * abs(gap_off), (gap_off, gap_on, se)
+        assert gap_off < min(-0.04, -5 * se) and abs(gap_on) <= 0.25 * abs(gap_off), (gap_off, gap_on, se)
     else:
         assert abs(gap_on) <= abs(gap_off) - 5 * se, (gap_off, gap_on, se)
 

@@ -11,7 +11,9 @@ from sdfpbr.oracle import lobes, mirror
 # The float32 unit roundoff (round to nearest).
 FLOAT32_UNIT_ROUNDOFF = 2.0 ** -24
 # Operations between a sample's index and its weighted term in dfg_main.glsl, with the driver's
-# sqrt, sin, cos and pow taken as a few ulps each: a bound on each term's relative error.
+# sqrt, sin, cos and pow taken as a few ulps each: each term's relative error where its inputs
+# do not cancel (v.h, n.l and 1 - sin^2 can, near the horizon, and a GPU's sin and cos err
+# absolutely, not relatively).
 TERM_OPERATIONS = 64
 
 
@@ -28,7 +30,10 @@ def float32_bound(samples):
     """Higham's gamma_n for a term of TERM_OPERATIONS roundings summed in order with
     samples - 1 more: |fl(sum) - sum| <= gamma * sum |terms|. The bake's terms are
     non-negative, so sum |terms| / samples is the rule's own value (per channel) -- for A and B
-    the whole specular weight A + B, since each splits one weight by 1 - Fc and Fc."""
+    the whole specular weight A + B, since each splits one weight by 1 - Fc and Fc. A worst
+    case for the sum (rounding errors that all add up, N u, where they mostly cancel, ~sqrt(N)
+    u): it is that slack, not the per-term count, that also covers the few terms whose inputs
+    cancel; the tests read the two as one allowance, not as a proof for every driver."""
     n = samples + TERM_OPERATIONS
     return n * FLOAT32_UNIT_ROUNDOFF / (1.0 - n * FLOAT32_UNIT_ROUNDOFF)
 

@@ -98,15 +98,14 @@ def _bands(camera: str, azimuth: float, distance_scale: float, radius: float, wi
         return (CATCHER_BAND_MAX,) * 4
     margin = 1.5   # grid points between the fade and the shadow
     nearest = (xs.min() / width, (width - 1 - xs.max()) / width, ys.min() / height, (height - 1 - ys.max()) / height)
-    steps = (margin / width,) * 2 + (margin / height,) * 2
-    return tuple(band_for_shadow_at(depth, step) for depth, step in zip(nearest, steps))
+    margins = (margin / width,) * 2 + (margin / height,) * 2
+    return tuple(band_for_shadow_at(depth, share) for depth, share in zip(nearest, margins))
 
 
 def band_for_shadow_at(depth: float, margin: float) -> float:
     """A side's band when the nearest main shadow lies ``depth`` (a share of the cell) from its
     border: up to ``margin`` short of it, between CATCHER_BAND_MIN and CATCHER_BAND_MAX; a
     shadow inside the narrowest band widens it linearly, to CATCHER_BAND_MAX at depth 0."""
-    if depth < CATCHER_BAND_MIN:
-        return float(min(CATCHER_BAND_MIN + (CATCHER_BAND_MAX - CATCHER_BAND_MIN) * (CATCHER_BAND_MIN - max(depth, 0.0))
-                         / CATCHER_BAND_MIN, CATCHER_BAND_MAX))
+    if depth < CATCHER_BAND_MIN:   # depth >= 0: a share of the cell
+        return float(CATCHER_BAND_MIN + (CATCHER_BAND_MAX - CATCHER_BAND_MIN) * (CATCHER_BAND_MIN - depth) / CATCHER_BAND_MIN)
     return float(min(max(depth - margin, CATCHER_BAND_MIN), CATCHER_BAND_MAX))
