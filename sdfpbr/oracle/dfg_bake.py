@@ -6,7 +6,7 @@ the rule's bias, which is a property of the rule and its sample count, computed 
 than measured on one driver."""
 import numpy as np
 
-from sdfpbr.oracle import lobes, mirror
+from . import lobes, mirror
 
 # The float32 unit roundoff (round to nearest).
 FLOAT32_UNIT_ROUNDOFF = 2.0 ** -24
