@@ -134,15 +134,16 @@ def test_dfg_lut_is_its_rule_in_float32(ctx, session, model):
         assert (np.diff(gpu[:, 2:, 0] + gpu[:, 2:, 1], axis=0) < 2e-3).all()
 
 
-@pytest.mark.parametrize("preset", ["default", "high"])
+@pytest.mark.parametrize("preset", ["draft", "default", "high"])
 def test_dfg_rule_bias_is_below_half_an_8bit_step(preset):
     """The rule's own error (oracle.dfg_bake against mirror.dfg_integrate, both float64) at a
     preset's table size and sample count, on every row the chart reads (from the one below the
     roughness clamp), as white furnace pixels take it: a dielectric and a metal, compensated or
     not (mirror.furnace_from_dfg with the rule's A, B, C against the integral's), each within
-    half an 8-bit step of sRGB at its value (display.srgb_half_step). (draft's 256 samples need
-    not: a draft. Rows below the clamp are never read; there the mirror's delta-lobe shortcut
-    for alpha < 1e-4 ignores masking at grazing N.V.)"""
+    half an 8-bit step of sRGB at its value (display.srgb_half_step): every preset's table is
+    invisible in an 8-bit image (draft's had 256 samples, 1.67 half steps off; 512 now). (Rows
+    below the clamp are never read; there the mirror's delta-lobe shortcut for alpha < 1e-4
+    ignores masking at grazing N.V.)"""
     from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
     q = QUALITY_PRESETS[preset]
     grid = np.arange(q.dfg_size) / (q.dfg_size - 1)

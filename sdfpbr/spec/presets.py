@@ -149,7 +149,7 @@ class Quality:
 
 QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
-                     ibl_samples=32, dfg_size=32, dfg_samples=256, sh_size=16, sphere_samples_radius=0,
+                     ibl_samples=32, dfg_size=32, dfg_samples=512, sh_size=16, sphere_samples_radius=0,
                      ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, bounce_mirror_directions=8,
                      hidden_sky_samples=8,
                      ground_ibl_size=64, neighbour_light=False),
