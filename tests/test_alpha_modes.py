@@ -118,6 +118,7 @@ pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_gltf import png_bytes, textured_glb  # noqa: E402
 from test_alpha import floor_points  # noqa: E402
+from test_bugs import PROGRAM_RTOL  # noqa: E402
 
 
 def glb_with_alpha(tmp_path, mode, factor_alpha=1.0, cutoff=None, left=0, right=255):
@@ -169,7 +170,11 @@ def test_a_masks_holes_thin_its_light_by_their_share(session, tmp_path):
     assert shade.sum() > 100
     kept = ((got - empty)[shade] / (opaque - empty)[shade]).mean(-1)
     assert abs(np.median(kept) - 0.5) <= 1 / 16, np.median(kept)
-    np.testing.assert_allclose(kept, np.median(kept), atol=1e-3)
+    # The same share everywhere, to the rounding of the three renders' pixels (each its own
+    # program: PROGRAM_RTOL of each value) carried through the ratio, here and at the median.
+    rounding = (PROGRAM_RTOL * (np.abs(got) + 2 * np.abs(empty) + np.abs(opaque))[shade]
+                / np.abs(opaque - empty)[shade]).max(-1)
+    assert (np.abs(kept - np.median(kept)) <= rounding + rounding.max()).all()
 
 
 @pytest.mark.parametrize("stage, direction", [("cells", (-0.5, 0.7, 0.5)), ("cells", (0.6, 0.6, 0.3)),
@@ -197,7 +202,10 @@ def test_a_masks_shadow_falls_in_its_pattern(session, tmp_path, stage, direction
     clear = np.abs(entry[:, 0]) > 0.05
     assert clear.sum() > 50 and (entry[clear, 0] > 0).any() and (entry[clear, 0] < 0).any()
     kept = ((got - empty)[umbra] / (opaque - empty)[umbra]).mean(-1)
-    np.testing.assert_allclose(kept[clear], (entry[clear, 0] > 0).astype(float), atol=0.02)
+    # 1 or 0 but for the three renders' rounding (PROGRAM_RTOL of each value) through the ratio.
+    rounding = (PROGRAM_RTOL * (np.abs(got) + 2 * np.abs(empty) + np.abs(opaque))[umbra]
+                / np.abs(opaque - empty)[umbra]).max(-1)
+    assert (np.abs(kept - (entry[:, 0] > 0))[clear] <= rounding[clear]).all()
 
 
 def test_a_bad_alpha_mode_is_one_line(tmp_path):
