@@ -41,6 +41,15 @@ def dfg_read_error(table, n_dot_v, perceptual_roughness, exact, channel):
     return np.max([np.abs((t[0] + t[1] if channel == "E" else t[channel]) - exact) for t in reads], 0)
 
 
+def chart_dfg_table(session, spec):
+    """The DFG table a chart of ``spec`` reads, as the GPU baked it: (size, size, 4) float64."""
+    from sdfpbr.shading.plan import render_plan
+    with session.ctx:
+        texture = session.ibl.dfg(render_plan(spec))
+        size = texture.size[0]
+        return np.frombuffer(texture.read(), np.float32).reshape(size, size, 4).astype(np.float64)
+
+
 class FurnaceBudget:
     """A furnace pixel is the split-sum model (REFERENCE.md §2-3) read through the chart's DFG
     table. Through that table (its texels as the GPU baked them, read here in float64) the pixel
@@ -52,12 +61,9 @@ class FurnaceBudget:
     dielectric's C + (0.04 A + B) comp moves by about |dC| + |dB| + 0.04 |dA|). White by default."""
 
     def __init__(self, session, spec, res, mask, base_color=(1.0, 1.0, 1.0)):
-        from sdfpbr.shading.plan import render_plan
         from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
-        with session.ctx:
-            texture = session.ibl.dfg(render_plan(spec))
-            size = texture.size[0]
-            table = np.frombuffer(texture.read(), np.float32).reshape(size, size, 4).astype(float)
+        table = chart_dfg_table(session, spec)
+        size = table.shape[0]
         self.got = res.hdr[mask].astype(float)
         mu = res.aov["ndotv"][mask].astype(float)
         r = np.maximum(res.aov["roughness"][mask].astype(float), MIN_PERCEPTUAL_ROUGHNESS)
@@ -68,7 +74,8 @@ class FurnaceBudget:
         def expected(t, rounding=(None, None)):
             return mirror.furnace_from_dfg(*dfg_read(t, mu, r, rounding), base, metallic, spec.multiscatter)
 
-        self.through_table = expected(table)
+        terms = dfg_read(table, mu, r)
+        self.through_table = mirror.furnace_from_dfg(*terms, base, metallic, spec.multiscatter)
         rounded = [expected(table, q) for q in FILTER_ROUNDINGS[1:]]
         self.filter = np.max([np.abs(e - self.through_table) for e in rounded], 0) + 1e-5 * (1 + self.through_table)
         # The float64 table on the rows these roughnesses read.
@@ -80,7 +87,6 @@ class FurnaceBudget:
         self.texel_error = np.abs(table[rows, :, :3] - exact[rows, :, :3]).max()
         self.model = mirror.furnace_expected(mu, base, metallic, r, multiscatter=spec.multiscatter)
         self.interpolation = np.abs(expected(exact) - self.model)
-        terms = dfg_read(table, mu, r)
         moved = [mirror.furnace_from_dfg(*(t + self.texel_error * (k == i) for k, t in enumerate(terms)), base,
                                          metallic, spec.multiscatter) for i in range(3)]
         self.spread = np.sum([np.abs(m - self.through_table) for m in moved], 0)

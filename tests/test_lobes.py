@@ -7,7 +7,7 @@ import shutil
 
 import numpy as np
 import pytest
-from test_chart import dfg_read_error
+from test_chart import chart_dfg_table, dfg_read_error
 from test_shading import rounding_bound
 from test_reference import FURNACE, check_converged, interior, luminance, primary_hits, table_bias
 
@@ -235,10 +235,7 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe):
     mirror_error = 2.0 * np.abs(want - want_finer).max(-1) \
         + np.abs(albedo_on(grid, 128) - albedo)[grid >= 0.2 - 1.0 / 256].max()
 
-    with session.ctx:
-        texture = session.ibl.dfg(render_plan(spec))
-        size = texture.size[0]
-        table = np.frombuffer(texture.read(), np.float32).reshape(size, size, 4).astype(np.float64)
+    table = chart_dfg_table(session, spec)
     base_max = max(m.base_color)
     r = np.full(mu.shape, max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS))
     a, b, c = mirror.dfg_integrate(mu, r)
@@ -453,10 +450,7 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
         e_s[i] = lobes.sheen_albedo(n[i] @ v[i], np.sqrt(alpha[i]))
         c_exact[i] = sheen_centroid(n[i] @ v[i], np.sqrt(alpha[i]))
     n_dot_v, r = np.sum(n * v, -1), np.sqrt(alpha)
-    with session.ctx:
-        texture = session.ibl.dfg(render_plan(spec))
-        size = texture.size[0]
-        table = np.frombuffer(texture.read(), np.float32).reshape(size, size, 4).astype(np.float64)
+    table = chart_dfg_table(session, spec)
     e_s_read_error = dfg_read_error(table, n_dot_v, r, e_s, 3)   # 8-bit filter fractions included
     c_read = sheen_centroid_read(n_dot_v, r)
     # The chart's SH9 of the map against the exact one of 1 + g . d (E = pi + 2 pi / 3 g . n),

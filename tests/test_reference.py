@@ -29,6 +29,12 @@ def luminance(rgb):
     return np.asarray(rgb, float) @ np.array([0.2126, 0.7152, 0.0722])
 
 
+def mean_and_se(lum, lum_se, mask):
+    """The mean of a reference's pixel values over ``mask`` and its standard error (the pixels'
+    estimates are independent: their variances add)."""
+    return lum[mask].mean(), np.sqrt((np.asarray(lum_se, np.float64)[mask] ** 2).sum()) / mask.sum()
+
+
 def primary_hits(spec, sub=SUB):
     """Per pixel and subsample, the sphere hit by the camera ray: (hit, row, col, normal, view),
     arrays of shape (H, W, sub*sub[, 3]), traced in float64 as camera.glsl and a ray-sphere test."""
@@ -97,8 +103,8 @@ def table_bias(session, spec, hits, want, model="gltf", sheen=False):
     shade = per_subsample("sheen_color").max(-1)
     at_view = dfg_read_error(table, mu, sheen_r, lobes.sheen_albedo(mu, sheen_r), 3)
     at_light = 0.0
+    n_dot_l = np.maximum(np.linspace(0.0, 1.0, 1025) ** 2, mirror.MIN_N_DOT_V)
     for r_s in np.unique(sheen_r):
-        n_dot_l = np.maximum(np.linspace(0.0, 1.0, 1025) ** 2, mirror.MIN_N_DOT_V)
         rs = np.full(n_dot_l.shape, r_s)
         at_light = max(at_light, float(dfg_read_error(table, n_dot_l, rs, lobes.sheen_albedo(n_dot_l, rs), 3).max()))
     absolute = (shade * (at_view + at_light)).reshape(hit.shape).max(-1)

@@ -19,7 +19,7 @@ from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import Light, make_spec
 from sdfpbr.tools.reference import render_reference
 
-from test_reference import BIAS, check_converged, luminance
+from test_reference import BIAS, check_converged, luminance, mean_and_se
 
 
 def grid_offsets(n):
@@ -350,7 +350,7 @@ def test_the_floor_reflects_the_sky_its_sphere_does_not_hide(session, env):
     chart = luminance(session.render(spec, hdr=True).hdr)
     for name, mask in regions.items():
         assert mask.sum() > 300, name
-        mean, se = _mean_and_se(lum, lum_se, mask)
+        mean, se = mean_and_se(lum, lum_se, mask)
         ratio = chart[mask].mean() / mean
         assert abs(ratio - 1) < FLOOR_SPECULAR_RTOL + 3 * se / mean, (name, ratio, se / mean)
 
@@ -365,8 +365,8 @@ def test_the_floor_reflects_the_sky_its_sphere_does_not_hide(session, env):
 
 def second_bounce_share(lum, lum_se, umbra, lit):
     """The reference's light in the sun's umbra over its lit floor's, 3 standard errors up."""
-    umbra_mean, umbra_se = _mean_and_se(lum, lum_se, umbra)
-    return (umbra_mean + 3 * umbra_se) / _mean_and_se(lum, lum_se, lit)[0]
+    umbra_mean, umbra_se = mean_and_se(lum, lum_se, umbra)
+    return (umbra_mean + 3 * umbra_se) / mean_and_se(lum, lum_se, lit)[0]
 
 
 @pytest.fixture(scope="module")
@@ -404,7 +404,7 @@ def test_no_mirror_image_of_the_sun_in_its_own_umbra(mirror_floor):
     mirror light there (the far field's even spread put 9x the reference's light there, 7 % of
     the lit floor's luminance, in a grazing reflection that does not exist)."""
     umbra, _, lum, lum_se, chart = mirror_floor
-    mean, se = _mean_and_se(lum, lum_se, umbra)
+    mean, se = mean_and_se(lum, lum_se, umbra)
     assert chart[umbra].mean() <= mean + 3 * se, (chart[umbra].mean() / mean, se / mean)
 
 
@@ -415,7 +415,7 @@ def test_the_suns_mirror_image_lights_the_floor_beside_the_sphere(mirror_floor):
     reference finds it in the umbra: second_bounce_share) plus 3 standard errors of the
     reference (the far field read 7 % dark there)."""
     umbra, towards, lum, lum_se, chart = mirror_floor
-    mean, se = _mean_and_se(lum, lum_se, towards)
+    mean, se = mean_and_se(lum, lum_se, towards)
     ratio = chart[towards].mean() / mean
     allowance = second_bounce_share(lum, lum_se, umbra, towards) + 3 * se / mean
     assert abs(ratio - 1) < allowance < 0.07, (ratio, allowance)   # 0.07: the far field's error, caught
@@ -444,10 +444,6 @@ def floor_beside(request, session):
     return left, right, luminance(ref.hdr), ref.stderr.astype(float), chart
 
 
-def _mean_and_se(lum, lum_se, mask):
-    return lum[mask].mean(), np.sqrt((lum_se[mask] ** 2).sum()) / mask.sum()
-
-
 def test_the_floor_is_darker_where_its_sphere_hides_the_brighter_sky(floor_beside):
     """The sphere hides the sky behind it from the floor beside it, so the floor on the side
     whose hidden sky is brighter is darker. The reference shows it (its left/right ratio is
@@ -455,7 +451,7 @@ def test_the_floor_is_darker_where_its_sphere_hides_the_brighter_sky(floor_besid
     whole sky, taken away evenly, turned the studio's the wrong way round, 1.02 against 0.97,
     and left the sky's at 0.99 against 0.92)."""
     left, right, lum, lum_se, chart = floor_beside
-    (l_mean, l_se), (r_mean, r_se) = _mean_and_se(lum, lum_se, left), _mean_and_se(lum, lum_se, right)
+    (l_mean, l_se), (r_mean, r_se) = mean_and_se(lum, lum_se, left), mean_and_se(lum, lum_se, right)
     ratio = l_mean / r_mean
     se = ratio * np.hypot(l_se / l_mean, r_se / r_mean)
     assert ratio < 1 - 3 * se, (ratio, se)
@@ -475,7 +471,7 @@ def test_the_floor_beside_its_sphere_loses_the_sky_the_reference_does(floor_besi
     lobe reaches sky beside the sphere, left the studio's right side 5.7 % dark."""
     left, right, lum, lum_se, chart = floor_beside
     for side in (left, right):
-        mean, se = _mean_and_se(lum, lum_se, side)
+        mean, se = mean_and_se(lum, lum_se, side)
         assert abs(chart[side].mean() / mean - 1) < FLOOR_ENV_RTOL + 3 * se / mean, (chart[side].mean() / mean, se)
 
 

@@ -3,6 +3,7 @@ same material in every cell has equal cells (after shifting by the cell offset),
 grounded on its own floor, and the labels sit on the spheres."""
 import numpy as np
 import pytest
+from test_reference import luminance, mean_and_se
 
 from sdfpbr.image.chart_labels import chart_cells
 from sdfpbr.shading.camera import CELL_ELEVATION_DEG, FOV_Y_DEG, frame_cell
@@ -590,11 +591,9 @@ def lower_half_gaps(session, monkeypatch, knob: str, metallic: float, **extra) -
     off = session.render(spec)
     lower = (on.aov["row"] >= 0) & (on.aov["coverage"] == 1) & (on.aov["normal"][..., 1] < -0.3)
 
-    def luminance(hdr):
-        return float((hdr[..., :3][lower].astype(np.float64) @ [0.2126, 0.7152, 0.0722]).mean())
-    want = luminance(ref.hdr)
-    stderr = float(np.sqrt((ref.stderr[lower].astype(np.float64) ** 2).sum()) / lower.sum())
-    return luminance(off.hdr) / want - 1, luminance(on.hdr) / want - 1, stderr / want
+    want, stderr = mean_and_se(luminance(ref.hdr[..., :3]), ref.stderr, lower)
+    return (luminance(off.hdr[..., :3])[lower].mean() / want - 1, luminance(on.hdr[..., :3])[lower].mean() / want - 1,
+            stderr / want)
 
 
 @pytest.mark.parametrize("metallic, lights", [(1.0, "default"), (0.0, "none")])
@@ -749,10 +748,11 @@ def test_a_polished_spheres_mirror_image_of_the_stage_lights_its_floor(session, 
                    for hdr in (render.hdr, ref.hdr)]
             errors[name] = lum[0] / lum[1] - 1
         return max(abs(e) for e in errors.values()), errors
-    # Each region's sum in the reference, its standard error relative to it.
-    stderr = {name: float(np.sqrt((ref.stderr[floor & region].astype(np.float64) ** 2).sum())
-                          / (ref.hdr[..., :3][floor & region].astype(np.float64) @ [0.2126, 0.7152, 0.0722]).sum())
-              for name, region in regions.items()}
+    # Each region's standard error in the reference, relative to its mean.
+    stderr = {}
+    for name, region in regions.items():
+        mean, se = mean_and_se(luminance(ref.hdr[..., :3]), ref.stderr, floor & region)
+        stderr[name] = se / mean
     (_, mirror_errors), (_, rays_errors) = worst(mirrored), worst(rays)
     # Beside it the floor takes the mirror image of the studio's fill box: the rays' 7 % halves.
     assert abs(rays_errors["right"]) > 0.05, rays_errors
