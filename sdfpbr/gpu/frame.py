@@ -13,9 +13,10 @@ from ..shading import camera as camera_mod
 from ..shading.catcher import catcher_band_pixels
 from ..shading.cells import FLOOR_RETURN_G, cell_grid, stage
 from ..shading.plan import has_shadow_catcher
-from ..shading.material_table import upload as upload_materials
+from ..shading.material_table import material_table, upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
 from ..spec.material import exposure_axis
+from ..cache import content_key
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
 
@@ -57,6 +58,12 @@ def read_rgba(source, width: int, height: int, dtype=np.float32, pool: TargetPoo
     else:
         source.read_into(staging)
     return staging[::-1]
+
+
+def array_key(array: np.ndarray) -> str:
+    """A content key of an array (its dtype, shape and bytes)."""
+    a = np.ascontiguousarray(array)
+    return content_key(a.dtype.str, list(a.shape), a.tobytes())
 
 
 def table_texture(ctx: moderngl.Context, array: np.ndarray) -> moderngl.Texture:
@@ -186,13 +193,17 @@ class SceneBindings:
     uniforms: dict
     textures: list = field(default_factory=list)     # (sampler name, texture)
     owned: list = field(default_factory=list)        # textures uploaded for this render
+    keys: dict = field(default_factory=dict)         # sampler name -> its texture's content key
 
-    def add_texture(self, name: str, texture, owned: bool = False) -> None:
+    def add_texture(self, name: str, texture, owned: bool = False, key: str | None = None) -> None:
+        """Bind ``texture`` to sampler ``name``; ``key``: a content key of what it holds (what
+        is drawn from it may be cached under it: gpu/plates.py), None where it has none."""
         self.textures.append((name, texture))
+        self.keys[name] = key
         if owned:
             self.owned.append(texture)
 
-    def replace_texture(self, name: str, texture) -> None:
+    def replace_texture(self, name: str, texture, key: str | None = None) -> None:
         """Set ``name`` to a texture this render owns, releasing the one it replaces."""
         for i, (n, old) in enumerate(self.textures):
             if n == name:
@@ -200,9 +211,14 @@ class SceneBindings:
                     self.owned.remove(old)
                     old.release()
                 self.textures[i] = (name, texture)
+                self.keys[name] = key
                 self.owned.append(texture)
                 return
-        self.add_texture(name, texture, owned=True)
+        self.add_texture(name, texture, owned=True, key=key)
+
+    def texture_keys(self) -> dict:
+        """Each bound sampler's content key (None: unknown)."""
+        return {name: self.keys.get(name) for name, _ in self.textures}
 
     def bind(self) -> dict:
         """Put each texture on a unit; the uniforms with every sampler pointing at its unit."""
@@ -227,8 +243,9 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     uniforms = chart_uniforms(spec, cam, quality)
     bindings = SceneBindings(cam, env, {**uniforms, **env.uniforms})
     if env.texture is not None:
-        bindings.add_texture("u_env_map", env.texture, owned=True)
-    bindings.add_texture("u_cell_materials", upload_materials(ctx, spec.cell_materials()), owned=True)
+        bindings.add_texture("u_env_map", env.texture, owned=True, key=env.content)
+    materials = material_table(spec.cell_materials())
+    bindings.add_texture("u_cell_materials", upload_materials(ctx, materials), owned=True, key=array_key(materials))
     if uses_textures:
         from .textures import texture_set, upload, upload_kept
         maps = texture_set(spec, cache)

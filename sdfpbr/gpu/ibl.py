@@ -427,11 +427,19 @@ class IBLBaker:
                 lighting.floor_parallax = self._baked_floor_parallax(plan, lighting, scene_uniforms)
         return lighting.floor_parallax
 
+    @staticmethod
+    def floor_parallax_key(plan: IBLPlan, lighting: EnvironmentLighting, scene_uniforms: dict) -> str:
+        """What ``lighting``'s floor parallax table is made of (its cache key when baked; a
+        light orbit's turned lighting has a key of its own, which covers the turn)."""
+        geometry = {name: float(scene_uniforms[name]) for name in ("u_radius", "u_ground_y")}
+        return content_key(plan.floor_parallax.text, plan.floor_parallax_size, plan.floor_parallax_samples,
+                           geometry, lighting.key)
+
     def _baked_floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting,
                               scene_uniforms: dict) -> moderngl.TextureCube:
         source, size, samples = plan.floor_parallax, plan.floor_parallax_size, plan.floor_parallax_samples
         geometry = {name: float(scene_uniforms[name]) for name in ("u_radius", "u_ground_y")}
-        key = content_key(source.text, size, samples, geometry, lighting.key)
+        key = self.floor_parallax_key(plan, lighting, scene_uniforms)
         cached = self.cache.get("ibl", key)
         if cached is not None:
             table = self._cube_from_levels(plan.copy_to_cube, [cached["table"]])

@@ -5,7 +5,6 @@ targets; the display pass applies exposure, the tone mapper and the sRGB OETF. A
 back top row first."""
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -14,15 +13,14 @@ import numpy as np
 
 from ..errors import SpecError
 from ..shading import camera as camera_mod
-from ..shading.camera import cell_sphere_box
 from ..shading.silhouette import silhouette_ring, sphere_boxes
-from ..shading.cells import cell_grid, plate_frame
+from ..shading.cells import cell_grid
 from ..shading.compose import ComposedSource
-from ..shading.plan import RenderPlan, bounce_step, render_plan
+from ..shading.plan import RenderPlan, render_plan
 from ..shading.sheen import sheen_centroid_uniform
 from ..spec.chart_spec import ChartSpec
-from .frame import (AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings,
-                    table_texture, tiles)
+from .frame import AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings, tiles
+from .plates import bind_frame
 from .programs import set_uniforms
 
 TILE = 2048   # largest tile edge; also bounds the float targets' memory
@@ -152,21 +150,22 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
         scene.uniforms["u_sheen_centroid"] = sheen_centroid_uniform()
     try:
         dfg = session.ibl.dfg(plan)
-        scene.add_texture("u_dfg", dfg)
+        scene.add_texture("u_dfg", dfg, key=session.ibl.dfg_key(plan))
         if plan.ibl is not None:
             lighting = session.ibl.lighting(scene.environment, plan.ibl)
             baked = []
             if plan.ibl.ground_table is not None:   # the ground's IBL per view direction
                 ground = session.ibl.ground_table(plan, lighting, dfg, scene.uniforms)
-                scene.add_texture("u_ground_ibl", ground.texture)
+                scene.add_texture("u_ground_ibl", ground.texture, key=ground.key)
                 baked.append(ground.key)
             if plan.ibl.stage_probe is not None:   # the spheres see the stage (its floor), not the sky below
                 lighting = session.ibl.stage_lighting(plan.ibl, plan.ibl.stage_probe, lighting, scene.textures,
                                                       scene.uniforms, scene.environment, tuple(baked))
             scene.uniforms.update(lighting.uniforms())
-            scene.add_texture("u_prefiltered", lighting.prefiltered)
+            scene.add_texture("u_prefiltered", lighting.prefiltered, key=lighting.key)
             if plan.ibl.floor_parallax is not None:   # the floor as each sphere point sees it
-                scene.add_texture("u_floor_parallax", session.ibl.floor_parallax(plan.ibl, lighting, scene.uniforms))
+                scene.add_texture("u_floor_parallax", session.ibl.floor_parallax(plan.ibl, lighting, scene.uniforms),
+                                  key=session.ibl.floor_parallax_key(plan.ibl, lighting, scene.uniforms))
     except BaseException:
         scene.release()
         raise
@@ -261,101 +260,6 @@ class ChartDraw:
             if obj is not None:
                 obj.release()
         self.vao, self.overlays = None, []
-
-
-def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs) -> None:
-    """The per-frame work before the chart's draw: the cells stage's floor plate (a pass of its
-    own, part of what a frame costs), then every binding onto ``programs`` (the chart's)."""
-    if plan.floor_plate is not None:
-        scene.replace_texture("u_floor_plate", _floor_plate(session, plan.floor_plate, scene, plan.spec))
-    if plan.bounce_plate is not None:
-        scene.replace_texture("u_bounce_plate", _bounce_plate(session, plan, scene))
-    if plan.sphere_plate is not None:
-        _sphere_plate(session, plan, scene)
-    bindings = scene.bind()
-    for program in programs:
-        set_uniforms(program, bindings)
-
-
-def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int],
-                boxes: list | None = None) -> moderngl.Texture:
-    """A float texture of ``size`` drawn by ``source`` with the scene's bindings, filtered
-    bilinearly between texel centres and clamped at its edges. ``boxes``: only these
-    (x, y, width, height) texel boxes are drawn, the rest is 0."""
-    ctx = session.ctx
-    program = session.programs.fragment(source)
-    plate = ctx.texture(size, 4, dtype="f4")
-    plate.repeat_x = plate.repeat_y = False
-    plate.filter = (moderngl.LINEAR, moderngl.LINEAR)
-    fbo = ctx.framebuffer(color_attachments=[plate])
-    vao = ctx.vertex_array(program, [])
-    try:
-        fbo.use()
-        set_uniforms(program, scene.bind())
-        if boxes is None:
-            vao.render(moderngl.TRIANGLES, vertices=3)
-        else:
-            fbo.clear()
-            for box in boxes:
-                fbo.scissor = box
-                vao.render(moderngl.TRIANGLES, vertices=3)
-            fbo.scissor = None
-    finally:
-        vao.release()
-        fbo.release()
-    return plate
-
-
-def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec) -> moderngl.Texture:
-    """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
-    texture of the plate's size, read back by every cell (bilinear filtering between texel
-    centres, for the anti-aliased edges' and extra samples' positions)."""
-    origin, size = plate_frame(spec)
-    scene.uniforms["u_plate_origin"] = origin
-    return _plate_pass(session, source, scene, size)
-
-
-def _bounce_plate(session, plan: RenderPlan, scene) -> moderngl.Texture:
-    """Each cell's sphere's bounce on its floor (stage_bounce_main.glsl): a tile per cell of
-    texels ``step`` cell pixels apart over the plate's extent, one more texel past its far
-    edge so that every position interpolates. The bounce varies over the sphere's size (as its
-    form factor, ~ 1/d^2 at distance d): with h = R / 8 between texels, bilinear interpolation
-    errs by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
-    (tests/test_stage.py)."""
-    spec = plan.spec
-    grid = cell_grid(spec)
-    origin, (width, height) = plate_frame(spec)
-    step = bounce_step(spec)
-    while True:   # coarser for an image so wide that the tiles would not fit one texture
-        tile = (math.ceil((width - 0.5) / step) + 1, math.ceil((height - 0.5) / step) + 1)
-        if max(grid.cols * tile[0], grid.rows * tile[1]) <= session.max_texture_size:
-            break
-        step *= 2
-    scene.uniforms.update(u_plate_origin=origin, u_bounce_tile=tile, u_bounce_step=float(step))
-    return _plate_pass(session, plan.bounce_plate, scene, (grid.cols * tile[0], grid.rows * tile[1]))
-
-
-def _sphere_plate(session, plan: RenderPlan, scene) -> None:
-    """Each slot's sphere at metallic 0 and 1 once per cell pixel (stage_sphere_main.glsl), and
-    the table of each cell's slot the chart mixes them by (shading/cells.py)."""
-    layout = plan.sphere_layout
-    ctx = session.ctx
-    scene.uniforms.update(u_sphere_origin=layout.origin, u_sphere_tile=layout.tile, u_sphere_tiles_x=layout.tiles_x)
-    scene.replace_texture("u_slot_cells", table_texture(ctx, np.array([layout.slot_cells])))
-    scene.replace_texture("u_sphere_slots", table_texture(ctx, layout.slots))
-    # Each tile only where its sphere can be: a software rasterizer would shade the sphere
-    # for the floor's texels too (it runs both sides of a branch). Boxes, not the disc: it
-    # shades a 4 x 4 block once for each triangle that covers part of it, so a disc's many
-    # triangles cost more than the box's corners (measured: 28 -> 31-38 ms at 1024²).
-    x0, y0, x1, y1 = cell_sphere_box(plan.spec)
-    ox, oy = layout.origin
-    tw, th = layout.tile
-    x0, y0, x1, y1 = max(x0 - ox, 0), max(y0 - oy, 0), min(x1 - ox, tw), min(y1 - oy, th)
-    boxes = [((i % layout.tiles_x) * tw + x0, (i // layout.tiles_x) * th + y0, x1 - x0, y1 - y0)
-             for i in range(2 * len(layout.slot_cells))]
-    plate = _plate_pass(session, plan.sphere_plate, scene, layout.size, boxes)
-    plate.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    scene.replace_texture("u_sphere_plate", plate)
 
 
 def _draw(session, chart: ChartDraw, display, spec: ChartSpec, aovs: bool, read_hdr: bool,

@@ -41,10 +41,10 @@ def material_table(cells: list[list[Material]]) -> np.ndarray:
     return np.stack([cell_texels(m) for row in cells for m in row]).astype(np.float32)
 
 
-def upload(ctx, cells: list[list[Material]]):
-    """The table as a texture (nearest, clamped: read with texelFetch)."""
+def upload(ctx, table: np.ndarray):
+    """``material_table``'s table as a texture (nearest, clamped: read with texelFetch)."""
     import moderngl
-    table = np.ascontiguousarray(material_table(cells))
+    table = np.ascontiguousarray(table)
     tex = ctx.texture((TEXELS_PER_CELL, table.shape[0]), 4, table.tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     tex.repeat_x = tex.repeat_y = False

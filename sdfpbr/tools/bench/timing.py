@@ -146,7 +146,8 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
     targets the renderer uses: its per-frame passes (the cells stage's floor plate) and the
     chart program's tiles."""
     from ...shading.plan import render_plan
-    from ...gpu.render import ChartDraw, bind_frame, chart_scene
+    from ...gpu.plates import bind_frame
+    from ...gpu.render import ChartDraw, chart_scene
     result = session.render(spec)
     ctx = session.ctx
     plan = render_plan(spec)
@@ -161,7 +162,7 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
             passes.append((x0, y0, tw, th, targets, ctx.framebuffer(color_attachments=targets)))
 
         def draw():   # what a frame draws: its per-frame passes, then the chart's tiles (and edges)
-            bind_frame(session, plan, scene, chart.programs)
+            bind_frame(session, plan, scene, chart.programs, cached=False)   # drawn, as a moving frame's
             for x0, y0, tw, th, targets, fbo in passes:
                 chart.draw(x0, y0, tw, th, targets, fbo)
 

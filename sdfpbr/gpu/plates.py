@@ -1,0 +1,200 @@
+"""The cells stage's plates: what every cell shares, shaded once per cell pixel before the
+chart's draw (the floor, each sphere's bounce on it, each slot's sphere), and read back by
+every cell.
+
+A plate is a pure function of its program and what it is drawn with (the scene's uniforms, the
+contents of its textures, the GL implementation), so it is kept in the disk cache under a key of
+all of them: a chart drawn again (a docs build, a second `sdfpbr chart`) reads its plates
+instead of compiling and drawing their three programs, which on llvmpipe with Mesa's shader
+cache cold is most of a start (BENCHMARKS.md). A plate drawn with a texture whose content has no
+key (a user's surface maps) is drawn every time; so is one whose program reads a uniform the
+scene does not set (its value would not be in the key)."""
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..cache import content_key
+from ..shading.camera import cell_sphere_box
+from ..shading.cells import cell_grid, plate_frame
+from ..shading.compose import ComposedSource
+from ..shading.plan import RenderPlan, bounce_step
+from ..spec.chart_spec import ChartSpec
+from .frame import SceneBindings, array_key, table_texture
+from .programs import set_uniforms
+
+PLATE_KIND = "plates"   # the disk cache's kind for plates
+# Plates kept on disk at most this big (their drawn texels). What the cache saves is mostly the
+# plates' compile, the same at every size; what it costs (disk, the read-back and the packed
+# copy in memory) grows with the image: a 2048² default chart's plates (11.5 + 2.8 + 1.5 MB)
+# are kept, a 4096² one's sphere plate (46 MB) is drawn each time.
+PLATE_CACHE_MAX_BYTES = 16 << 20
+
+
+def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached: bool = True) -> None:
+    """The per-frame work before the chart's draw: the cells stage's plates (passes of their
+    own, part of what a frame costs), then every binding onto ``programs`` (the chart's).
+    ``cached``: plates are read from and kept in the disk cache (the bench's draw timing
+    draws them)."""
+    if plan.floor_plate is not None:
+        _floor_plate(session, plan.floor_plate, scene, plan.spec, cached)
+    if plan.bounce_plate is not None:
+        _bounce_plate(session, plan, scene, cached)
+    if plan.sphere_plate is not None:
+        _sphere_plate(session, plan, scene, cached)
+    bindings = scene.bind()
+    for program in programs:
+        set_uniforms(program, bindings)
+
+
+def plate_key(session, source: ComposedSource, scene: SceneBindings, size: tuple[int, int],
+              boxes: list | None) -> str | None:
+    """What a plate drawn by ``source`` with ``scene`` now is made of: the program's text, the
+    plate's size and drawn boxes, every uniform and every bound texture's content key, and the
+    GL implementation (drivers round differently). None where a bound texture has no key."""
+    textures = scene.texture_keys()
+    if any(key is None for key in textures.values()):
+        return None
+    uniforms = {name: _plain(value) for name, value in scene.uniforms.items() if name not in textures}
+    return content_key("plate", source.text, list(size), boxes, uniforms, textures, session.renderer)
+
+
+def _plain(value):
+    """A uniform's value as JSON holds it exactly (floats by their shortest repr)."""
+    if isinstance(value, np.ndarray):
+        return [value.dtype.str, list(value.shape), value.tobytes().hex()]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _reads_only_the_scene(program, scene: SceneBindings) -> bool:
+    """Every uniform ``program`` reads is one the scene sets (else its value, left on the
+    program by an earlier draw, would be missing from the key)."""
+    return all(name in scene.uniforms for name in program if isinstance(program[name], moderngl.Uniform))
+
+
+def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int],
+                boxes: list | None = None, cached: bool = True) -> tuple[moderngl.Texture, str | None]:
+    """A float texture of ``size`` drawn by ``source`` with the scene's bindings (or read from
+    the disk cache), filtered bilinearly between texel centres and clamped at its edges, and its
+    key (None: not kept). ``boxes``: only these (x, y, width, height) texel boxes are drawn, the
+    rest is 0."""
+    ctx = session.ctx
+    key = plate_key(session, source, scene, size, boxes) if cached else None
+    count = sum(w * h for _, _, w, h in boxes) if boxes is not None else size[0] * size[1]
+    kept = key is not None and count * 16 <= PLATE_CACHE_MAX_BYTES   # RGBA float32
+    stored = session.cache.get(PLATE_KIND, key, require_finite=False) if kept else None
+    if stored is not None:   # a bug's plate may hold NaN on purpose: the checksum guards the entry
+        plate = ctx.texture(size, 4, _unpack(stored["texels"], size, boxes).tobytes(), dtype="f4")
+    else:
+        plate, texels = _draw_plate(session, source, scene, size, boxes, read=kept)
+        if key is not None and not _reads_only_the_scene(session.programs.fragment(source), scene):
+            key = None   # not all of what it was drawn with is in the key
+        if key is not None and texels is not None:
+            session.cache.put(PLATE_KIND, key, {"texels": texels})
+    plate.repeat_x = plate.repeat_y = False
+    plate.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    return plate, key
+
+
+def _draw_plate(session, source: ComposedSource, scene, size: tuple[int, int], boxes: list | None,
+                read: bool) -> tuple[moderngl.Texture, np.ndarray | None]:
+    """The plate drawn, and with ``read`` its texels as the cache keeps them (_unpack)."""
+    ctx = session.ctx
+    program = session.programs.fragment(source)
+    plate = ctx.texture(size, 4, dtype="f4")
+    fbo = ctx.framebuffer(color_attachments=[plate])
+    vao = ctx.vertex_array(program, [])
+    try:
+        fbo.use()
+        set_uniforms(program, scene.bind())
+        if boxes is None:
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        else:
+            fbo.clear()
+            for box in boxes:
+                fbo.scissor = box
+                vao.render(moderngl.TRIANGLES, vertices=3)
+            fbo.scissor = None
+        # GL rows, bottom first; only the boxes' texels where it has them (glReadPixels of a
+        # box: reading the whole sphere plate took 35 ms at 1024² on llvmpipe).
+        texels = None if not read else np.concatenate([
+            np.frombuffer(fbo.read(viewport=box, components=4, dtype="f4"), np.float32)
+            for box in (boxes or [(0, 0, *size)])])
+    except BaseException:
+        plate.release()
+        raise
+    finally:
+        vao.release()
+        fbo.release()
+    return plate, texels
+
+
+def _unpack(packed: np.ndarray, size: tuple[int, int], boxes: list | None) -> np.ndarray:
+    """The plate's texels from what the cache keeps: all of them, or its boxes' in order."""
+    if boxes is None:
+        return packed
+    texels = np.zeros((size[1], size[0], 4), np.float32)
+    at = 0
+    for x, y, w, h in boxes:
+        texels[y:y + h, x:x + w] = packed[at:at + w * h * 4].reshape(h, w, 4)
+        at += w * h * 4
+    return texels
+
+
+def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec, cached: bool) -> None:
+    """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
+    texture of the plate's size, read back by every cell (bilinear filtering between texel
+    centres, for the anti-aliased edges' and extra samples' positions)."""
+    origin, size = plate_frame(spec)
+    scene.uniforms["u_plate_origin"] = origin
+    scene.replace_texture("u_floor_plate", *_plate_pass(session, source, scene, size, cached=cached))
+
+
+def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
+    """Each cell's sphere's bounce on its floor (stage_bounce_main.glsl): a tile per cell of
+    texels ``step`` cell pixels apart over the plate's extent, one more texel past its far
+    edge so that every position interpolates. The bounce varies over the sphere's size (as its
+    form factor, ~ 1/d^2 at distance d): with h = R / 8 between texels, bilinear interpolation
+    errs by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
+    (tests/test_stage.py)."""
+    spec = plan.spec
+    grid = cell_grid(spec)
+    origin, (width, height) = plate_frame(spec)
+    step = bounce_step(spec)
+    while True:   # coarser for an image so wide that the tiles would not fit one texture
+        tile = (math.ceil((width - 0.5) / step) + 1, math.ceil((height - 0.5) / step) + 1)
+        if max(grid.cols * tile[0], grid.rows * tile[1]) <= session.max_texture_size:
+            break
+        step *= 2
+    scene.uniforms.update(u_plate_origin=origin, u_bounce_tile=tile, u_bounce_step=float(step))
+    size = (grid.cols * tile[0], grid.rows * tile[1])
+    scene.replace_texture("u_bounce_plate", *_plate_pass(session, plan.bounce_plate, scene, size, cached=cached))
+
+
+def _sphere_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
+    """Each slot's sphere at metallic 0 and 1 once per cell pixel (stage_sphere_main.glsl), and
+    the table of each cell's slot the chart mixes them by (shading/cells.py)."""
+    layout = plan.sphere_layout
+    ctx = session.ctx
+    scene.uniforms.update(u_sphere_origin=layout.origin, u_sphere_tile=layout.tile, u_sphere_tiles_x=layout.tiles_x)
+    for name, table in (("u_slot_cells", np.array([layout.slot_cells])), ("u_sphere_slots", layout.slots)):
+        scene.replace_texture(name, table_texture(ctx, table), key=array_key(table))
+    # Each tile only where its sphere can be: a software rasterizer would shade the sphere
+    # for the floor's texels too (it runs both sides of a branch). Boxes, not the disc: it
+    # shades a 4 x 4 block once for each triangle that covers part of it, so a disc's many
+    # triangles cost more than the box's corners (measured: 28 -> 31-38 ms at 1024²).
+    x0, y0, x1, y1 = cell_sphere_box(plan.spec)
+    ox, oy = layout.origin
+    tw, th = layout.tile
+    x0, y0, x1, y1 = max(x0 - ox, 0), max(y0 - oy, 0), min(x1 - ox, tw), min(y1 - oy, th)
+    boxes = [((i % layout.tiles_x) * tw + x0, (i // layout.tiles_x) * th + y0, x1 - x0, y1 - y0)
+             for i in range(2 * len(layout.slot_cells))]
+    plate, key = _plate_pass(session, plan.sphere_plate, scene, layout.size, boxes, cached)
+    plate.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    scene.replace_texture("u_sphere_plate", plate, key=key)
