@@ -1,8 +1,11 @@
 #include "common.glsl"
 #include "tonemap.glsl"
 #include "encode.glsl"
-#if EXPOSURE_AXIS != none
+#if EXPOSURE_AXIS != none || CELL_BORDER
 #include "cell_grid.glsl"
+#endif
+#if CELL_BORDER
+#include "cell_border.glsl"
 #endif
 
 // Display program: linear HDR -> exposure -> tone map -> OETF, straight alpha out.
@@ -12,10 +15,12 @@ uniform float u_exposure_scale;   // 2^EV
 uniform vec3 u_backdrop_srgb;     // the page colour under the render's alpha
 #endif
 layout(location = 0) out vec4 out_color;
+#if EXPOSURE_AXIS != none || CELL_BORDER
+uniform vec2 u_display_origin;    // this pass's pixel (0, 0) in the image (tiles)
+#endif
 #if EXPOSURE_AXIS != none
 // Exposure on an axis: each cell's EV (relative to u_exposure_scale's) by its column (x) or row (y).
 uniform float u_axis_ev[64];       // MAX_GRID entries (spec/presets.py)
-uniform vec2 u_display_origin;    // this pass's pixel (0, 0) in the image (tiles)
 #endif
 
 void main() {
@@ -54,5 +59,10 @@ void main() {
     out_color = vec4(mix(u_backdrop_srgb, display, alpha), 1.0);   // as a page composites straight alpha
 #else
     out_color = vec4(display, alpha);
+#endif
+#if CELL_BORDER
+    if (on_cell_border(gl_FragCoord.xy - 0.5 + u_display_origin)) {
+        out_color = vec4(u_page_srgb, 1.0);
+    }
 #endif
 }

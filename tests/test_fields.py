@@ -32,7 +32,7 @@ SAMPLES = {
     "env": ("sky", "sky"), "env_intensity": (2.0, "2"), "lights": ((), "none"), "shadows": (False, None),
     "ao": (False, None), "ground": (False, None), "ibl": (False, None), "tonemap": ("neutral", "neutral"),
     "exposure": (-1.5, "-1.5"), "reinhard_white": (2.0, "2"), "spp": (4, "4"), "antialias": (False, None), "hdr_precision": ("float16", "float16"),
-    "multiscatter": (False, None), "brdf": ("schlick-ggx", "schlick-ggx"), "camera": ("orthographic", "orthographic"), "stage": ("shared", "shared"),
+    "multiscatter": (False, None), "brdf": ("schlick-ggx", "schlick-ggx"), "camera": ("orthographic", "orthographic"), "stage": ("shared", "shared"), "cell_borders": (False, None),
     "camera_azimuth": (30.0, "30"), "camera_elevation": (20.0, "20"), "camera_distance_scale": (1.5, "1.5"),
     "intersect": ("march", "march"), "sphere_radius": (0.5, "0.5"), "spacing": (3.0, "3"), "transparent": (True, None),
     "title": ("Hello", "Hello"), "quality": ("draft", "draft"), "backend": ("egl", "egl"), "device_index": (1, "1"),

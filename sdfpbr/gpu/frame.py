@@ -11,12 +11,13 @@ import numpy as np
 
 from ..shading import camera as camera_mod
 from ..shading.catcher import catcher_band_pixels
-from ..shading.cells import FLOOR_RETURN_G, cell_grid, stage
-from ..shading.plan import has_shadow_catcher
+from ..shading.cells import FLOOR_RETURN_G, cell_border_px, cell_grid, stage
+from ..shading.plan import has_alpha, has_shadow_catcher
 from ..shading.material_table import material_table, upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
 from ..spec.material import exposure_axis
 from ..cache import content_key
+from ..image.layout import BACKGROUND
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
 
@@ -261,10 +262,14 @@ def display_uniforms(spec: ChartSpec, origin: tuple[int, int] = (0, 0)) -> dict:
     out = {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white,
            "u_radiance": RADIANCE_UNIT, **({"u_backdrop_srgb": tuple(spec.backdrop)} if spec.backdrop else {})}
     axis = exposure_axis(spec)
-    if axis:   # each column's (row's) EV relative to the spec's, and where the cells lie
+    border = cell_border_px(spec, has_alpha(spec))
+    if axis or border:   # where the cells lie
+        out.update(cell_grid(spec).uniforms(spec.height), u_grid=(spec.cols, spec.rows), u_display_origin=origin)
+    if axis:   # each column's (row's) EV relative to the spec's
         ev = [v - spec.exposure for v in spec.axis_values(axis)]
-        out.update(cell_grid(spec).uniforms(spec.height), u_grid=(spec.cols, spec.rows),
-                   u_display_origin=origin, u_axis_ev=ev + [0.0] * (MAX_GRID - len(ev)))   # the array is MAX_GRID long
+        out.update(u_axis_ev=ev + [0.0] * (MAX_GRID - len(ev)))   # the array is MAX_GRID long
+    if border:
+        out.update(u_cell_border=border, u_page_srgb=tuple(c / 255 for c in BACKGROUND[:3]))
     return out
 
 

@@ -64,6 +64,26 @@ def cell_sphere_radius_px(spec: ChartSpec) -> float:
     return CELL_FILL * min(grid.cell_width, grid.cell_height) / 2 / spec.camera_distance_scale
 
 
+# Each cell is its own view of the stage, so where one cell's near floor meets the next cell's
+# far floor the floor steps (up to 9 of 255 in 8 bits on the default chart, 1-3 across columns).
+# An opaque image frames every cell in the chart's page colour instead: panes, not a floor with
+# seams. Every cell gets the same border (cells stay identical); the image's margins beyond the
+# grid take the page colour too. A transparent or backdrop image needs none: its floor is a
+# shadow catcher that fades out before the cell's edge.
+CELL_BORDER_PER_PX = 1 / 100    # border per pixel of a cell's shorter side (>= 1 px): 2 px at 204 px, a 4-px gutter
+CELL_BORDER_MIN_CELL = 16       # cells smaller than this get none: it would be much of the cell
+
+
+def cell_border_px(spec: ChartSpec, has_alpha: bool) -> int:
+    """The page-colour border round each cell of ``spec``'s image, in pixels (0: none);
+    ``has_alpha``: the image is transparent or laid onto a backdrop."""
+    grid = cell_grid(spec)
+    side = min(grid.cell_width, grid.cell_height)
+    if not spec.cell_borders or has_alpha or stage(spec) != "cells" or side < CELL_BORDER_MIN_CELL:
+        return 0
+    return max(1, round(side * CELL_BORDER_PER_PX))
+
+
 def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
     """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
     size of one cell plus the image's margins beyond the grid (the outer cells' pixels there

@@ -19,7 +19,7 @@ from ..spec.material import exposure_axis, spec_lobes, spec_see_through
 from ..spec.presets import PROCEDURAL_MAPS
 from . import camera
 from .camera import sphere_radius_px
-from .cells import FLOOR_RETURN_G, SpherePlate, cell_sphere_radius_px, sphere_plate, stage
+from .cells import FLOOR_RETURN_G, SpherePlate, cell_border_px, cell_sphere_radius_px, sphere_plate, stage
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 from .sheen import SHEEN_CENTROID_STEPS
@@ -59,7 +59,7 @@ SCHEMA = OptionSchema(
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
     + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
-       "SPHERE_PLATE_PASS", "SHEEN_LEAN", "SUPERSAMPLE"),
+       "SPHERE_PLATE_PASS", "SHEEN_LEAN", "SUPERSAMPLE", "CELL_BORDER"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -302,7 +302,7 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
 
 def display_options(spec: ChartSpec) -> dict:
     opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": has_alpha(spec), "BACKDROP": bool(spec.backdrop),
-            "EXPOSURE_AXIS": exposure_axis(spec) or "none"}
+            "EXPOSURE_AXIS": exposure_axis(spec) or "none", "CELL_BORDER": cell_border_px(spec, has_alpha(spec)) > 0}
     opts.update(bug_options(spec, "display"))
     return opts
 

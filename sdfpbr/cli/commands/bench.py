@@ -13,7 +13,7 @@ columns:
   compile ms  link of a never-seen program plus its first draw (llvmpipe JIT-compiles there)
   src kB      composed chart source (features a spec leaves out are not in it)
   cold s      fresh `python -m sdfpbr chart` process, Mesa shader cache off, empty sdfpbr cache
-  cold* s     the same with the sdfpbr disk cache filled (IBL bakes, LUTs): a second run
+  cold* s     the same with the sdfpbr disk cache filled (IBL bakes, LUTs, plates): a second run
   start s     the same with Mesa's shader cache warm too: a user's every later run (median of 3)
   FLIP        mean LDR FLIP of the display image vs the reference, whole frame; FLIPsph over
               sphere pixels
