@@ -173,7 +173,7 @@ def test_warm_up_waits_for_draw_times_to_settle():
 @pytest.mark.parametrize("scene", list(suite.SCENES))
 def test_cold_flags_give_the_scene_spec(scene, tmp_path):
     cfg = suite.BenchConfig(width=320, height=200)
-    flags = cold.cli_flags(suite.SCENES[scene], "draft", cfg.width, cfg.height, "auto", str(tmp_path))
+    flags = cold.cli_flags(suite.scene_overrides(scene), "draft", cfg.width, cfg.height, "auto", str(tmp_path))
     args = build_parser().parse_args(["chart", *flags])
     assert spec_from_args(args) == suite.scene_spec(scene, cfg, "draft")
 

@@ -202,7 +202,7 @@ def test_display_program_matches_reference(ctx, session, name):
     hdr[0, :, :3] = values[:, None] * np.array([1.0, 1.0, 1.0])
     hdr[0, 5, :3] = (0.9, 0.3, 0.05)                      # a coloured input too
     hdr[..., 3] = 1
-    src = compose("display_main.glsl", display_options(make_spec(tonemap=name)))
+    src = compose("display_main.glsl", display_options(make_spec(tonemap=name, cell_borders=False)))   # pixels, no cells
     program = session.programs.fragment(src)
     tex = ctx.texture((len(values), 1), 4, hdr.tobytes(), dtype="f4")
     target = ctx.texture((len(values), 1), 4, dtype="f4")

@@ -90,7 +90,7 @@ def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int],
     kept = key is not None and count * 16 <= PLATE_CACHE_MAX_BYTES   # RGBA float32
     stored = session.cache.get(PLATE_KIND, key, require_finite=False) if kept else None
     if stored is not None:   # a bug's plate may hold NaN on purpose: the checksum guards the entry
-        plate = ctx.texture(size, 4, _unpack(stored["texels"], size, boxes).tobytes(), dtype="f4")
+        plate = _upload(ctx, stored["texels"], size, boxes)
     else:
         plate, texels = _draw_plate(session, source, scene, size, boxes, read=kept)
         if key is not None and not _reads_only_the_scene(session.programs.fragment(source), scene):
@@ -135,16 +135,22 @@ def _draw_plate(session, source: ComposedSource, scene, size: tuple[int, int], b
     return plate, texels
 
 
-def _unpack(packed: np.ndarray, size: tuple[int, int], boxes: list | None) -> np.ndarray:
-    """The plate's texels from what the cache keeps: all of them, or its boxes' in order."""
+def _upload(ctx, packed: np.ndarray, size: tuple[int, int], boxes: list | None) -> moderngl.Texture:
+    """The plate from what the cache keeps (all its texels, or its boxes' in order, the rest 0),
+    written box by box: no full-size copy on the host."""
     if boxes is None:
-        return packed
-    texels = np.zeros((size[1], size[0], 4), np.float32)
+        return ctx.texture(size, 4, np.ascontiguousarray(packed), dtype="f4")
+    plate = ctx.texture(size, 4, dtype="f4")
+    fbo = ctx.framebuffer(color_attachments=[plate])
+    try:
+        fbo.clear()
+    finally:
+        fbo.release()
     at = 0
     for x, y, w, h in boxes:
-        texels[y:y + h, x:x + w] = packed[at:at + w * h * 4].reshape(h, w, 4)
+        plate.write(np.ascontiguousarray(packed[at:at + w * h * 4]), viewport=(x, y, w, h))
         at += w * h * 4
-    return texels
+    return plate
 
 
 def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec, cached: bool) -> None:

@@ -84,6 +84,23 @@ def cell_border_px(spec: ChartSpec, has_alpha: bool) -> int:
     return max(1, round(side * CELL_BORDER_PER_PX))
 
 
+def cell_border_mask(spec: ChartSpec, has_alpha: bool, rows: slice = slice(None)) -> np.ndarray:
+    """(rows, width) bool, image rows top first: the pixels the border covers, the margins beyond
+    the grid included (what shaders/cell_border.glsl paints), over ``rows`` of the image."""
+    border = cell_border_px(spec, has_alpha)
+    y = np.arange(spec.height)[rows][:, None]
+    if border == 0:
+        return np.zeros((len(y), spec.width), bool)
+    grid = cell_grid(spec)
+    x = np.arange(spec.width)[None, :] - grid.left
+    y = y - grid.top
+
+    def framed(at, cell, count):
+        local = at % cell
+        return (at < 0) | (at >= count * cell) | (local < border) | (local >= cell - border)
+    return framed(x, grid.cell_width, grid.cols) | framed(y, grid.cell_height, grid.rows)
+
+
 def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
     """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
     size of one cell plus the image's margins beyond the grid (the outer cells' pixels there

@@ -11,7 +11,7 @@ from .ablation import ablation_rows
 from .accuracy import error_columns, get_reference, noise_floor, reference_available
 from .cold import cold_times
 from .report import format_row
-from .suite import SCENES, BenchConfig, check_config, scene_spec
+from .suite import BenchConfig, check_config, scene_overrides, scene_spec
 from .timing import time_chart, time_compile, time_draws, timing_row
 
 
@@ -44,7 +44,7 @@ def run_bench(cfg: BenchConfig) -> dict:
             log(f"  warm-up: {t.draw.warmup_draws} draws, "
                 + ("draw times settled" if t.draw.settled else "draw times did NOT settle (timings are noisy)"))
             if cfg.cold:
-                row["cold_s"], row["cold_warm_cache_s"], row["start_s"] = cold_times(SCENES[scene], preset, cfg)
+                row["cold_s"], row["cold_warm_cache_s"], row["start_s"] = cold_times(scene_overrides(scene), preset, cfg)
             if ref is not None:
                 path = heat_dir / f"flip_{scene}_{preset}.png" if heat_dir else None
                 row.update(error_columns(t.result, ref, spec, path, f"{scene} / {preset}", noise))

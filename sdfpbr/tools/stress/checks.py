@@ -8,6 +8,9 @@ import numpy as np
 
 from ...oracle import display, mirror
 from ...oracle.furnace import FurnaceTable
+from ...image.layout import BACKGROUND
+from ...shading.cells import cell_border_mask
+from ...shading.plan import has_alpha
 from ...spec.chart_spec import ChartSpec
 
 FIREFLY_RATIO = 4.0
@@ -54,13 +57,15 @@ def expected_display(hdr: np.ndarray, alpha: np.ndarray, spec: ChartSpec) -> np.
 
 
 def display_error(hdr, alpha, image, spec: ChartSpec, chunk_rows: int | None = None) -> tuple[int, int]:
-    """(largest |GPU - mirror| in LSB, pixels over DISPLAY_LSB) where the HDR is finite."""
+    """(largest |GPU - mirror| in LSB, pixels over DISPLAY_LSB) where the HDR is finite; the
+    cells' page-colour borders are the page colour."""
     H, W = hdr.shape[:2]
     chunk_rows = chunk_rows or max(1, 1_000_000 // max(W, 1))
     worst, bad = 0, 0
     for r0 in range(0, H, chunk_rows):
         sl = slice(r0, r0 + chunk_rows)
         want = expected_display(hdr[sl], alpha[sl], spec).astype(np.int16)
+        want[cell_border_mask(spec, has_alpha(spec), slice(r0, r0 + len(want)))] = BACKGROUND   # the cells' frames
         diff = np.abs(want - image[sl].astype(np.int16)).max(-1)
         finite = np.isfinite(hdr[sl]).all(-1) & np.isfinite(alpha[sl])
         diff = np.where(finite, diff, 0)
