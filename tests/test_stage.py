@@ -3,6 +3,7 @@ same material in every cell has equal cells (after shifting by the cell offset),
 grounded on its own floor, and the labels sit on the spheres."""
 import numpy as np
 import pytest
+from test_bugs import PROGRAM_RTOL
 from test_reference import luminance, mean_and_se
 
 from sdfpbr.image.chart_labels import chart_cells
@@ -500,15 +501,19 @@ def test_the_shared_stage_reflects_its_floor_not_the_environment_below(session):
 
 
 @pytest.mark.parametrize("quality", ["default", "high"])
-@pytest.mark.parametrize("metallic, roughness, tolerance", [(1.0, 0.0, 0.005), (1.0, 0.5, 0.005), (0.0, 1.0, 0.05)])
+@pytest.mark.parametrize("metallic, roughness, tolerance", [(1.0, 0.0, PROGRAM_RTOL), (1.0, 0.5, PROGRAM_RTOL),
+                                                            (0.0, 1.0, 0.05)])
 def test_shared_stage_neighbours_keep_a_white_furnace_white(session, quality, metallic, roughness, tolerance):
     """White spheres on the shared stage, no floor, a uniform sky of radiance 1, no lights, with
     the spheres' occlusion of each other on: energy conservation leaves every sphere pixel at 1,
     what the sky loses behind a neighbour the neighbour gives back (neighbours.glsl). Without the
-    neighbours' light the occlusion alone took up to half (0.49). Metals: exact up to rounding of
-    the shares; the white dielectric within 5 % (the glTF dielectric's own coupling is not
-    energy-exact at grazing angles, and the AO multiplies the neighbours' form factors where
-    their light adds them)."""
+    neighbours' light the occlusion alone took up to half (0.49). Metals: exact up to float32
+    rounding (a compensated white metal reads (A + B) / E from one fetch, and the sky's and the
+    neighbours' shares sum to 1: PROGRAM_RTOL's 256 roundings; measured 1.8e-7); the white
+    dielectric within 5 %, a stated allowance of the model (the glTF dielectric's own coupling
+    is not energy-exact at grazing angles, 1.9-2.7 % below 1 alone, and the AO multiplies the
+    neighbours' form factors where their light adds them: up to 3.4 % above the lone sphere's
+    furnace value at grazing pixels)."""
     from sdfpbr.api import chart
     spec = make_spec(stage="shared", rows=3, cols=3, width=96, height=96, env="uniform", lights="none",
                      ground=False, ao=True, shadows=False, roughness=(roughness, roughness),
