@@ -131,3 +131,25 @@ def test_the_bench_draws_its_plates(session, monkeypatch, tmp_path, draws):
             scene.release()
             chart.release()
     assert len(draws) == 3
+
+
+def test_a_frame_bound_again_reads_the_plates_it_kept(session, monkeypatch, tmp_path, draws):
+    """A scene's next frame is keyed without the last frame's plates (bind_frame forgets them):
+    the same plates again, read from the cache, and no new entries."""
+    from sdfpbr.gpu.render import ChartDraw, chart_scene
+    from sdfpbr.shading.plan import render_plan
+    root = with_cache(session, monkeypatch, tmp_path)
+    spec = make_spec(**BASE)
+    plan = render_plan(spec)
+    with session:
+        chart = ChartDraw(session, plan)
+        scene = chart_scene(session, spec, plan)
+        try:
+            plates.bind_frame(session, plan, scene, chart.programs)
+            assert len(draws) == 3 and len(entries(root)) == 3
+            plates.bind_frame(session, plan, scene, chart.programs)
+            assert len(draws) == 3 and len(entries(root)) == 3
+            assert len(scene.textures) == len({name for name, _ in scene.textures})
+        finally:
+            scene.release()
+            chart.release()

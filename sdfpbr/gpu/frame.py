@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from ..cache import content_key
+from ..image.layout import BACKGROUND
 from ..shading import camera as camera_mod
 from ..shading.catcher import catcher_band_pixels
 from ..shading.cells import FLOOR_RETURN_G, cell_border_px, cell_grid, stage
@@ -16,8 +18,6 @@ from ..shading.plan import has_alpha, has_shadow_catcher
 from ..shading.material_table import material_table, upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
 from ..spec.material import exposure_axis
-from ..cache import content_key
-from ..image.layout import BACKGROUND
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
 
@@ -216,6 +216,22 @@ class SceneBindings:
                 self.owned.append(texture)
                 return
         self.add_texture(name, texture, owned=True, key=key)
+
+    def forget(self, textures, uniforms) -> None:
+        """Unbind ``textures`` (releasing those this render owns) and drop ``uniforms``: what a
+        frame's own passes bind anew."""
+        for name in textures:
+            for i, (n, old) in enumerate(self.textures):
+                if n == name:
+                    if old in self.owned:
+                        self.owned.remove(old)
+                        old.release()
+                    del self.textures[i]
+                    break
+            self.keys.pop(name, None)
+            self.uniforms.pop(name, None)   # its texture unit
+        for name in uniforms:
+            self.uniforms.pop(name, None)
 
     def texture_keys(self) -> dict:
         """Each bound sampler's content key (None: unknown)."""

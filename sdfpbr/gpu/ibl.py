@@ -34,6 +34,11 @@ def prefilter_samples(base: int, level: int) -> int:
     return min(base << (2 * level), 1 << 16) if level > 0 else base
 
 
+def _geometry(scene_uniforms: dict) -> dict:
+    """The stage's geometry a floor parallax table depends on."""
+    return {name: float(scene_uniforms[name]) for name in ("u_radius", "u_ground_y")}
+
+
 def _groups(n: int) -> int:
     return (n + LOCAL - 1) // LOCAL
 
@@ -137,6 +142,7 @@ class EnvironmentLighting:
     # orbit's later frames carry (orbit, turn) instead of a bake of their own, and their table,
     # like their cube, is the orbit's.
     floor_parallax: moderngl.TextureCube | None = None
+    floor_parallax_key: str = ""   # what that table is made of
     orbit: tuple | None = None
 
     @property
@@ -410,7 +416,8 @@ class IBLBaker:
         self.ctx.memory_barrier()
         sh = rest.sh + turned_sh(full.sh - rest.sh, turn)
         return EnvironmentLighting(orbit.frame, full.lods, sh.astype(np.float32),
-                                   content_key(full.key, rest.key, turn.tolist()), orbit=(orbit, turn))
+                                   content_key(plan.turn_probe.text, full.key, rest.key, turn.tolist()),
+                                   orbit=(orbit, turn))
 
     # ---- the floor parallax table ---------------------------------------------------------
     def floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting, scene_uniforms: dict) -> moderngl.TextureCube:
@@ -421,25 +428,22 @@ class IBLBaker:
         (the stage is symmetric about the vertical through the sphere, so the table turns with
         the light)."""
         if lighting.floor_parallax is None:
+            # What the table is made of (its cache key when baked; a light orbit's turned
+            # lighting has a key of its own, which covers the turn), kept with it.
+            lighting.floor_parallax_key = content_key(plan.floor_parallax.text, plan.floor_parallax_size,
+                                                      plan.floor_parallax_samples, _geometry(scene_uniforms),
+                                                      lighting.key)
             if lighting.orbit is not None:
                 lighting.floor_parallax = self._turned_floor_parallax(plan, *lighting.orbit, scene_uniforms)
             else:
                 lighting.floor_parallax = self._baked_floor_parallax(plan, lighting, scene_uniforms)
         return lighting.floor_parallax
 
-    @staticmethod
-    def floor_parallax_key(plan: IBLPlan, lighting: EnvironmentLighting, scene_uniforms: dict) -> str:
-        """What ``lighting``'s floor parallax table is made of (its cache key when baked; a
-        light orbit's turned lighting has a key of its own, which covers the turn)."""
-        geometry = {name: float(scene_uniforms[name]) for name in ("u_radius", "u_ground_y")}
-        return content_key(plan.floor_parallax.text, plan.floor_parallax_size, plan.floor_parallax_samples,
-                           geometry, lighting.key)
-
     def _baked_floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting,
                               scene_uniforms: dict) -> moderngl.TextureCube:
         source, size, samples = plan.floor_parallax, plan.floor_parallax_size, plan.floor_parallax_samples
-        geometry = {name: float(scene_uniforms[name]) for name in ("u_radius", "u_ground_y")}
-        key = self.floor_parallax_key(plan, lighting, scene_uniforms)
+        geometry = _geometry(scene_uniforms)
+        key = lighting.floor_parallax_key
         cached = self.cache.get("ibl", key)
         if cached is not None:
             table = self._cube_from_levels(plan.copy_to_cube, [cached["table"]])

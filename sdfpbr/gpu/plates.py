@@ -11,7 +11,10 @@ key (a user's surface maps) is drawn every time; so is one whose program reads a
 scene does not set (its value would not be in the key)."""
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
+from pathlib import Path
 
 import moderngl
 import numpy as np
@@ -21,7 +24,6 @@ from ..shading.camera import cell_sphere_box
 from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step
-from ..spec.chart_spec import ChartSpec
 from .frame import SceneBindings, array_key, table_texture
 from .programs import set_uniforms
 
@@ -33,13 +35,21 @@ PLATE_KIND = "plates"   # the disk cache's kind for plates
 PLATE_CACHE_MAX_BYTES = 16 << 20
 
 
+# What the plate passes bind onto the scene, each frame anew: a frame's plates are keyed by the
+# scene without the last frame's.
+PLATE_TEXTURES = ("u_floor_plate", "u_bounce_plate", "u_slot_cells", "u_sphere_slots", "u_sphere_plate")
+PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_tile", "u_bounce_step", "u_sphere_origin", "u_sphere_tile",
+                  "u_sphere_tiles_x")
+
+
 def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached: bool = True) -> None:
     """The per-frame work before the chart's draw: the cells stage's plates (passes of their
     own, part of what a frame costs), then every binding onto ``programs`` (the chart's).
     ``cached``: plates are read from and kept in the disk cache (the bench's draw timing
     draws them)."""
+    scene.forget(PLATE_TEXTURES, PLATE_UNIFORMS)
     if plan.floor_plate is not None:
-        _floor_plate(session, plan.floor_plate, scene, plan.spec, cached)
+        _floor_plate(session, plan, scene, cached)
     if plan.bounce_plate is not None:
         _bounce_plate(session, plan, scene, cached)
     if plan.sphere_plate is not None:
@@ -49,22 +59,35 @@ def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached
         set_uniforms(program, bindings)
 
 
-def plate_key(session, source: ComposedSource, scene: SceneBindings, size: tuple[int, int],
+@functools.cache
+def code_digest() -> str:
+    """sha256 of the Python that makes a plate's inputs and reads it back (texture layouts,
+    sampler states, uploads): gpu/ and shading/. A cache outlives upgrades."""
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parent.parent
+    for path in sorted([*root.joinpath("gpu").glob("*.py"), *root.joinpath("shading").glob("*.py")]):
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def plate_key(session, plan: RenderPlan, source: ComposedSource, scene: SceneBindings, size: tuple[int, int],
               boxes: list | None) -> str | None:
-    """What a plate drawn by ``source`` with ``scene`` now is made of: the program's text, the
-    plate's size and drawn boxes, every uniform and every bound texture's content key, and the
-    GL implementation (drivers round differently). None where a bound texture has no key."""
+    """What a plate drawn by ``source`` with ``scene`` now is made of: the program's text (and
+    its vertex stage's), the plate's size and drawn boxes, every uniform and every bound
+    texture's content key, the code that makes them (code_digest) and the GL implementation
+    (drivers round differently). None where a bound texture has no key."""
     textures = scene.texture_keys()
     if any(key is None for key in textures.values()):
         return None
     uniforms = {name: _plain(value) for name, value in scene.uniforms.items() if name not in textures}
-    return content_key("plate", source.text, list(size), boxes, uniforms, textures, session.renderer)
+    return content_key("plate", source.text, plan.vertex.text, list(size), boxes, uniforms, textures,
+                       code_digest(), session.renderer)
 
 
 def _plain(value):
-    """A uniform's value as JSON holds it exactly (floats by their shortest repr)."""
+    """A uniform's value as JSON holds it exactly (floats by their shortest repr, arrays by key)."""
     if isinstance(value, np.ndarray):
-        return [value.dtype.str, list(value.shape), value.tobytes().hex()]
+        return array_key(value)
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, (list, tuple)):
@@ -73,19 +96,20 @@ def _plain(value):
 
 
 def _reads_only_the_scene(program, scene: SceneBindings) -> bool:
-    """Every uniform ``program`` reads is one the scene sets (else its value, left on the
-    program by an earlier draw, would be missing from the key)."""
-    return all(name in scene.uniforms for name in program if isinstance(program[name], moderngl.Uniform))
+    """Everything ``program`` reads but its vertex attributes -- uniforms, samplers, blocks --
+    is set by the scene (else its value, left on the program by an earlier draw, would be
+    missing from the key)."""
+    return all(name in scene.uniforms for name in program if not isinstance(program[name], moderngl.Attribute))
 
 
-def _plate_pass(session, source: ComposedSource, scene, size: tuple[int, int],
+def _plate_pass(session, plan: RenderPlan, source: ComposedSource, scene, size: tuple[int, int],
                 boxes: list | None = None, cached: bool = True) -> tuple[moderngl.Texture, str | None]:
     """A float texture of ``size`` drawn by ``source`` with the scene's bindings (or read from
     the disk cache), filtered bilinearly between texel centres and clamped at its edges, and its
     key (None: not kept). ``boxes``: only these (x, y, width, height) texel boxes are drawn, the
     rest is 0."""
     ctx = session.ctx
-    key = plate_key(session, source, scene, size, boxes) if cached else None
+    key = plate_key(session, plan, source, scene, size, boxes) if cached else None
     count = sum(w * h for _, _, w, h in boxes) if boxes is not None else size[0] * size[1]
     kept = key is not None and count * 16 <= PLATE_CACHE_MAX_BYTES   # RGBA float32
     stored = session.cache.get(PLATE_KIND, key, require_finite=False) if kept else None
@@ -141,25 +165,29 @@ def _upload(ctx, packed: np.ndarray, size: tuple[int, int], boxes: list | None) 
     if boxes is None:
         return ctx.texture(size, 4, np.ascontiguousarray(packed), dtype="f4")
     plate = ctx.texture(size, 4, dtype="f4")
-    fbo = ctx.framebuffer(color_attachments=[plate])
     try:
-        fbo.clear()
-    finally:
-        fbo.release()
-    at = 0
-    for x, y, w, h in boxes:
-        plate.write(np.ascontiguousarray(packed[at:at + w * h * 4]), viewport=(x, y, w, h))
-        at += w * h * 4
+        fbo = ctx.framebuffer(color_attachments=[plate])
+        try:
+            fbo.clear()
+        finally:
+            fbo.release()
+        at = 0
+        for x, y, w, h in boxes:
+            plate.write(np.ascontiguousarray(packed[at:at + w * h * 4]), viewport=(x, y, w, h))
+            at += w * h * 4
+    except BaseException:
+        plate.release()
+        raise
     return plate
 
 
-def _floor_plate(session, source: ComposedSource, scene, spec: ChartSpec, cached: bool) -> None:
+def _floor_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
     texture of the plate's size, read back by every cell (bilinear filtering between texel
     centres, for the anti-aliased edges' and extra samples' positions)."""
-    origin, size = plate_frame(spec)
+    origin, size = plate_frame(plan.spec)
     scene.uniforms["u_plate_origin"] = origin
-    scene.replace_texture("u_floor_plate", *_plate_pass(session, source, scene, size, cached=cached))
+    scene.replace_texture("u_floor_plate", *_plate_pass(session, plan, plan.floor_plate, scene, size, cached=cached))
 
 
 def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
@@ -180,7 +208,7 @@ def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
         step *= 2
     scene.uniforms.update(u_plate_origin=origin, u_bounce_tile=tile, u_bounce_step=float(step))
     size = (grid.cols * tile[0], grid.rows * tile[1])
-    scene.replace_texture("u_bounce_plate", *_plate_pass(session, plan.bounce_plate, scene, size, cached=cached))
+    scene.replace_texture("u_bounce_plate", *_plate_pass(session, plan, plan.bounce_plate, scene, size, cached=cached))
 
 
 def _sphere_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
@@ -201,6 +229,6 @@ def _sphere_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     x0, y0, x1, y1 = max(x0 - ox, 0), max(y0 - oy, 0), min(x1 - ox, tw), min(y1 - oy, th)
     boxes = [((i % layout.tiles_x) * tw + x0, (i // layout.tiles_x) * th + y0, x1 - x0, y1 - y0)
              for i in range(2 * len(layout.slot_cells))]
-    plate, key = _plate_pass(session, plan.sphere_plate, scene, layout.size, boxes, cached)
+    plate, key = _plate_pass(session, plan, plan.sphere_plate, scene, layout.size, boxes, cached)
     plate.filter = (moderngl.NEAREST, moderngl.NEAREST)
     scene.replace_texture("u_sphere_plate", plate, key=key)

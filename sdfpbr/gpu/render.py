@@ -165,7 +165,7 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
             scene.add_texture("u_prefiltered", lighting.prefiltered, key=lighting.key)
             if plan.ibl.floor_parallax is not None:   # the floor as each sphere point sees it
                 scene.add_texture("u_floor_parallax", session.ibl.floor_parallax(plan.ibl, lighting, scene.uniforms),
-                                  key=session.ibl.floor_parallax_key(plan.ibl, lighting, scene.uniforms))
+                                  key=lighting.floor_parallax_key)
     except BaseException:
         scene.release()
         raise

@@ -289,7 +289,8 @@ FIELDS: tuple[Field, ...] = (
     _choice("stage", "cells", STAGES, "shared: one floor under the whole grid, neighbours in reflections; "
             "cells: each sphere on its own floor seen by its own camera (identical cells)", sweep=STAGES),
     _bool("cell_borders", True, "on the cells stage, an opaque image frames each cell in the chart's page colour "
-          "(each cell is its own view of the stage: its near floor would meet the next cell's far floor in a seam)"),
+          "(each cell is its own view of the stage: its near floor would meet the next cell's far floor in a seam)",
+          display=True),
     _choice("camera", "perspective", CAMERAS, "projection", sweep=CAMERAS),
     _float("camera_azimuth", 0.0, -3600.0, 3600.0, "camera orbit angle around the grid, degrees", metavar="DEG",
            aliases=("azimuth",), sweep=(0.0, 30.0, 60.0, 90.0)),
