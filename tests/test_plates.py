@@ -63,6 +63,8 @@ def test_a_chart_drawn_again_reads_its_plates(session, monkeypatch, tmp_path, dr
     dict(quality="high"),
     dict(bugs=("unsquared-roughness",)),                                 # another program
     dict(env="sky"),
+    dict(transparent=True),                                              # the floor a shadow catcher
+    dict(spp=4),
 ])
 def test_a_changed_chart_draws_what_changed(session, monkeypatch, tmp_path, draws, change):
     """With the first chart's plates in the cache, a chart that differs in one field renders
