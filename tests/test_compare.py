@@ -359,3 +359,16 @@ def test_a_catalog_made_with_helper_processes_is_the_one_made_on_one_core(tmp_pa
             sheets[where] = (np.asarray(image), dict(image.text))
     np.testing.assert_array_equal(sheets["helpers"][0], sheets["one core"][0])
     assert sheets["helpers"][1] == sheets["one core"][1]
+
+
+def test_a_differences_mean_leaves_the_cells_borders_out():
+    """The cells' page-colour borders are the same pixels in both renders: the mean is over the
+    rest of the image (the map keeps them, with what FLIP's filters spread onto them from the
+    cells), so it reads as the cells' error."""
+    from sdfpbr.shading.cells import cell_border_mask
+    spec = make_spec(width=192, height=192, quality="draft")          # the cells stage: 38-px cells
+    d = compare_bug(spec, "unsquared-roughness").differences[0]
+    border = cell_border_mask(spec, has_alpha=False)
+    assert border.any()
+    assert d.mean == pytest.approx(d.error_map[~border].mean(dtype=np.float64), rel=1e-12)
+    assert d.mean > d.error_map.mean(dtype=np.float64)

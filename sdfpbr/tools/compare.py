@@ -31,6 +31,8 @@ from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.bugs import BUG_MEASURE_SIZE
 from ..spec.fields import resolve_field, sweep_defaults
 from ..shading.camera import frame
+from ..shading.cells import cell_border_mask
+from ..shading.plan import has_alpha
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
            "bug_pair", "spec_differences", "at_panel_size",
@@ -44,7 +46,7 @@ __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug
 class Difference:
     test_label: str
     reference_label: str
-    mean: float                         # mean LDR-FLIP over the whole image
+    mean: float                         # mean LDR-FLIP over the image but the cells' page-colour borders
     error_map: np.ndarray               # (H, W) float32 in [0, 1]
     per_cell: np.ndarray                # (rows, cols) mean FLIP per sphere (NaN: sphere not visible)
     panel: Panel
@@ -235,7 +237,11 @@ def _difference(reference: RenderedChart, test: RenderedChart, reference_label: 
     the numbers' cells) at the renders' size, or shrunk to ``shown``'s size (same grid)."""
     from ..image.metrics import flip_ldr, per_cell_mean
     spec = reference.spec
-    mean, error_map = flip_ldr(test.display, reference.display)
+    # The cells' page-colour borders are the same pixels in both renders: left out of the mean,
+    # which then reads as it did before cells had borders.
+    borders = [cell_border_mask(r.spec, has_alpha(r.spec)) for r in (reference, test)]
+    framed = borders[0] | borders[1]
+    mean, error_map = flip_ldr(test.display, reference.display, mask=~framed if framed.any() else None)
     aov = reference.result.aov
     per_cell = per_cell_mean(error_map, aov["row"], aov["col"], spec.rows, spec.cols)
     shown = shown or spec
