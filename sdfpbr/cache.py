@@ -178,6 +178,7 @@ class ArrayCache:
         self.root = Path(root) if root else default_cache_dir()
         self.enabled = enabled
         self.writable = True
+        self.read_only_kinds: frozenset = frozenset()   # kinds not written (reading_only)
         if enabled:
             cache_max()   # a malformed $SDFPBR_CACHE_MAX is refused before any work
 
@@ -213,17 +214,22 @@ class ArrayCache:
         return None
 
     @contextmanager
-    def reading_only(self):
-        """Entries are read but none are written in the block: an animation's frames each bake
-        their own stage probe (the light moves), which would fill the cache for nothing."""
-        was, self.writable = self.writable, False
+    def reading_only(self, kinds: tuple[str, ...] | None = None):
+        """Entries are read but none are written in the block (``kinds``: none of those kinds):
+        an animation's frames each bake their own stage probe (the light moves), which would
+        fill the cache for nothing."""
+        was = self.writable, self.read_only_kinds
+        if kinds is None:
+            self.writable = False
+        else:
+            self.read_only_kinds = self.read_only_kinds | frozenset(kinds)
         try:
             yield self
         finally:
-            self.writable = was
+            self.writable, self.read_only_kinds = was
 
     def put(self, kind: str, key: str, arrays: dict[str, np.ndarray]) -> None:
-        if not (self.enabled and self.writable):
+        if not (self.enabled and self.writable) or kind in self.read_only_kinds:
             return
         import numpy as np
         path = self._path(kind, key)
