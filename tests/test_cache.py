@@ -292,3 +292,21 @@ def test_cached_chains_render_the_same_uploaded_or_copied(session, cache_dir):
                 np.testing.assert_array_equal(fresh.render(spec).hdr, hdr)
         finally:
             fresh.release()
+
+
+def test_bakes_are_kept_per_gl_implementation(session, tmp_path):
+    """Drivers round differently: a cache shared by two keeps each one's bakes, and a render
+    reads the bakes its own driver made."""
+    from sdfpbr.gpu.ibl import IBLBaker
+    from sdfpbr.shading.plan import render_plan
+    from sdfpbr.spec.chart_spec import make_spec
+    plan = render_plan(make_spec())
+    cache = ArrayCache(tmp_path)
+    stored = lambda: len(list((tmp_path / "dfg").glob("*.npz")))
+    with session:
+        IBLBaker(session.ctx, session.programs, cache, "driver A").dfg(plan)
+        assert stored() == 1
+        IBLBaker(session.ctx, session.programs, cache, "driver B").dfg(plan)
+        assert stored() == 2
+        IBLBaker(session.ctx, session.programs, cache, "driver A").dfg(plan)   # reads A's
+        assert stored() == 2

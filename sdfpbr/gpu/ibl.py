@@ -248,14 +248,24 @@ class _Turning:
 
 
 class IBLBaker:
-    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache):
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache, renderer: str = ""):
+        """``renderer``: the GL implementation's name. The bakes are its (drivers round
+        differently), so they are kept on disk under it: one cache shared by two drivers keeps
+        each one's, and a render reads the bakes its own driver made."""
         self.ctx = ctx
         self.programs = programs
         self.cache = cache
+        self.renderer = renderer
         self._dfg: dict[str, moderngl.Texture] = {}
         self._lighting: dict[str, EnvironmentLighting] = {}   # least recently used first
         self._ground: dict[str, GroundTable] = {}
         self._turning: _Turning | None = None
+
+    def _stored(self, kind: str, key: str) -> dict | None:
+        return self.cache.get(kind, content_key(key, self.renderer))
+
+    def _store(self, kind: str, key: str, arrays: dict) -> None:
+        self.cache.put(kind, content_key(key, self.renderer), arrays)
 
     def begin_orbit(self, light: int = 0) -> None:
         """From now until end_orbit, directional light ``light`` turns about the vertical between
@@ -282,12 +292,12 @@ class IBLBaker:
         source, size, samples = plan.dfg, plan.dfg_size, plan.dfg_samples
         key = self.dfg_key(plan)
         if key not in self._dfg:
-            cached = self.cache.get("dfg", key)
+            cached = self._stored("dfg", key)
             if cached is not None:
                 table = cached["table"]
             else:
                 table = self.compute_dfg_table(source, size, samples)
-                self.cache.put("dfg", key, {"table": table})
+                self._store("dfg", key, {"table": table})
             tex = self.ctx.texture((size, size), 4, np.ascontiguousarray(table, np.float32).tobytes(), dtype="f4")
             tex.repeat_x = tex.repeat_y = False   # CLAMP_TO_EDGE, linear data
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
@@ -322,7 +332,7 @@ class IBLBaker:
         read = {k: v for k, v in uniforms.items() if k in program}
         key = content_key(source.text, size, read, environment.key, self.dfg_key(plan))
         if _recall(self._ground, key) is None:
-            cached = self.cache.get("ibl", key)
+            cached = self._stored("ibl", key)
             if cached is not None:
                 table = cached["table"]
             else:
@@ -335,7 +345,7 @@ class IBLBaker:
                 self.ctx.memory_barrier()
                 table = np.frombuffer(target.read(), dtype=np.float32).reshape(size, size, 4).copy()
                 target.release()
-                self.cache.put("ibl", key, {"table": table})
+                self._store("ibl", key, {"table": table})
             tex = self.ctx.texture((size, size), 4, np.ascontiguousarray(table, np.float32).tobytes(), dtype="f4")
             tex.repeat_x = tex.repeat_y = False   # CLAMP_TO_EDGE: the square's edge is the horizon
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
@@ -444,7 +454,7 @@ class IBLBaker:
         source, size, samples = plan.floor_parallax, plan.floor_parallax_size, plan.floor_parallax_samples
         geometry = _geometry(scene_uniforms)
         key = lighting.floor_parallax_key
-        cached = self.cache.get("ibl", key)
+        cached = self._stored("ibl", key)
         if cached is not None:
             table = self._cube_from_levels(plan.copy_to_cube, [cached["table"]])
         else:
@@ -455,7 +465,7 @@ class IBLBaker:
             table.bind_to_image(0, read=False, write=True, level=0)
             program.run(_groups(size), _groups(size), 6)
             self.ctx.memory_barrier()
-            self.cache.put("ibl", key, {"table": self._read_cube_level(plan.copy_from_cube, table, 0, size)})
+            self._store("ibl", key, {"table": self._read_cube_level(plan.copy_from_cube, table, 0, size)})
         table.filter = (moderngl.LINEAR, moderngl.LINEAR)
         return table
 
@@ -489,7 +499,7 @@ class IBLBaker:
         kept = _recall(self._lighting, key)
         if kept is not None:
             return kept
-        cached = self.cache.get("ibl", key)
+        cached = self._stored("ibl", key)
         if cached is not None:
             arrays = [cached[f"level{k}"] for k in range(levels)]
             result = EnvironmentLighting(None, levels - 1, cached["sh"], key,
@@ -500,7 +510,7 @@ class IBLBaker:
             arrays = {f"level{k}": self._read_cube_level(plan.copy_from_cube, result.prefiltered, k, size >> k)
                       for k in range(levels)}
             arrays["sh"] = result.sh
-            self.cache.put("ibl", key, arrays)
+            self._store("ibl", key, arrays)
         _remember(self._lighting, key, result, EnvironmentLighting.release)
         return result
 

@@ -51,9 +51,9 @@ class Session:
         self._depth = 0          # nesting of `with session:` in the thread that holds the lock
         self.programs = ProgramCache(self.ctx)
         self.cache = cache or ArrayCache()
-        self.ibl = IBLBaker(self.ctx, self.programs, self.cache)
-        self.tables: dict = {}   # GPU tables other integrators keep per session (the reference's)
         self.renderer = renderer_string(self.ctx)
+        self.ibl = IBLBaker(self.ctx, self.programs, self.cache, self.renderer)
+        self.tables: dict = {}   # GPU tables other integrators keep per session (the reference's)
         if chart_stage is not None and chart_stage not in CHART_STAGES:
             raise SpecError(f"chart_stage must be one of {', '.join(CHART_STAGES)}, got {chart_stage!r}")
         self.chart_stage = chart_stage or chart_stage_for(self.renderer)   # see chart_stage_for
