@@ -372,3 +372,6 @@ def test_a_differences_mean_leaves_the_cells_borders_out():
     assert border.any()
     assert d.mean == pytest.approx(d.error_map[~border].mean(dtype=np.float64), rel=1e-12)
     assert d.mean > d.error_map.mean(dtype=np.float64)
+    # Borders on one side only: they are a difference, counted.
+    plain = compare_specs(spec, make_spec(spec, cell_borders=False)).differences[0]
+    assert plain.mean == pytest.approx(plain.error_map.mean(dtype=np.float64), rel=1e-12) and plain.mean > 0

@@ -248,7 +248,7 @@ class _Turning:
 
 
 class IBLBaker:
-    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache, renderer: str = ""):
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache, cache: ArrayCache, renderer: str):
         """``renderer``: the GL implementation's name. The bakes are its (drivers round
         differently), so they are kept on disk under it: one cache shared by two drivers keeps
         each one's, and a render reads the bakes its own driver made."""

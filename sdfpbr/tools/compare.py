@@ -237,10 +237,11 @@ def _difference(reference: RenderedChart, test: RenderedChart, reference_label: 
     the numbers' cells) at the renders' size, or shrunk to ``shown``'s size (same grid)."""
     from ..image.metrics import flip_ldr, per_cell_mean
     spec = reference.spec
-    # The cells' page-colour borders are the same pixels in both renders: left out of the mean,
-    # which then reads as it did before cells had borders.
+    # Where both renders frame their cells in the page colour, the pixels are the same: left out
+    # of the mean, a mean over the cells. Only where both do: a spec without borders (or with
+    # another grid) differs from the other there.
     borders = [cell_border_mask(r.spec, has_alpha(r.spec)) for r in (reference, test)]
-    framed = borders[0] | borders[1]
+    framed = borders[0] & borders[1]
     mean, error_map = flip_ldr(test.display, reference.display, mask=~framed if framed.any() else None)
     aov = reference.result.aov
     per_cell = per_cell_mean(error_map, aov["row"], aov["col"], spec.rows, spec.cols)
