@@ -13,6 +13,7 @@ import json
 import os
 import re
 import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -177,8 +178,9 @@ class ArrayCache:
     def __init__(self, root: Path | None = None, enabled: bool = True):
         self.root = Path(root) if root else default_cache_dir()
         self.enabled = enabled
-        self.writable = True
-        self.read_only_kinds: frozenset = frozenset()   # kinds not written (reading_only)
+        # reading_only's state, per thread: a still chart another thread draws during an
+        # animation keeps writing.
+        self._local = threading.local()
         if enabled:
             cache_max()   # a malformed $SDFPBR_CACHE_MAX is refused before any work
 
@@ -218,18 +220,20 @@ class ArrayCache:
         """Entries are read but none are written in the block (``kinds``: none of those kinds):
         an animation's frames each bake their own stage probe (the light moves), which would
         fill the cache for nothing."""
-        was = self.writable, self.read_only_kinds
-        if kinds is None:
-            self.writable = False
-        else:
-            self.read_only_kinds = self.read_only_kinds | frozenset(kinds)
+        was = self._blocked()
+        self._local.blocked = (True, was[1]) if kinds is None else (was[0], was[1] | frozenset(kinds))
         try:
             yield self
         finally:
-            self.writable, self.read_only_kinds = was
+            self._local.blocked = was
+
+    def _blocked(self) -> tuple[bool, frozenset]:
+        """(no kind is written, the kinds not written) in this thread."""
+        return getattr(self._local, "blocked", (False, frozenset()))
 
     def put(self, kind: str, key: str, arrays: dict[str, np.ndarray]) -> None:
-        if not (self.enabled and self.writable) or kind in self.read_only_kinds:
+        every, kinds = self._blocked()
+        if not self.enabled or every or kind in kinds:
             return
         import numpy as np
         path = self._path(kind, key)

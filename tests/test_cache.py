@@ -313,3 +313,23 @@ def test_bakes_are_kept_per_gl_implementation(session, tmp_path, monkeypatch):
         monkeypatch.setattr(IBLBaker, "compute_dfg_table", no_bake)
         IBLBaker(session.ctx, session.programs, cache, "driver A").dfg(plan)
         assert stored() == 2
+
+
+def test_reading_only_holds_for_the_calling_thread_and_the_kinds_named(tmp_path):
+    """An animation's frames write nothing (or none of some kinds) while another thread's still
+    chart keeps writing; the block restores what was before it."""
+    import threading
+    cache = ArrayCache(tmp_path)
+    arrays = {"a": np.zeros(3)}
+    with cache.reading_only():
+        cache.put("k", "one", arrays)
+        other = threading.Thread(target=cache.put, args=("k", "two", arrays))
+        other.start()
+        other.join()
+    assert cache.get("k", "one") is None and cache.get("k", "two") is not None
+    with cache.reading_only(("k",)):
+        cache.put("k", "three", arrays)
+        cache.put("j", "four", arrays)
+    assert cache.get("k", "three") is None and cache.get("j", "four") is not None
+    cache.put("k", "five", arrays)
+    assert cache.get("k", "five") is not None
