@@ -10,6 +10,9 @@ bool on_cell_border(vec2 pixel) {
     if (any(lessThan(from_origin, ivec2(0))) || any(greaterThanEqual(from_origin, u_grid * u_cell_size))) {
         return true;   // a margin beyond the grid
     }
-    ivec2 local = from_origin - (from_origin / u_cell_size) * u_cell_size;
+    // The cell a pixel lies in by a float division, not an integer one, which llvmpipe runs
+    // lane by lane (the 1024² display pass: +8 ms with it, +3 ms so). Exact: a pixel's centre is
+    // half a pixel from the cells' edges, far beyond a reciprocal's rounding below 4 million px.
+    ivec2 local = from_origin - ivec2(floor((vec2(from_origin) + 0.5) / vec2(u_cell_size))) * u_cell_size;
     return any(lessThan(local, ivec2(u_cell_border))) || any(greaterThanEqual(local, u_cell_size - u_cell_border));
 }
