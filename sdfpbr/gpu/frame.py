@@ -206,32 +206,35 @@ class SceneBindings:
 
     def replace_texture(self, name: str, texture, key: str | None = None) -> None:
         """Set ``name`` to a texture this render owns, releasing the one it replaces."""
-        for i, (n, old) in enumerate(self.textures):
-            if n == name:
-                if old in self.owned:
-                    self.owned.remove(old)
-                    old.release()
-                self.textures[i] = (name, texture)
-                self.keys[name] = key
-                self.owned.append(texture)
-                return
-        self.add_texture(name, texture, owned=True, key=key)
+        i = self._release_bound(name)
+        if i is None:
+            self.add_texture(name, texture, owned=True, key=key)
+            return
+        self.textures[i] = (name, texture)
+        self.keys[name] = key
+        self.owned.append(texture)
 
     def forget(self, textures, uniforms) -> None:
         """Unbind ``textures`` (releasing those this render owns) and drop ``uniforms``: what a
         frame's own passes bind anew."""
         for name in textures:
-            for i, (n, old) in enumerate(self.textures):
-                if n == name:
-                    if old in self.owned:
-                        self.owned.remove(old)
-                        old.release()
-                    del self.textures[i]
-                    break
+            i = self._release_bound(name)
+            if i is not None:
+                del self.textures[i]
             self.keys.pop(name, None)
             self.uniforms.pop(name, None)   # its texture unit
         for name in uniforms:
             self.uniforms.pop(name, None)
+
+    def _release_bound(self, name: str) -> int | None:
+        """Where ``name`` is bound (None: nowhere), its texture released if this render owns it."""
+        for i, (n, old) in enumerate(self.textures):
+            if n == name:
+                if old in self.owned:
+                    self.owned.remove(old)
+                    old.release()
+                return i
+        return None
 
     def texture_keys(self) -> dict:
         """Each bound sampler's content key (None: unknown)."""
