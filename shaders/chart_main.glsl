@@ -138,7 +138,7 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
         if (stops < 1.0) radiance = mix(shade_open_ground(p, -rd, pixel_size), radiance, stops);
 #if USE_SHADOWS && USE_TEXTURES
 #if HAS_BASE_COLOR_MAP
-        radiance -= patterned_shadow_correction(p, -rd, g_cell, stops);
+        radiance -= patterned_shadow_correction(p, -rd, g_cell, stops, pixel_size);
 #endif
 #endif
     }

@@ -6,8 +6,9 @@
 
 // What to take from the floor the mix left: for each light, its light on the open floor times
 // the share of its disc the sphere's silhouette hides, times (the coverage its ray meets - the
-// mean coverage the mix used).
-vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops) {
+// mean coverage the mix used), averaged over the pixel's footprint as the floor's shadow is
+// (shadow.glsl footprint_shadow).
+vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops, float pixel_size) {
     Material m = ground_material();
     vec3 n = vec3(0.0, 1.0, 0.0);
 #if BUG_UNCLAMPED_NDOTV
@@ -18,15 +19,23 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops) {
     vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
     float e_single = dfg.x + dfg.y;
     vec3 ro = p + n * (1e-3 * u_radius);
+    vec3 ex, ey;
+    floor_footprint(v, pixel_size, ex, ey);
     vec3 taken = vec3(0.0);
 #if NUM_DIR_LIGHTS > 0
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
         vec3 l = u_dir_light_direction[i];
+        if (l.y <= 0.0) continue;
         float angle = max(u_dir_light_angular_radius[i], 1e-3);
-        float hidden = l.y > 0.0 ? 1.0 - soft_shadow(ro, l, 1.0 / tan(angle)) : 0.0;
-        if (hidden > 0.0)
+        float share = 0.0;   // the footprint's mean of hidden x (coverage - stops)
+        for (int k = 0; k < 4; ++k) {
+            vec3 o = ro + FOOTPRINT_POINTS[k].x * ex + FOOTPRINT_POINTS[k].y * ey;
+            float hidden = 1.0 - disc_visibility(o, l, angle, vec3(0.0));
+            if (hidden > 0.0) share += hidden * (light_ray_coverage(cell, vec3(0.0), o, l, angle) - stops);
+        }
+        if (share != 0.0)
             taken += lights_brdf_cos(m, n, v, l, n_dot_v, u_dir_light_angular_radius[i], e_single, 1.0)
-                   * u_dir_light_illuminance[i] * hidden * (light_ray_coverage(cell, vec3(0.0), ro, l, angle) - stops);
+                   * u_dir_light_illuminance[i] * (0.25 * share);
     }
 #endif
 #if NUM_POINT_LIGHTS > 0
@@ -35,11 +44,16 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops) {
         float dist = length(to_light);
         vec3 l = to_light / dist;
         float angle = point_angular_radius(i, dist);
-        float visible = point_light_visibility(ro, p, l, dist, angle);
-        if (visible < 1.0)
+        float share = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            vec3 o = FOOTPRINT_POINTS[k].x * ex + FOOTPRINT_POINTS[k].y * ey;
+            float visible = point_light_visibility(ro + o, p + o, l, dist, angle);
+            if (visible < 1.0)
+                share += (1.0 - visible) * (light_ray_coverage(cell, vec3(0.0), ro + o, l, max(angle, 1e-4)) - stops);
+        }
+        if (share != 0.0)
             taken += lights_brdf_cos(m, n, v, l, n_dot_v, angle, e_single, 1.0)
-                   * u_point_light_intensity[i] * point_falloff(dist, u_point_light_range[i])
-                   * (1.0 - visible) * (light_ray_coverage(cell, vec3(0.0), ro, l, max(angle, 1e-4)) - stops);
+                   * u_point_light_intensity[i] * point_falloff(dist, u_point_light_range[i]) * (0.25 * share);
     }
 #endif
     return taken;

@@ -165,9 +165,15 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single,
                                  light_specular) * u_dir_light_illuminance[i];
 #if USE_SHADOWS && (STAGE == cells || SCENE_SDF == nearest_cell)
-        // The ground receives every light's shadow (each sphere's share of the disc, shadow.glsl).
-        if (ground && blocked && dot(n, l) > 0.0)
+        // The ground receives every light's shadow (each sphere's share of the disc, shadow.glsl;
+        // on the cells stage over the pixel's footprint).
+        if (ground && blocked && dot(n, l) > 0.0) {
+#if STAGE == cells
+            c *= footprint_shadow(p + n_geo * (1e-3 * u_radius), v, pixel_size, l, max(u_dir_light_angular_radius[i], 1e-3));
+#else
             c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
+#endif
+        }
 #elif USE_SHADOWS
         // Light 0 is the key light; the ground receives its shadow.
         if (i == 0 && ground && blocked && dot(n, l) > 0.0)
@@ -186,9 +192,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
-        // The sphere's shadow on its floor (shadow.glsl point_light_visibility).
+        // The sphere's shadow on its floor, over the pixel's footprint (shadow.glsl).
         if (ground && blocked)
-            c *= point_light_visibility(p + n_geo * (1e-3 * u_radius), p, l, dist, angle);
+            c *= footprint_point_visibility(p + n_geo * (1e-3 * u_radius), p, v, pixel_size, l, dist, angle);
 #elif USE_SHADOWS && SCENE_SDF == nearest_cell
         // The spheres between the ground and the light, each hiding its share of the light's disc.
         if (ground && blocked)

@@ -1,18 +1,33 @@
+// The area of a circle's segment cut off at half-angle alpha (at the circle's centre), over r^2:
+// alpha - sin(alpha) cos(alpha), whose terms cancel to 2/3 alpha^3 as alpha falls (the sphere's
+// side of a small sun's disc): by its series there.
+float segment_area(float alpha) {
+    float a2 = alpha * alpha;
+    return alpha < 0.3 ? alpha * a2 * (2.0 / 3.0 - a2 * (2.0 / 15.0 - a2 * (4.0 / 315.0)))
+                       : alpha - 0.5 * sin(2.0 * alpha);
+}
+
 // The visible fraction of a disc light (angular radius a, direction rd) from ro past one sphere
 // (centre c): one minus the overlap of the light's disc with the sphere's silhouette (angular
 // radius s) at angular separation g, over the disc's area — two circles, planar in angle (error
-// O(a^2) for the small sun).
+// O(a^2) for the small sun). The overlap is the two circles' segments on either side of their
+// common chord (half-length h, at d_a from the light's centre and d_s from the silhouette's),
+// every angle from atan: a 1-degree sun's penumbra took its edge from asin and acos, which
+// llvmpipe evaluates to 4e-4 and 2e-4 rad, and the textbook lens formula's s^2 acos(...) -
+// sqrt(...) cancels to a^2 scale, multiplying that by (s / a)^2 (the share off by up to 4 %).
 float disc_visibility(vec3 ro, vec3 rd, float a, vec3 c) {
     vec3 to_c = c - ro;
     float dist = length(to_c);
-    float s = asin(min(u_radius / dist, 1.0));
-    float g = acos(clamp(dot(to_c / dist, rd), -1.0, 1.0));
+    float s = atan(u_radius, sqrt(max(dist * dist - u_radius * u_radius, 0.0)));
+    vec3 u = to_c / dist;
+    float g = atan(length(cross(u, rd)), dot(u, rd));
     if (g >= a + s) return 1.0;
     if (g <= s - a) return 0.0;
     if (g <= a - s) return 1.0 - sq(s / a);
-    float overlap = a * a * acos(clamp((g * g + a * a - s * s) / (2.0 * g * a), -1.0, 1.0))
-                  + s * s * acos(clamp((g * g + s * s - a * a) / (2.0 * g * s), -1.0, 1.0))
-                  - 0.5 * sqrt(max((-g + a + s) * (g + a - s) * (g - a + s) * (g + a + s), 0.0));
+    float d_a = ((g - s) * (g + s) + a * a) / (2.0 * g);   // signed: beyond the light's centre when < 0
+    float d_s = g - d_a;
+    float h = sqrt(max(a * a - d_a * d_a, 0.0));
+    float overlap = a * a * segment_area(atan(h, d_a)) + s * s * segment_area(atan(h, d_s));
     return saturate(1.0 - overlap / (PI * a * a));
 }
 
@@ -36,6 +51,49 @@ float point_shadow(vec3 p, vec3 l, float dist) {
 float point_light_visibility(vec3 ro, vec3 p, vec3 l, float dist, float angle) {
     return angle <= 0.0 ? point_shadow(ro, l, dist)
          : dist > length(p) - u_radius ? soft_shadow(ro, l, 1.0 / tan(angle)) : 1.0;
+}
+// The floor's shadow averaged over the pixel's box (the reference's pixel integral) at four
+// points of a rotated grid on the box's footprint: a pixel_size square across the ray (one
+// side level, as the camera's right is), slid along the ray onto the floor. A little in front
+// of the sphere the key light's penumbra is narrower than a pixel (the light's angle times
+// the distance to the sphere's silhouette, which falls to 0 at the contact), and one point
+// sample there stepped from umbra to light between two rows (10-20 % off each side of the
+// step against the reference). v: towards the eye.
+const vec2 FOOTPRINT_POINTS[4] = vec2[4](vec2(0.125, 0.375), vec2(0.375, -0.125), vec2(-0.125, -0.375),
+                                         vec2(-0.375, 0.125));
+
+// The footprint's sides on the floor.
+void floor_footprint(vec3 v, float pixel_size, out vec3 ex, out vec3 ey) {
+    vec2 across = vec2(v.z, -v.x);
+    float len = length(across);
+    vec3 h = len > 1e-6 ? vec3(across.x, 0.0, across.y) / len : vec3(1.0, 0.0, 0.0);
+    vec3 w = cross(v, h);
+    ex = pixel_size * h;
+    ey = pixel_size * (w - v * (w.y / max(v.y, 0.05)));   // the far floor's grazing footprint, capped
+}
+
+// A disc light's (direction l, angular radius a) visible share over the footprint of the floor
+// point lifted to ro.
+float footprint_shadow(vec3 ro, vec3 v, float pixel_size, vec3 l, float a) {
+    vec3 ex, ey;
+    floor_footprint(v, pixel_size, ex, ey);
+    float sum = 0.0;
+    for (int i = 0; i < 4; ++i)
+        sum += disc_visibility(ro + FOOTPRINT_POINTS[i].x * ex + FOOTPRINT_POINTS[i].y * ey, l, a, vec3(0.0));
+    return 0.25 * sum;
+}
+
+// A point light's (point_light_visibility), its direction and distance those of the footprint's
+// centre (they turn by a pixel's angle as seen from the light across it).
+float footprint_point_visibility(vec3 ro, vec3 p, vec3 v, float pixel_size, vec3 l, float dist, float angle) {
+    vec3 ex, ey;
+    floor_footprint(v, pixel_size, ex, ey);
+    float sum = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        vec3 o = FOOTPRINT_POINTS[i].x * ex + FOOTPRINT_POINTS[i].y * ey;
+        sum += point_light_visibility(ro + o, p + o, l, dist, angle);
+    }
+    return 0.25 * sum;
 }
 #elif SCENE_SDF == nearest_cell
 // The shared stage: the spheres stand in the plane z = 0, so a ray towards a light meets only

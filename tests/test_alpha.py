@@ -96,6 +96,29 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
     assert (rgb[floor & (alpha > 0)] == 0).all()            # a catcher has no colour of its own
 
 
+# GLSL's atan of float32 arguments: within 2^-17 rad on the drivers sdfpbr runs on (llvmpipe's
+# measured 3.3e-6 rad over [-1, 1]).
+ATAN_RAD = 2.0 ** -17
+
+
+# The cells floor's shadow is averaged over these points of the pixel (shadow.glsl).
+FOOTPRINT_POINTS = ((0.125, 0.375), (0.375, -0.125), (-0.125, -0.375), (-0.375, 0.125))
+
+
+def footprint_offsets(spec, p: np.ndarray, pixel: np.ndarray) -> list[np.ndarray]:
+    """The offsets from each floor point ``p`` (floor_points) of the four points the cells
+    stage averages its floor's shadow over: a rotated grid on a pixel-wide square across the
+    ray, one side level, slid along the ray onto the floor."""
+    v = frame(spec).position - p
+    v /= np.linalg.norm(v, axis=-1)[..., None]
+    across = np.stack([v[..., 2], np.zeros_like(v[..., 0]), -v[..., 0]], axis=-1)
+    h = across / np.linalg.norm(across, axis=-1)[..., None]
+    w = np.cross(v, h)
+    ex = pixel[..., None] * h
+    ey = pixel[..., None] * (w - v * (w[..., 1] / np.maximum(v[..., 1], 0.05))[..., None])
+    return [x * ex + y * ey for x, y in FOOTPRINT_POINTS]
+
+
 def fade_band(spec) -> np.ndarray:
     """(H, W) whether a pixel lies in one of its cell's fade bands (catcher.catcher_bands)."""
     g = cell_grid(spec)
@@ -197,3 +220,47 @@ def test_the_shared_floors_penumbrae_are_each_spheres_share_of_the_sun(session):
     h12 = (hits[pair[0], rows] & hits[pair[1], rows]).mean(1)
     assert two.sum() > 50
     assert (np.abs(got - want) <= np.abs(h1 * h2 - h12) + 0.025)[two].all()
+
+
+def _disc_share_hidden(ro: np.ndarray, light: np.ndarray, a: float, radius: float) -> np.ndarray:
+    """Float64: the share of a disc light (direction ``light``, angular radius ``a``) that the
+    sphere of ``radius`` at the origin hides from each point of ``ro`` -- the overlap of two
+    circles in angle (the light's and the sphere's silhouette) over the light's area."""
+    dist = np.linalg.norm(ro, axis=-1)
+    s = np.arcsin(np.minimum(radius / dist, 1.0))
+    g = np.arccos(np.clip((-ro / dist[..., None]) @ light, -1.0, 1.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lens = (a * a * np.arccos(np.clip((g * g + a * a - s * s) / (2 * g * a), -1, 1))
+                + s * s * np.arccos(np.clip((g * g + s * s - a * a) / (2 * g * s), -1, 1))
+                - 0.5 * np.sqrt(np.maximum((-g + a + s) * (g + a - s) * (g - a + s) * (g + a + s), 0.0)))
+    share = np.where(g >= a + s, 0.0, np.where(g <= s - a, 1.0, lens / (math.pi * a * a)))
+    return np.clip(share, 0.0, 1.0)
+
+
+def test_the_cells_floors_shadow_is_averaged_over_the_pixels_footprint(session):
+    """A 1-degree sun's penumbra on the cells floor is narrower than a pixel (its width is the
+    disc's angle times the distance to the sphere's silhouette), so the chart averages the
+    sun's visible share over the pixel's footprint on the floor: four points of a rotated grid
+    (x, y) = (1/8, 3/8), (3/8, -1/8), (-1/8, -3/8), (-3/8, 1/8) of a pixel-wide square across
+    the ray, one side level, slid along the ray onto the floor. Mirrored here in float64 from
+    the camera's rays and the two circles' overlap, on the floor pixels whose four points do
+    not all agree. Bound: the 8-bit alpha's half step, and the two float32 angles the share's
+    edge is placed by (g - s, each within ATAN_RAD) through its slope, at most 2 / (pi a) per
+    radian across a disc of angular radius a (36 at 1 degree; the shader's angles come from
+    atan, not asin and acos, which llvmpipe evaluates to 4e-4 rad)."""
+    spec = make_spec(rows=1, cols=1, width=160, height=160, env="black", ibl=False, lights=[SUN],
+                     transparent=True)
+    alpha = session.render(spec).image[..., 3] / 255.0
+    r = spec.sphere_radius
+    a = math.radians(SUN["angular_radius_deg"])
+    sun = np.asarray(SUN["direction"], float) / np.linalg.norm(SUN["direction"])
+    p, pixel, floor = floor_points(spec, np.zeros((1, 3)))
+    floor &= ~fade_band(spec)
+    lifted = p + [0.0, 1e-3 * r, 0.0]
+    hidden = np.stack([_disc_share_hidden(lifted + o, sun, a, r) for o in footprint_offsets(spec, p, pixel)])
+    split = floor & (hidden.min(0) < hidden.max(0))   # the penumbra crosses the footprint
+    assert split.sum() > 100
+    want = hidden.mean(0)
+    assert ((want > 0.1) & (want < 0.9) & split).sum() > 50   # a pixel's share, not the centre's 0 or 1
+    bound = 0.5 / 255 + 2 * ATAN_RAD * 2 / (math.pi * a)
+    assert np.abs(alpha - want)[split].max() <= bound, np.abs(alpha - want)[split].max()

@@ -117,7 +117,7 @@ def test_the_reference_blends_by_the_same_alpha(session):
 pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
 sys.path.insert(0, str(Path(__file__).parent))
 from test_gltf import png_bytes, textured_glb  # noqa: E402
-from test_alpha import floor_points  # noqa: E402
+from test_alpha import floor_points, footprint_offsets  # noqa: E402
 from test_bugs import PROGRAM_RTOL  # noqa: E402
 
 
@@ -193,19 +193,27 @@ def test_a_masks_shadow_falls_in_its_pattern(session, tmp_path, stage, direction
     opaque = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "OPAQUE"), **kw)).hdr[..., :3].astype(np.float64)
     empty = session.render(make_spec(gltf=glb_with_alpha(tmp_path, "BLEND", 0.0), **kw)).hdr[..., :3].astype(np.float64)
     got = res.hdr[..., :3].astype(np.float64)
-    points, _, floor = floor_points(spec, np.zeros((1, 3)))
+    points, pixel, floor = floor_points(spec, np.zeros((1, 3)))
     umbra = floor & (res.aov["coverage"] == 0) & (opaque.max(-1) < 0.01 * empty.max(-1))
     l = np.asarray(direction) / np.linalg.norm(direction)
-    p = points[umbra]
-    b = p @ l     # the sphere (radius 1 at the origin): entry at t = -b - sqrt(b^2 - |p|^2 + 1)
-    entry = p + (-b - np.sqrt(b * b - (p * p).sum(-1) + 1.0))[:, None] * l
-    clear = np.abs(entry[:, 0]) > 0.05
-    assert clear.sum() > 50 and (entry[clear, 0] > 0).any() and (entry[clear, 0] < 0).any()
+    # The cells stage averages the floor's shadow over four points of the pixel's footprint;
+    # the shared stage takes the pixel's centre.
+    offsets = footprint_offsets(spec, points, pixel) if stage == "cells" else [np.zeros_like(points)]
+    xs = []
+    for offset in offsets:
+        p = (points + offset)[umbra]
+        b = p @ l     # the sphere (radius 1 at the origin): entry at t = -b - sqrt(b^2 - |p|^2 + 1)
+        xs.append((p + (-b - np.sqrt(np.maximum(b * b - (p * p).sum(-1) + 1.0, 0.0)))[:, None] * l)[:, 0])
+    xs = np.array(xs)
+    # Away from the cut, every point's ray enters the same half.
+    clear = (np.abs(xs) > 0.05).all(0) & ((xs > 0).all(0) | (xs < 0).all(0))
+    side = xs[0] > 0
+    assert clear.sum() > 50 and side[clear].any() and (~side[clear]).any()
     kept = ((got - empty)[umbra] / (opaque - empty)[umbra]).mean(-1)
     # 1 or 0 but for the three renders' rounding (PROGRAM_RTOL of each value) through the ratio.
     rounding = (PROGRAM_RTOL * (np.abs(got) + 2 * np.abs(empty) + np.abs(opaque))[umbra]
                 / np.abs(opaque - empty)[umbra]).max(-1)
-    assert (np.abs(kept - (entry[:, 0] > 0))[clear] <= rounding[clear]).all()
+    assert (np.abs(kept - side)[clear] <= rounding[clear]).all()
 
 
 def test_a_bad_alpha_mode_is_one_line(tmp_path):
