@@ -284,6 +284,24 @@ def test_bad_entry_is_one_line_naming_the_file_exit_2_nothing_written(tmp_path, 
     assert not out.exists() and not (tmp_path / "cache").exists()
 
 
+def test_an_entry_that_fails_to_render_leaves_the_last_build_as_it_was(tmp_path):
+    """An environment file that reads as valid TOML but breaks at render (truncated after
+    the build checked its entries): exit 2 in one line, and the folder keeps the last build's
+    images and manifest, not a changed image under an old manifest."""
+    import numpy as np
+    charts = make_charts(tmp_path, {"a.toml": SMALL, "z.toml": SMALL + 'env = "env.npy"\n'})
+    np.save(charts / "env.npy", np.ones((4, 8, 3), np.float32))
+    out, env = tmp_path / "out", {**os.environ, "SDFPBR_CACHE_DIR": str(tmp_path / "cache")}
+    assert cli("build", str(charts), "-o", str(out), env=env).returncode == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    (charts / "a.toml").write_text(SMALL + "exposure = 1.0\n")
+    (charts / "env.npy").write_bytes((charts / "env.npy").read_bytes()[:100])   # the header, no data
+    r = cli("build", str(charts), "-o", str(out), env=env)
+    report = [line for line in r.stderr.splitlines() if not line.startswith("[")]   # progress lines
+    assert r.returncode == 2 and len(report) == 1 and "env.npy" in report[0] and "Traceback" not in r.stderr, r.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
 def test_bad_directory_and_output(tmp_path):
     r = cli("build", str(tmp_path / "nowhere"), "-o", str(tmp_path / "out"))
     assert r.returncode == 2 and "does not exist" in r.stderr and len(r.stderr.strip().splitlines()) == 1

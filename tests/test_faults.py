@@ -178,6 +178,30 @@ def test_file_size_limit_is_a_clean_error(tmp_path, cache_dir):
     assert listing(tmp_path) == {"chart.png": KEEP}
 
 
+@pytest.mark.parametrize("suffix", [".gif", ".webp", ".mp4"])
+def test_an_animation_over_the_file_size_limit_is_a_clean_error(tmp_path, suffix, cache_dir):
+    """Frames stream into the file, so the limit is met mid-animation (or, for MP4, where
+    ffmpeg writes its trailer, which imageio-ffmpeg does not check): one line, and the old file
+    as it was."""
+    if suffix == ".mp4":
+        pytest.importorskip("imageio_ffmpeg", reason="the video extra (imageio-ffmpeg) is not installed")
+    out = tmp_path / f"orbit{suffix}"
+    out.write_bytes(KEEP)
+    r = subprocess.run([sys.executable, "-c", FULL_DISK_SCRIPT, "chart", "--size", "96x96", "--frames", "4",
+                        "-o", str(out)], capture_output=True, text=True)
+    report = "\n".join(line for line in r.stderr.splitlines() if not line.startswith("orbit light: "))   # progress
+    assert r.returncode == 2 and f"cannot write {out}" in one_line(report), r.stderr
+    assert listing(tmp_path) == {out.name: KEEP}
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+@pytest.mark.parametrize("command", [("bugs",), ("shader",), ("cache", "-v")])
+def test_a_full_standard_output_is_one_line(command, cache_dir):
+    with open("/dev/full", "w") as full:
+        r = subprocess.run([sys.executable, "-m", "sdfpbr", *command], stdout=full, stderr=subprocess.PIPE, text=True)
+    assert r.returncode == 2 and "No space left on device" in one_line(r.stderr)
+
+
 def test_full_disk_is_a_clean_error(tmp_path):
     with mounted_tmpfs(tmp_path / "full", "size=24k") as d:
         (d / "chart.png").write_bytes(KEEP)
@@ -265,6 +289,17 @@ def _npy_header_only(path, shape):
     import numpy as np
     with open(path, "wb") as f:
         np.lib.format.write_array_header_1_0(f, {"descr": "<f4", "fortran_order": False, "shape": shape})
+
+
+def test_an_environment_within_bounds_made_too_bright_by_its_intensity_is_refused(tmp_path):
+    """Each within its own bound (values to 1e30, env_intensity to 1e6), their product beyond
+    what the bakes sum in float32 (it rendered NaN)."""
+    import numpy as np
+    env = tmp_path / "env.npy"
+    np.save(env, np.full((4, 8, 3), 1e28, np.float32))
+    r = sdfpbr("chart", "--size", "32x32", "--env", env, "--env-intensity", "1e6", "-o", tmp_path / "c.png")
+    assert r.returncode == 2 and "times env_intensity 1e+06" in one_line(r.stderr), r.stderr
+    assert not (tmp_path / "c.png").exists()
 
 
 @pytest.mark.parametrize("make, message", [
@@ -402,6 +437,12 @@ MEMORY_LIMITS = {"65536x65536": 8 << 30, "20000x20000": 4 << 30}
     (("chart", "--backend", "egl", "--device-index", "7", "--size", "32x32"), None, 3,
      "(--device-index counts EGL devices from 0)"),
     (("chart", "--size", "2x2048"), None, 2, "fewer pixels than its 5x5 cells"),   # was a GL traceback
+    # Options that would have been ignored, and messages that say what is allowed.
+    (("chart", "--lossless", "-o", "s.png"), None, 2, "--lossless applies to animations"),
+    (("chart", "--frames", "2", "--lossless", "-o", "s.gif"), None, 2, ".gif has no lossless choice"),
+    (("compare", "--bug", "double-gamma", "--lossless"), None, 2, "--lossless applies to animations"),
+    (("chart", "--backdrop", "1,1"), None, 2, "R,G,B (sRGB, 0..1)"),
+    (("shader", "--display", "--program", "chart-edges"), None, 2, "--display is --program display"),
 ])
 def test_hostile_arguments_get_one_line(tmp_path, args, env, status, message):
     """Issue 12's tracebacks (RecursionError in chart and build, a size of inf or a list, a

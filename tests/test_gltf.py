@@ -45,6 +45,46 @@ def test_named_materials_in_their_order_and_a_misspelt_name_suggested():
         make_spec(gltf=str(GLB), material="glod")
 
 
+@pytest.mark.parametrize("given", [dict(x_axis="clearcoat"), dict(materials="gold,copper"),
+                                   dict(base_color=(1.0, 0.0, 0.0)), dict(roughness=(0.2, 0.2)),
+                                   dict(sheen_color=(1.0, 0.0, 0.0)), dict(base_colors=[(1.0, 0.0, 0.0)] * 6)])
+def test_what_the_assets_materials_decide_is_refused_beside_gltf(given):
+    """An asset's materials set every material parameter of their cells: a spec that charts one
+    and sets an axis, a base colour, a preset or a factor would have it ignored, so it is
+    refused in one line."""
+    key = next(iter(given))
+    with pytest.raises(SpecError, match=f"gltf charts the asset's own materials.*{key} applies to charts without gltf"):
+        make_spec(gltf=str(GLB), **given)
+
+
+def test_an_asset_whose_materials_make_no_grid_is_refused_by_its_count():
+    """More materials than a row holds (a prime count makes one row): the message names the
+    count and --material, not the cols the user never gave."""
+    from sdfpbr.spec.gltf import grid_for
+    assert grid_for(6) == (2, 3) and grid_for(64 * 64) == (64, 64)
+    for count in (67, 5000):
+        with pytest.raises(SpecError, match=f"the asset's {count} materials make a .* grid, wider than 64 cells.*--material"):
+            grid_for(count)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda doc: setattr(doc.asset, "version", "1.0"), "is glTF version '1.0'; sdfpbr reads glTF 2.x"),
+    (lambda doc: setattr(doc, "extensionsRequired", ["KHR_draco_mesh_compression"]),
+     "requires 'KHR_draco_mesh_compression', which sdfpbr does not read"),
+])
+def test_an_asset_sdfpbr_cannot_read_faithfully_is_refused(tmp_path, change, message):
+    """Another major version, or an extension the asset requires (a loader must refuse it,
+    glTF 2.0 section 3.12) that sdfpbr does not implement: one line, not a silent chart."""
+    doc = gltf_asset([pygltflib.Material(name="leaf", pbrMetallicRoughness=pbr((0.1, 0.5, 0.1), 0.0, 0.6))])
+    change(doc)
+    doc.save_json(str(tmp_path / "leaf.gltf"))
+    with pytest.raises(SpecError, match=message):
+        make_spec(gltf=str(tmp_path / "leaf.gltf"))
+    doc.extensionsRequired, doc.asset.version = ["KHR_texture_transform"], "2.1"   # these it reads
+    doc.save_json(str(tmp_path / "fine.gltf"))
+    assert make_spec(gltf=str(tmp_path / "fine.gltf")).rows == 1
+
+
 def test_a_gltf_json_file_with_an_extension_it_does_not_chart_is_charted_and_says_so(tmp_path, cache_dir):
     doc = gltf_asset([pygltflib.Material(name="leaf", pbrMetallicRoughness=pbr((0.1, 0.5, 0.1), 0.0, 0.6),
                                          extensions={"KHR_materials_transmission": {"transmissionFactor": 0.5}})])

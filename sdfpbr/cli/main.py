@@ -170,6 +170,8 @@ def spec_from_args(args: argparse.Namespace):
 
 
 def cmd_chart(args) -> int:
+    if args.lossless and args.frames is None:
+        raise SpecError("--lossless applies to animations: give --frames N and -o NAME.webp")
     if args.frames is not None:
         from ..tools.animate import cmd_chart_animation
         return cmd_chart_animation(spec_from_args(args), args)
@@ -194,6 +196,8 @@ def cmd_chart(args) -> int:
 def cmd_shader(args) -> int:
     from ..shading.plan import render_plan
     programs = render_plan(spec_from_args(args)).frame_programs()
+    if args.display and args.program not in ("chart", "display"):   # chart: --program's default
+        raise SpecError(f"--display is --program display; give one of them, not --program {args.program} too")
     name = "display" if args.display else args.program
     if name not in programs:
         raise SpecError(f"this chart runs no {name} program; it runs: {', '.join(programs)}")
@@ -280,9 +284,12 @@ def add_shader_command(sub) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     try:
-        argv = sys.argv[1:] if argv is None else list(argv)
-        args = build_parser(argv[0] if argv else None).parse_args(argv)
-        return args.run(args)
+        try:
+            argv = sys.argv[1:] if argv is None else list(argv)
+            args = build_parser(argv[0] if argv else None).parse_args(argv)
+            return args.run(args)
+        finally:
+            sys.stdout.flush()   # a full or closed stdout fails here, where it is reported (help included)
     except SdfpbrError as exc:
         print(f"sdfpbr: error: {exc}", file=sys.stderr)
         return exc.exit_status
@@ -293,9 +300,21 @@ def main(argv: list[str] | None = None) -> int:
         print("sdfpbr: error: out of memory: render a smaller chart", file=sys.stderr)
         return 2
     except BrokenPipeError:   # stdout closed early (`sdfpbr cache -v | head`): stop quietly
-        import os
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())   # no second error at exit
+        _drop_stdout()
         return 1
+    except OSError as exc:   # what no writer turned into an OutputError: stdout on a full disk
+        _drop_stdout()
+        print(f"sdfpbr: error: cannot write {exc.filename or 'the output'}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+
+
+def _drop_stdout() -> None:
+    """Point stdout at /dev/null, so that nothing buffered fails again at exit."""
+    import os
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

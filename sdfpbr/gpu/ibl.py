@@ -56,7 +56,8 @@ def load_env_file(path: str | Path) -> np.ndarray:
         try:
             data = np.load(path, mmap_mode="r")   # allow_pickle stays off: a pickle is refused, not run
         except (OSError, ValueError, EOFError) as exc:
-            raise SpecError(f"cannot read environment {path}: {str(exc).splitlines()[0]}") from None
+            raise SpecError(f"cannot read environment {path} as an H x W x 3 array of radiance in .npy "
+                            f"(numpy: {str(exc).splitlines()[0]})") from None
     else:
         try:
             import OpenEXR
@@ -72,7 +73,8 @@ def load_env_file(path: str | Path) -> np.ndarray:
                 else:
                     data = np.stack([channels[c].pixels for c in "RGB"], axis=-1)
         except Exception as exc:
-            raise SpecError(f"cannot read environment {path}: {exc}") from None
+            raise SpecError(f"cannot read environment {path} as an OpenEXR image with R, G and B "
+                            f"channels ({exc})") from None
     if not isinstance(data, np.ndarray) or data.dtype.kind not in "iuf":
         kind = getattr(data, "dtype", type(data))
         raise SpecError(f"environment {path} must hold real numbers (integer or float), got {kind}")
@@ -121,7 +123,13 @@ def make_environment(ctx: moderngl.Context, spec: ChartSpec) -> Environment:
     texture = None
     content = content_key(option, uniforms)
     if option == "file":
-        data = fit_texture(load_env_file(spec.env), int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384)))
+        data = load_env_file(spec.env)
+        brightest = float(data.max()) * spec.env_intensity
+        if brightest > MAX_ENV_RADIANCE:   # each within its bound, their product not
+            raise SpecError(f"environment {spec.env} times env_intensity {spec.env_intensity:g} reaches "
+                            f"{brightest:.3g}; at most {MAX_ENV_RADIANCE:g} (the bakes' float32 sums overflow "
+                            f"beyond): lower env_intensity or scale the file down")
+        data = fit_texture(data, int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384)))
         texture = ctx.texture((data.shape[1], data.shape[0]), 3, data.tobytes(), dtype="f4")
         texture.repeat_x, texture.repeat_y = True, False
         content = content_key(option, uniforms, data.tobytes())

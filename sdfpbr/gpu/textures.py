@@ -171,7 +171,7 @@ def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
     except Exception as exc:   # imageio raises many types for unreadable files
         raise SpecError(f"{what}: cannot read it as {kind} ({exc.__class__.__name__})") from None
     if img.dtype != np.uint8:
-        raise SpecError(f"{what}: 8-bit {kind} required, got {img.dtype}")
+        raise SpecError(f"{what}: {kind} with 8 bits a channel is required, got {img.dtype} (save it as 8-bit)")
     if img.ndim == 2:
         img = img[..., None]
     if img.ndim != 3 or img.shape[-1] not in (1, 2, 3, 4):

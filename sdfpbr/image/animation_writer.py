@@ -10,6 +10,7 @@ under a temporary name and renamed into place only when the last frame is in (sd
 from __future__ import annotations
 
 import io
+import os
 import struct
 from pathlib import Path
 
@@ -76,8 +77,13 @@ class AnimationWriter:
         return bool(self._atomic.__exit__(kind, exc, tb))   # renames into place on success
 
     def _close_quietly(self) -> None:
+        """Close after a failure, which is what gets reported: closing flushes what is
+        buffered, and on a full disk that fails again."""
         if self._file is not None and not self._file.closed:
-            self._file.close()
+            try:
+                self._file.close()
+            except OSError:
+                pass
         if self._mp4 is not None:
             try:
                 self._mp4.close()
@@ -95,8 +101,15 @@ class AnimationWriter:
             self._file.seek(20)                                          # VP8X flags
             self._file.write(bytes([0x02 | (0x10 if self._alpha else 0)]))
         elif self._mp4 is not None:
-            self._mp4.close()
+            try:
+                self._mp4.close()
+            except OSError:
+                raise self._ffmpeg_failed() from None
             self._mp4 = None
+            # imageio-ffmpeg does not read ffmpeg's exit status: a trailer it could not write
+            # (the disk full at the end) left a truncated file that would be renamed into place.
+            if not _mp4_complete(self._tmp):
+                raise self._ffmpeg_failed()
         if self._file is not None:
             self._file.close()
 
@@ -151,11 +164,24 @@ class AnimationWriter:
         rgb = np.ascontiguousarray(np.pad(rgb, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge"))
         if self._mp4 is None:
             import imageio_ffmpeg
+            # ffmpeg quiet: a failure is reported in one line (_ffmpeg_failed), not its log
             self._mp4 = imageio_ffmpeg.write_frames(
                 self._tmp, (rgb.shape[1], rgb.shape[0]), fps=self.fps, codec="libx264", pix_fmt_in="rgb24",
-                pix_fmt_out="yuv420p", macro_block_size=1, output_params=["-movflags", "+faststart"])
+                pix_fmt_out="yuv420p", macro_block_size=1, output_params=["-movflags", "+faststart"],
+                ffmpeg_log_level="quiet")
             self._mp4.send(None)
-        self._mp4.send(rgb.tobytes())
+        try:
+            self._mp4.send(rgb.tobytes())
+        except OSError:
+            raise self._ffmpeg_failed() from None
+
+    def _ffmpeg_failed(self) -> OSError:
+        """What stopped ffmpeg, as far as can be told from here: a full disk or its own error."""
+        import errno
+        import shutil
+        if shutil.disk_usage(self._tmp).free < (1 << 20):
+            return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return OSError(errno.EIO, "ffmpeg stopped writing it")
 
 
 def _opaque(frame: np.ndarray) -> np.ndarray:
@@ -165,6 +191,29 @@ def _opaque(frame: np.ndarray) -> np.ndarray:
 
 def _u24(value: int) -> bytes:
     return value.to_bytes(3, "little")
+
+
+def _mp4_complete(path: str | Path) -> bool:
+    """Whether the MP4 at ``path`` is whole: its top-level boxes tile the file exactly, and a
+    movie header (moov) and the media data (mdat) are among them."""
+    with open(path, "rb") as f:
+        length = os.fstat(f.fileno()).st_size
+        at, kinds = 0, set()
+        while at < length:
+            f.seek(at)
+            head = f.read(16)
+            if len(head) < 8:
+                return False
+            size, kind = struct.unpack(">I4s", head[:8])
+            if size == 1 and len(head) == 16:
+                size = struct.unpack(">Q", head[8:])[0]
+            elif size == 0:   # the last box runs to the end of the file
+                size = length - at
+            if size < 8:
+                return False
+            kinds.add(kind)
+            at += size
+    return at == length and {b"moov", b"mdat"} <= kinds
 
 
 def _riff_chunk(kind: bytes, body: bytes) -> bytes:

@@ -127,8 +127,8 @@ def parse_size(text, what: str = "size") -> tuple[int, int]:
     return w, h
 
 
-def parse_color(text: str, what: str = "base color") -> tuple[float, float, float]:
-    return tuple(number_text(p, what) for p in split_text(text, ",", 3, what, "R,G,B (linear, 0..1)"))
+def parse_color(text: str, what: str = "base color", space: str = "linear") -> tuple[float, float, float]:
+    return tuple(number_text(p, what) for p in split_text(text, ",", 3, what, f"R,G,B ({space}, 0..1)"))
 
 
 def parse_names(text: str, seps: str = ",") -> tuple[str, ...]:

@@ -145,7 +145,7 @@ def _backdrop(v) -> tuple:
     """'R,G,B' or [r, g, b] in sRGB; '', 'none' or [] for none."""
     if v is None or (isinstance(v, str) and v.strip().lower() in ("", "none")) or (isinstance(v, (list, tuple)) and not v):
         return ()
-    return vec3(parse_color(v, "backdrop") if isinstance(v, str) else v, "backdrop", 0.0, 1.0)
+    return vec3(parse_color(v, "backdrop", "sRGB") if isinstance(v, str) else v, "backdrop", 0.0, 1.0)
 
 
 def _materials(v) -> tuple[str, ...]:

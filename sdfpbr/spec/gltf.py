@@ -17,8 +17,10 @@ from pathlib import Path
 
 from ..errors import SpecError, did_you_mean
 from .checks import quote
+from .presets import MAX_GRID
 
 GLTF_SUFFIXES = (".gltf", ".glb")
+TEXTURE_EXTENSIONS = ("KHR_texture_transform",)   # read on every texture reference
 CHARTED_EXTENSIONS = ("KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular", "KHR_materials_ior",
                       "KHR_materials_emissive_strength")
 # glTF sampler enums: wrap modes and filters. The four mipmap minification modes read as one:
@@ -90,9 +92,19 @@ def _load(path: str):
     except ImportError:
         raise SpecError("reading glTF needs pygltflib: pip install 'sdfpbr[gltf]'") from None
     try:
-        return pygltflib.GLTF2().load(path)
+        doc = pygltflib.GLTF2().load(path)
     except Exception as exc:   # pygltflib raises what json and struct raise on a bad file
         raise SpecError(f"gltf {path} cannot be read as glTF 2.0: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    version = getattr(getattr(doc, "asset", None), "version", None)
+    if not isinstance(version, str) or version.split(".")[0] != "2":
+        raise SpecError(f"gltf {path} is glTF version {quote(version)}; sdfpbr reads glTF 2.x")
+    # A loader must refuse an asset that requires an extension it does not implement (glTF 2.0, 3.12).
+    required = doc.extensionsRequired if isinstance(doc.extensionsRequired, list) else []
+    unknown = [e for e in required if e not in (*CHARTED_EXTENSIONS, *TEXTURE_EXTENSIONS)]
+    if unknown:
+        raise SpecError(f"gltf {path} requires {quote(unknown[0])}, which sdfpbr does not read; it reads "
+                        f"{', '.join((*CHARTED_EXTENSIONS, *TEXTURE_EXTENSIONS))}")
+    return doc
 
 
 def _factor(value, default, what: str, length: int | None = None):
@@ -332,6 +344,10 @@ def gltf_materials(path: str, names: tuple[str, ...] = ()) -> GltfMaterials:
 
 
 def grid_for(count: int) -> tuple[int, int]:
-    """(rows, cols) with rows x cols = count, as square as whole rows allow (cols >= rows)."""
+    """(rows, cols) with rows x cols = count, as square as whole rows allow (cols >= rows); a
+    grid wider than MAX_GRID is refused here, naming the materials (not the cols it would be)."""
     rows = max(r for r in range(1, int(math.isqrt(count)) + 1) if count % r == 0)
+    if count // rows > MAX_GRID:
+        raise SpecError(f"the asset's {count} materials make a {rows} x {count // rows} grid, wider than "
+                        f"{MAX_GRID} cells; chart some of them with --material NAME,...")
     return rows, count // rows

@@ -68,10 +68,14 @@ def _check_fps(fps) -> float:
     return float(fps)
 
 
-def check_animation_output(path: str | Path, fps: float = DEFAULT_FPS) -> Path:
-    """Fail before rendering on a bad suffix, an unwritable place, a bad fps or a missing encoder."""
+def check_animation_output(path: str | Path, fps: float = DEFAULT_FPS, lossless: bool = False) -> Path:
+    """Fail before rendering on a bad suffix, an unwritable place, a bad fps, a missing encoder
+    or ``lossless`` asked of a container that has no such choice."""
     p = check_writable(path, ANIMATION_SUFFIXES, "output")
     _check_fps(fps)
+    if lossless and p.suffix.lower() != ".webp":
+        raise SpecError(f"--lossless stores WebP frames exactly; {p.suffix.lower()} has no lossless choice "
+                        f"(GIF is always exact to its palette): leave it out or write .webp")
     if p.suffix.lower() == ".mp4":
         try:
             import imageio_ffmpeg  # noqa: F401
@@ -159,7 +163,7 @@ def animate(spec: ChartSpec | str | Path | None = None, frames: int = 36, orbit:
     spec = as_spec(spec, "spec")
     specs = orbit_specs(spec, frames, orbit)
     if output is not None:
-        check_animation_output(output, fps)
+        check_animation_output(output, fps, lossless)
     _check_fps(fps)
     images = (_chart_frame(s) for s in _frames(specs, f"orbit {orbit}", progress, orbit))
     return _stream(images, output, fps, keep_frames, specs, lossless)
@@ -175,7 +179,7 @@ def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: 
     bug, correct, buggy = bug_pair(spec, bug_name)
     pairs = list(zip(orbit_specs(correct, frames, orbit), orbit_specs(buggy, frames, orbit)))
     if output is not None:
-        check_animation_output(output, fps)
+        check_animation_output(output, fps, lossless)
     _check_fps(fps)
     axes = correct.labels if axes is None else axes
     text_size = sheet_text_size(correct.height)
@@ -215,7 +219,7 @@ def cmd_chart_animation(spec: ChartSpec, args) -> int:
     orbit_specs(spec, args.frames, args.orbit)          # frames and orbit checked before rendering
     if args.output.lower().endswith(".png"):
         raise SpecError(f"--frames writes an animation: give -o NAME.gif, .webp or .mp4 (got {args.output})")
-    check_animation_output(args.output, args.fps)
+    check_animation_output(args.output, args.fps, args.lossless)
     start = time.perf_counter()
     animation = animate(spec, args.frames, args.orbit, output=args.output, fps=args.fps,
                         progress=True, lossless=args.lossless)

@@ -52,6 +52,8 @@ def _mode(args) -> str:
         raise SpecError("--bug compares one bug; for several use --bugs NAME,NAME")
     if args.frames is not None and chosen[0] != "bug":
         raise SpecError("--frames animates a --bug comparison only")
+    if args.lossless and args.frames is None:
+        raise SpecError("--lossless applies to animations: give --frames N and -o NAME.webp")
     if args.specs and args.spec:
         raise SpecError("--spec sets the base of --bug/--bugs; with two spec files leave it out")
     return chosen[0]
@@ -149,7 +151,7 @@ def _animate_bug(args, start: float) -> int:
     name, spec = _bug_spec(args)
     output = args.output or f"compare-{name}.gif"
     orbit_specs(spec, args.frames, args.orbit)
-    check_animation_output(output, args.fps)
+    check_animation_output(output, args.fps, args.lossless)
     animation = animate_compare(spec, name, args.frames, args.orbit, output=output, fps=args.fps,
                                 progress=True, lossless=args.lossless)
     if args.verbose:

@@ -163,7 +163,6 @@ def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool
             todo.append(item)
             continue
         results[item.name] = Result(item, keys[item.name], True, data)
-        _write_output(out, item, data)
         say(progress_line(len(results), total, f"{item.name}.png", "cached", keys[item.name] if verbose else ""))
 
     uncached = []     # images a later build cannot find in the cache: no stamp then
@@ -178,7 +177,6 @@ def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool
         elif not cache.put(key, rendered.png):
             uncached.append(item.name)
         results[item.name] = Result(item, key, False, rendered.png, rendered.seconds, rendered.timings)
-        _write_output(out, item, rendered.png)
         say(progress_line(len(results), total, f"{item.name}.png", f"rendered in {rendered.seconds:.2f} s",
                           key if verbose else ""))
 
@@ -189,6 +187,12 @@ def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool
     else:
         _render_parallel(groups, keys, workers, done)
 
+    # The images go in only when every entry has rendered: an entry that fails (a file it names
+    # turned out unreadable) leaves the folder as the last build left it, images and manifest
+    # alike. (A kill between these writes leaves some new images under the old manifest; the
+    # next build writes the rest, as after a kill anywhere.)
+    for item in items:
+        _write_output(out, item, results[item.name].png)
     manifest = _manifest(items, results, renderers, chart_dir, time.perf_counter() - start)
     if shard is not None:
         manifest["shard"] = list(shard)
