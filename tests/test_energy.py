@@ -125,3 +125,12 @@ def test_cli_energy_json(tmp_path):
         assert main(["energy", "--size", "96x96", "--rows", "2", "--cols", "2", "--json", str(path)]) == 0
     assert "rendered min/mean/max" in table.getvalue()
     assert json.loads(path.read_text())["cells"][0]["pixels"] > 0
+
+
+def test_cli_energy_says_which_settings_its_furnace_replaces(capsys):
+    """A furnace is its own scene: settings of the chart it replaces are named on stderr, not
+    dropped silently (an environment file given to it is never read)."""
+    assert main(["energy", "--size", "64x64", "--rows", "1", "--cols", "2", "--env", "sky", "--no-shadows"]) == 0
+    assert "it replaces the spec's env, shadows" in capsys.readouterr().err
+    assert main(["energy", "--size", "64x64", "--rows", "1", "--cols", "2"]) == 0
+    assert "replaces" not in capsys.readouterr().err

@@ -455,3 +455,12 @@ def test_base_colours_per_row_per_cell_and_the_hue_axis_reach_each_cell():
         assert (s, v) == pytest.approx((0.75, 0.8))
     with pytest.raises(SpecError, match="lists 4 entries for 2 rows x 3 columns"):
         make_spec(rows=2, cols=3, base_colors=six[:4]).cell_materials()
+
+
+def test_a_spec_file_saved_with_a_byte_order_mark_reads(tmp_path):
+    """Windows editors start UTF-8 files with a BOM, which TOML's parser calls an invalid
+    statement at line 1, column 1."""
+    from sdfpbr.spec.chart_spec import load_spec
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbfrows = 2\n")
+    assert load_spec(path).rows == 2

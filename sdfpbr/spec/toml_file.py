@@ -11,7 +11,7 @@ def read_toml(path: str | Path, what: str = "spec file") -> dict:
     import tomllib   # here, not at the top: a chart without a spec file does not pay its import
     p = Path(path)
     try:
-        return tomllib.loads(p.read_text(encoding="utf-8"))
+        return tomllib.loads(p.read_text(encoding="utf-8-sig"))   # a BOM (Windows editors) is not TOML
     except FileNotFoundError:
         raise SpecError(f"{what} {p} does not exist") from None
     except IsADirectoryError:

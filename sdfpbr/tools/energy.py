@@ -19,15 +19,26 @@ from ..spec.chart_spec import ChartSpec, make_spec
 GRAZING_N_DOT_V = 0.2
 
 
+# What a white furnace sets whatever the spec says: a uniform environment of radiance 1 seen
+# through IBL only, no lights, ground or AO, one sample per pixel at its centre, no edge blending.
+FURNACE = dict(env="uniform", env_intensity=1.0, lights=(), ground=False, ao=False, shadows=False,
+               ibl=True, transparent=False, spp=1, antialias=False)
+
+
 def furnace_spec(spec: ChartSpec, white: bool = True) -> ChartSpec:
-    """The spec in a white furnace: uniform environment of radiance 1 seen through IBL only,
-    no lights, ground or AO, one sample per pixel at its centre, no edge blending (so each
-    pixel is the BRDF at the AOV's NdotV, grazing angles included)."""
-    overrides = dict(env="uniform", env_intensity=1.0, lights=(), ground=False, ao=False, shadows=False,
-                     ibl=True, transparent=False, spp=1, antialias=False)
+    """The spec in a white furnace (FURNACE), so each pixel is the BRDF at the AOV's NdotV,
+    grazing angles included."""
+    overrides = dict(FURNACE)
     if white:
         overrides.update(base_color=(1.0, 1.0, 1.0), row_materials=())
     return make_spec(spec, **overrides)
+
+
+def replaced_settings(spec: ChartSpec) -> list[str]:
+    """The settings of ``spec`` a white furnace replaces that are not at their defaults (the
+    command says so rather than drop them silently)."""
+    default = ChartSpec()
+    return [name for name in FURNACE if getattr(spec, name) != getattr(default, name)]
 
 
 @dataclass

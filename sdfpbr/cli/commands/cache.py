@@ -28,6 +28,9 @@ def run(args) -> int:
     from ...errors import SpecError
 
     root = default_cache_dir()
+    if root.exists() and not root.is_dir():
+        raise SpecError(f"the cache directory {root} is a file, not a directory: point $SDFPBR_CACHE_DIR "
+                        f"at a directory (or unset it)")
     limit = cache_max()
     kinds = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
     if args.kind is not None and (args.kind not in kinds or "/" in args.kind or args.kind.startswith(".")):

@@ -18,7 +18,7 @@ def run(args) -> int:
 
     from ...gpu.session import default_session
     from ..main import spec_from_args
-    from ...tools.energy import cell_energy, format_table, furnace_spec, model_summary, to_json
+    from ...tools.energy import cell_energy, format_table, furnace_spec, model_summary, replaced_settings, to_json
     from ...files import atomic_file
     from ...image.io import check_writable
     from ...spec.chart_spec import ChartSpec
@@ -28,6 +28,11 @@ def run(args) -> int:
     white = args.base_color is None and not spec.row_materials and spec.base_color == ChartSpec().base_color
     if args.json and args.json != "-":
         check_writable(args.json, (".json",), "--json")
+    replaced = replaced_settings(spec)
+    if replaced:
+        import sys
+        print(f"sdfpbr: note: energy renders a white furnace; it replaces the spec's {', '.join(replaced)}",
+              file=sys.stderr)
     spec = furnace_spec(spec, white=white)
     result = default_session(spec.backend, spec.device_index).render(spec)
     cells = cell_energy(result, spec)
