@@ -271,6 +271,7 @@ def cli(*args, **kw):
     ("both.toml", '[compare]\nbug = "double-gamma"\na = "x.toml"\nb = "y.toml"\n', "exactly one of"),
     ("sweep.toml", '[sweep]\nfield = "tonemapp"\nvalues = ["aces"]\n', "unknown spec field 'tonemapp'"),
     ("values.toml", '[sweep]\nfield = "tonemap"\nvalues = []\n', "non-empty list"),
+    ("field.toml", '[sweep]\nfield = "nosuch"\n', "unknown spec field 'nosuch'"),
     ("extra.toml", 'caption = "x"\nsize = "48x48"\n[spec]\nrows = 2\n', "[spec] belongs to"),
     ("missing.toml", '[compare]\na = "nowhere.toml"\nb = "nowhere.toml"\n', "does not exist"),
 ])
@@ -581,6 +582,11 @@ def test_shards_merge_into_the_gallery_a_single_build_makes(env):
         merge(charts, parts, env / "site3")
     with pytest.raises(SpecError, match="in both"):
         merge(charts, [parts[0], parts[0]], env / "site4")
+    for text, why in (("{}", "it lists no images"), ("[]", "it is not a table"), ("{", "it is not JSON")):
+        (env / "bad").mkdir(exist_ok=True)
+        (env / "bad" / "manifest.json").write_text(text)
+        with pytest.raises(SpecError, match=f"holds no readable manifest.json of a build shard: {why}"):
+            merge(charts, [env / "bad"], env / "site5")
     assert not (env / "site2").exists() and not (env / "site3").exists()
 
 

@@ -284,7 +284,10 @@ def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
             manifest = json.loads((part / "manifest.json").read_text())
             entries = manifest["images"]
         except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise SpecError(f"{part} holds no readable manifest.json of a build shard ({exc.__class__.__name__})") from None
+            why = {KeyError: "it lists no images", TypeError: "it is not a table with a list of images"}.get(
+                type(exc), exc.strerror if isinstance(exc, OSError) and exc.strerror else "it is not JSON")
+            raise SpecError(f"{part} holds no readable manifest.json of a build shard: {why} "
+                            f"(give the directories `sdfpbr build --shard i/n` wrote)") from None
         renderers.update(manifest.get("gl_renderers", []))
         for entry in entries:
             name = entry.get("name")

@@ -87,13 +87,13 @@ def _sweep_item(data, table, base, caption, where, stem) -> Item:
     if unknown:
         raise SpecError(f"{where}: unknown [sweep] key {unknown[0]!r}; allowed: field, values")
     name = _text(table.get("field"), "[sweep] field", where)
-    values = table.get("values")
-    if not isinstance(values, list) or not values:
-        raise SpecError(f"{where}: [sweep] values must be a non-empty list, got {values!r}")
-    try:
+    try:   # the field first: a misspelt one is the mistake to name, whatever its values
         attr = resolve_field(name).name
     except SpecError as exc:
         raise SpecError(f"{where}: [sweep] {exc}") from None
+    values = table.get("values")
+    if not isinstance(values, list) or not values:
+        raise SpecError(f"{where}: [sweep] values must be a non-empty list, got {values!r}")
     if attr == "size":
         raise SpecError(f"{where}: sweep width or height, not size")
     specs, parsed = [], []
