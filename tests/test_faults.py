@@ -444,6 +444,7 @@ MEMORY_LIMITS = {"65536x65536": 8 << 30, "20000x20000": 4 << 30}
     (("chart", "--backdrop", "1,1"), None, 2, "R,G,B (sRGB, 0..1)"),
     (("shader", "--display", "--program", "chart-edges"), None, 2, "--display is --program display"),
     (("cache",), {"SDFPBR_CACHE_DIR": "nested.toml"}, 2, "is a file, not a directory"),
+    (("chart", "-o", ""), None, 2, "output is empty: give a file name ending in .png"),
 ])
 def test_hostile_arguments_get_one_line(tmp_path, args, env, status, message):
     """Issue 12's tracebacks (RecursionError in chart and build, a size of inf or a list, a

@@ -295,6 +295,11 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_status
     except KeyboardInterrupt:
         print("sdfpbr: interrupted", file=sys.stderr)
+        # A -j build's process pool, torn down by the interrupt, can race CPython 3.11's exit hook
+        # (concurrent.futures' _python_exit wakes a manager thread whose pipe just closed: EBADF,
+        # printed as "Exception ignored in: <module 'threading'>" after this line). Nothing is
+        # left to report once interrupted.
+        sys.unraisablehook = lambda unraisable: None
         return 130
     except MemoryError:   # what check_memory could not foresee (another process took it first)
         print("sdfpbr: error: out of memory: render a smaller chart", file=sys.stderr)
