@@ -29,7 +29,7 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops, float 
         float angle = max(u_dir_light_angular_radius[i], 1e-3);
         float share = 0.0;   // the footprint's mean of hidden x (coverage - stops)
         for (int k = 0; k < 4; ++k) {
-            vec3 o = ro + FOOTPRINT_POINTS[k].x * ex + FOOTPRINT_POINTS[k].y * ey;
+            vec3 o = ro + footprint_offset(k, ex, ey);
             float hidden = 1.0 - disc_visibility(o, l, angle, vec3(0.0));
             if (hidden > 0.0) share += hidden * (light_ray_coverage(cell, vec3(0.0), o, l, angle) - stops);
         }
@@ -46,7 +46,7 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops, float 
         float angle = point_angular_radius(i, dist);
         float share = 0.0;
         for (int k = 0; k < 4; ++k) {
-            vec3 o = FOOTPRINT_POINTS[k].x * ex + FOOTPRINT_POINTS[k].y * ey;
+            vec3 o = footprint_offset(k, ex, ey);
             float visible = point_light_visibility(ro + o, p + o, l, dist, angle);
             if (visible < 1.0)
                 share += (1.0 - visible) * (light_ray_coverage(cell, vec3(0.0), ro + o, l, max(angle, 1e-4)) - stops);

@@ -62,7 +62,7 @@ float point_light_visibility(vec3 ro, vec3 p, vec3 l, float dist, float angle) {
 const vec2 FOOTPRINT_POINTS[4] = vec2[4](vec2(0.125, 0.375), vec2(0.375, -0.125), vec2(-0.125, -0.375),
                                          vec2(-0.375, 0.125));
 
-// The footprint's sides on the floor.
+// The footprint's sides on the floor (tests/test_alpha.py mirrors them in float64).
 void floor_footprint(vec3 v, float pixel_size, out vec3 ex, out vec3 ey) {
     vec2 across = vec2(v.z, -v.x);
     float len = length(across);
@@ -70,6 +70,12 @@ void floor_footprint(vec3 v, float pixel_size, out vec3 ex, out vec3 ey) {
     vec3 w = cross(v, h);
     ex = pixel_size * h;
     ey = pixel_size * (w - v * (w.y / max(v.y, 0.05)));   // the far floor's grazing footprint, capped
+    ey.y = 0.0;   // on the floor, capped or not
+}
+
+// The k-th point's offset from the footprint's centre.
+vec3 footprint_offset(int k, vec3 ex, vec3 ey) {
+    return FOOTPRINT_POINTS[k].x * ex + FOOTPRINT_POINTS[k].y * ey;
 }
 
 // A disc light's (direction l, angular radius a) visible share over the footprint of the floor
@@ -79,7 +85,7 @@ float footprint_shadow(vec3 ro, vec3 v, float pixel_size, vec3 l, float a) {
     floor_footprint(v, pixel_size, ex, ey);
     float sum = 0.0;
     for (int i = 0; i < 4; ++i)
-        sum += disc_visibility(ro + FOOTPRINT_POINTS[i].x * ex + FOOTPRINT_POINTS[i].y * ey, l, a, vec3(0.0));
+        sum += disc_visibility(ro + footprint_offset(i, ex, ey), l, a, vec3(0.0));
     return 0.25 * sum;
 }
 
@@ -90,7 +96,7 @@ float footprint_point_visibility(vec3 ro, vec3 p, vec3 v, float pixel_size, vec3
     floor_footprint(v, pixel_size, ex, ey);
     float sum = 0.0;
     for (int i = 0; i < 4; ++i) {
-        vec3 o = FOOTPRINT_POINTS[i].x * ex + FOOTPRINT_POINTS[i].y * ey;
+        vec3 o = footprint_offset(i, ex, ey);
         sum += point_light_visibility(ro + o, p + o, l, dist, angle);
     }
     return 0.25 * sum;

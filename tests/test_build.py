@@ -582,7 +582,9 @@ def test_shards_merge_into_the_gallery_a_single_build_makes(env):
         merge(charts, parts, env / "site3")
     with pytest.raises(SpecError, match="in both"):
         merge(charts, [parts[0], parts[0]], env / "site4")
-    for text, why in (("{}", "it lists no images"), ("[]", "it is not a table"), ("{", "it is not JSON")):
+    for text, why in (("{}", "it is not a table"), ("[]", "it is not a table"), ("{", "it is not JSON"),
+                      ('{"images": "x"}', "it is not a table"), ('{"images": [1]}', "it is not a table"),
+                      ('{"images": [], "gl_renderers": 3}', "its gl_renderers is not a list")):
         (env / "bad").mkdir(exist_ok=True)
         (env / "bad" / "manifest.json").write_text(text)
         with pytest.raises(SpecError, match=f"holds no readable manifest.json of a build shard: {why}"):

@@ -57,6 +57,18 @@ def test_what_the_assets_materials_decide_is_refused_beside_gltf(given):
         make_spec(gltf=str(GLB), **given)
 
 
+def test_a_bug_or_a_furnace_on_an_asset_leaves_its_materials_to_it():
+    """A bug's visibility settings (clearcoat-adds: a coat down the rows) and the white furnace's
+    white base would set what the asset's materials decide: on an asset they leave them to it."""
+    from sdfpbr.spec.chart_spec import with_bug
+    from sdfpbr.tools.energy import furnace_spec
+    spec = make_spec(gltf=str(GLB))
+    coated = with_bug(spec, "clearcoat-adds")
+    assert coated.bugs == ("clearcoat-adds",) and coated.cell_materials() == spec.cell_materials()
+    furnace = furnace_spec(spec)
+    assert furnace.env == "uniform" and furnace.cell_materials() == spec.cell_materials()
+
+
 def test_an_asset_whose_materials_make_no_grid_is_refused_by_its_count():
     """More materials than a row holds (a prime count makes one row): the message names the
     count and --material, not the cols the user never gave."""
@@ -69,18 +81,22 @@ def test_an_asset_whose_materials_make_no_grid_is_refused_by_its_count():
 
 @pytest.mark.parametrize("change, message", [
     (lambda doc: setattr(doc.asset, "version", "1.0"), "is glTF version '1.0'; sdfpbr reads glTF 2.x"),
-    (lambda doc: setattr(doc, "extensionsRequired", ["KHR_draco_mesh_compression"]),
-     "requires 'KHR_draco_mesh_compression', which sdfpbr does not read"),
+    (lambda doc: setattr(doc, "extensionsRequired", ["KHR_materials_transmission"]),
+     "requires 'KHR_materials_transmission', which sdfpbr does not chart"),
+    (lambda doc: setattr(doc, "extensionsRequired", ["EXT_texture_webp"]),
+     "requires 'EXT_texture_webp', which sdfpbr does not chart"),
 ])
 def test_an_asset_sdfpbr_cannot_read_faithfully_is_refused(tmp_path, change, message):
-    """Another major version, or an extension the asset requires (a loader must refuse it,
-    glTF 2.0 section 3.12) that sdfpbr does not implement: one line, not a silent chart."""
+    """Another major version, or a material or texture extension the asset requires (a loader
+    must refuse it, glTF 2.0 section 3.12) that sdfpbr does not implement: one line, not a
+    silent chart. What it requires of its meshes, and what sdfpbr reads, are charted."""
     doc = gltf_asset([pygltflib.Material(name="leaf", pbrMetallicRoughness=pbr((0.1, 0.5, 0.1), 0.0, 0.6))])
     change(doc)
     doc.save_json(str(tmp_path / "leaf.gltf"))
     with pytest.raises(SpecError, match=message):
         make_spec(gltf=str(tmp_path / "leaf.gltf"))
-    doc.extensionsRequired, doc.asset.version = ["KHR_texture_transform"], "2.1"   # these it reads
+    doc.extensionsRequired = ["KHR_texture_transform", "KHR_draco_mesh_compression", "KHR_mesh_quantization"]
+    doc.asset.version = "2.1"
     doc.save_json(str(tmp_path / "fine.gltf"))
     assert make_spec(gltf=str(tmp_path / "fine.gltf")).rows == 1
 

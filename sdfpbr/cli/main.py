@@ -6,7 +6,7 @@ import re
 import sys
 import time
 
-from ..errors import SdfpbrError, SpecError, did_you_mean
+from ..errors import OutputError, SdfpbrError, SpecError, did_you_mean
 
 
 class Parser(argparse.ArgumentParser):
@@ -283,13 +283,14 @@ def add_shader_command(sub) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    stdout = sys.stdout
+    sys.stdout = _StandardOutput(stdout)
     try:
-        try:
-            argv = sys.argv[1:] if argv is None else list(argv)
-            args = build_parser(argv[0] if argv else None).parse_args(argv)
-            return args.run(args)
-        finally:
-            sys.stdout.flush()   # a full or closed stdout fails here, where it is reported (help included)
+        argv = sys.argv[1:] if argv is None else list(argv)
+        args = build_parser(argv[0] if argv else None).parse_args(argv)
+        status = args.run(args)
+        sys.stdout.flush()   # a full stdout fails here, where it is reported
+        return status
     except SdfpbrError as exc:
         print(f"sdfpbr: error: {exc}", file=sys.stderr)
         return exc.exit_status
@@ -307,18 +308,44 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:   # stdout closed early (`sdfpbr cache -v | head`): stop quietly
         _drop_stdout()
         return 1
-    except OSError as exc:   # what no writer turned into an OutputError: stdout on a full disk
-        _drop_stdout()
-        print(f"sdfpbr: error: cannot write {exc.filename or 'the output'}: {exc.strerror or exc}", file=sys.stderr)
-        return 2
+    finally:
+        sys.stdout = stdout
+
+
+class _StandardOutput:
+    """sys.stdout while a command runs: a write that fails for want of space (a full disk, a
+    file size limit) is an OutputError, said in one line as any output file's is, and the rest
+    of what was buffered is dropped (no second failure at exit). A closed pipe stays a
+    BrokenPipeError; everything else is the stream's own."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _reported(self, call, *args):
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            _drop_stdout()
+            raise OutputError(f"cannot write standard output: {exc.strerror or exc}") from None
+
+    def write(self, text: str) -> int:
+        return self._reported(self._stream.write, text)
+
+    def flush(self) -> None:
+        self._reported(self._stream.flush)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 def _drop_stdout() -> None:
     """Point stdout at /dev/null, so that nothing buffered fails again at exit."""
     import os
     try:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-    except (OSError, ValueError):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.__stdout__.fileno())
+    except (OSError, ValueError, AttributeError):
         pass
 
 

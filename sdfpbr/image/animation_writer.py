@@ -179,7 +179,7 @@ class AnimationWriter:
         """What stopped ffmpeg, as far as can be told from here: a full disk or its own error."""
         import errno
         import shutil
-        if shutil.disk_usage(self._tmp).free < (1 << 20):
+        if shutil.disk_usage(Path(self._tmp).parent).free < (1 << 20):
             return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         return OSError(errno.EIO, "ffmpeg stopped writing it")
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..errors import SpecError, did_you_mean
-from .material import MIN_PERCEPTUAL_ROUGHNESS
+from .material import GLTF_OWNS, MIN_PERCEPTUAL_ROUGHNESS
 from .checks import quote
 from .presets import Light
 
@@ -30,8 +30,10 @@ class Bug:
     # dataclasses.replace re-runs the spec's own validation, so the catalog needs no import of
     # the spec module (which imports this one for bug names).
     def correct(self, spec):
-        """``spec`` with what this bug needs to be visible (e.g. textured spheres)."""
-        return replace(spec, **self.requires) if self.requires else spec
+        """``spec`` with what this bug needs to be visible (e.g. textured spheres); on a glTF
+        asset's chart, what its materials decide (GLTF_OWNS) is left to them."""
+        requires = {k: v for k, v in self.requires.items() if not (spec.gltf and k in GLTF_OWNS)}
+        return replace(spec, **requires) if requires else spec
 
     def apply(self, spec):
         """``spec`` made visible for this bug, with the bug switched on."""

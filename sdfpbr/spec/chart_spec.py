@@ -16,17 +16,10 @@ from ..errors import SpecError
 from .bugs import get_bug
 from .checks import parse_color, parse_range, parse_size  # noqa: F401  (re-exported)
 from .fields import FIELDS, STORED_FIELDS, attr_values, read_entry_document, resolve_relative_files
-from .material import (COLOR_PARAMS, PARAM_NAMES, axis_values, cell_materials, check_axes, displaced_defaults,
-                       material_array)
+from .material import GLTF_OWNS, axis_values, cell_materials, check_axes, displaced_defaults, material_array
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, FILL_LIGHT,  # noqa: F401
                       HDR_PRECISIONS, INTERSECT_METHODS, KEY_LIGHT, LIGHT_KINDS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE,
                       NORMAL_METHODS, QUALITY_PRESETS, TEXTURE_MODES, TONEMAPPERS, Light, Quality)
-
-
-# What a glTF asset's materials decide, one per cell: a spec that charts an asset and sets any of
-# these would have it ignored.
-GLTF_OWNS = ("x_axis", "y_axis", "x_values", "y_values", "base_color", "base_colors", "row_materials",
-             *PARAM_NAMES, *COLOR_PARAMS)
 
 
 def _check_gltf_owns(spec) -> None:

@@ -21,6 +21,7 @@ from .presets import MAX_GRID
 
 GLTF_SUFFIXES = (".gltf", ".glb")
 TEXTURE_EXTENSIONS = ("KHR_texture_transform",)   # read on every texture reference
+MATERIAL_EXTENSION_PREFIXES = ("KHR_materials_", "KHR_texture_", "EXT_texture_")   # what a chart's cells show
 CHARTED_EXTENSIONS = ("KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular", "KHR_materials_ior",
                       "KHR_materials_emissive_strength")
 # glTF sampler enums: wrap modes and filters. The four mipmap minification modes read as one:
@@ -98,12 +99,16 @@ def _load(path: str):
     version = getattr(getattr(doc, "asset", None), "version", None)
     if not isinstance(version, str) or version.split(".")[0] != "2":
         raise SpecError(f"gltf {path} is glTF version {quote(version)}; sdfpbr reads glTF 2.x")
-    # A loader must refuse an asset that requires an extension it does not implement (glTF 2.0, 3.12).
+    # A loader must refuse an asset that requires an extension it does not implement (glTF 2.0,
+    # 3.12). sdfpbr reads the materials and their images, not meshes: a required extension of
+    # those (KHR_materials_*, KHR_texture_*, EXT_texture_*) it does not read would change what
+    # it charts; a mesh's (Draco, quantization, meshopt) does not.
     required = doc.extensionsRequired if isinstance(doc.extensionsRequired, list) else []
-    unknown = [e for e in required if e not in (*CHARTED_EXTENSIONS, *TEXTURE_EXTENSIONS)]
+    unknown = [e for e in required if isinstance(e, str) and e.startswith(MATERIAL_EXTENSION_PREFIXES)
+               and e not in (*CHARTED_EXTENSIONS, *TEXTURE_EXTENSIONS)]
     if unknown:
-        raise SpecError(f"gltf {path} requires {quote(unknown[0])}, which sdfpbr does not read; it reads "
-                        f"{', '.join((*CHARTED_EXTENSIONS, *TEXTURE_EXTENSIONS))}")
+        raise SpecError(f"gltf {path} requires {quote(unknown[0])}, which sdfpbr does not chart; of the "
+                        f"materials' extensions it reads {', '.join((*CHARTED_EXTENSIONS, *TEXTURE_EXTENSIONS))}")
     return doc
 
 

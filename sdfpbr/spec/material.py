@@ -84,6 +84,12 @@ COLOR_PARAMS = {
     "emissive": ((0.0, 0.0, 0.0), "emission", "linear emissive colour"),
 }
 
+# What a glTF asset's materials decide, one per cell (ChartSpec attributes): a spec that charts
+# an asset and sets any of these would have it ignored, so it is refused (chart_spec), and a
+# bug's visibility settings leave them to the asset (bugs.Bug.correct).
+GLTF_OWNS = ("x_axis", "y_axis", "x_values", "y_values", "base_color", "base_colors", "row_materials",
+             "alpha_mode", "alpha_cutoff", *PARAM_NAMES, *COLOR_PARAMS)
+
 # glTF's alphaMode: opaque ignores alpha, mask cuts out the texels below the cutoff, blend lays
 # the sphere over what lies behind it by its alpha; auto (a chart's choice) blends where a
 # cell's alpha is below 1. Alpha applies to what the camera sees; the light treats every

@@ -29,7 +29,7 @@ def furnace_spec(spec: ChartSpec, white: bool = True) -> ChartSpec:
     """The spec in a white furnace (FURNACE), so each pixel is the BRDF at the AOV's NdotV,
     grazing angles included."""
     overrides = dict(FURNACE)
-    if white:
+    if white and not spec.gltf:   # an asset's materials keep their own colours
         overrides.update(base_color=(1.0, 1.0, 1.0), row_materials=())
     return make_spec(spec, **overrides)
 

@@ -25,7 +25,8 @@ def run(args) -> int:
 
     spec = spec_from_args(args)
     # White unless the user named a colour (flag, presets, or a spec file that differs from the default).
-    white = args.base_color is None and not spec.row_materials and spec.base_color == ChartSpec().base_color
+    white = (args.base_color is None and not spec.row_materials and spec.base_color == ChartSpec().base_color
+             and not spec.gltf)   # an asset's materials keep their own colours
     if args.json and args.json != "-":
         check_writable(args.json, (".json",), "--json")
     replaced = replaced_settings(spec)

@@ -280,15 +280,24 @@ def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
     found: dict[str, tuple[dict, bytes, Path]] = {}
     renderers: set[str] = set()
     for part in map(Path, parts):
+        why = None
         try:
             manifest = json.loads((part / "manifest.json").read_text())
-            entries = manifest["images"]
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            why = {KeyError: "it lists no images", TypeError: "it is not a table with a list of images"}.get(
-                type(exc), exc.strerror if isinstance(exc, OSError) and exc.strerror else "it is not JSON")
+        except OSError as exc:
+            why = exc.strerror or str(exc)
+        except ValueError:
+            why = "it is not JSON"
+        else:
+            entries = manifest.get("images") if isinstance(manifest, dict) else None
+            shard_renderers = manifest.get("gl_renderers", []) if isinstance(manifest, dict) else None
+            if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+                why = "it is not a table with a list of images"
+            elif not isinstance(shard_renderers, list) or not all(isinstance(r, str) for r in shard_renderers):
+                why = "its gl_renderers is not a list of names"
+        if why is not None:
             raise SpecError(f"{part} holds no readable manifest.json of a build shard: {why} "
-                            f"(give the directories `sdfpbr build --shard i/n` wrote)") from None
-        renderers.update(manifest.get("gl_renderers", []))
+                            f"(give the directories `sdfpbr build --shard i/n` wrote)")
+        renderers.update(shard_renderers)
         for entry in entries:
             name = entry.get("name")
             if name in found:
