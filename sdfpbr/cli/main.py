@@ -313,10 +313,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 class _StandardOutput:
-    """sys.stdout while a command runs: a write that fails for want of space (a full disk, a
-    file size limit) is an OutputError, said in one line as any output file's is, and the rest
-    of what was buffered is dropped (no second failure at exit). A closed pipe stays a
-    BrokenPipeError; everything else is the stream's own."""
+    """sys.stdout while a command runs: a write or flush that fails (a full disk, a file size
+    limit) is an OutputError, said in one line as any output file's is, and the rest of what
+    was buffered is dropped (no second failure at exit). A closed pipe stays a BrokenPipeError;
+    everything else is the stream's own."""
 
     def __init__(self, stream):
         self._stream = stream
