@@ -115,6 +115,12 @@ def add_animation_options(p: Parser, frames_help: str) -> None:
                    help=f"WebP animation frames stored exactly (about 4x larger than the default quality {WEBP_QUALITY})")
 
 
+def check_still_options(args) -> None:
+    """A command that draws a still image (no --frames) was given no animation-only flag."""
+    if args.lossless and args.frames is None:
+        raise SpecError("--lossless applies to animations: give --frames N and -o NAME.webp")
+
+
 def add_chart_options(p: Parser) -> None:
     """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
     one per field of the spec table, named as the field, plus its aliases. A flag the command
@@ -170,8 +176,7 @@ def spec_from_args(args: argparse.Namespace):
 
 
 def cmd_chart(args) -> int:
-    if args.lossless and args.frames is None:
-        raise SpecError("--lossless applies to animations: give --frames N and -o NAME.webp")
+    check_still_options(args)
     if args.frames is not None:
         from ..tools.animate import cmd_chart_animation
         return cmd_chart_animation(spec_from_args(args), args)

@@ -40,6 +40,7 @@ def register(subparsers) -> None:
 
 def _mode(args) -> str:
     from ...errors import SpecError
+    from ..main import check_still_options
     chosen = [m for m, on in (("files", bool(args.specs)), ("bug", bool(args.bugs)), ("bugs", args.bugs_sheet))
               if on]
     if not chosen:
@@ -52,8 +53,7 @@ def _mode(args) -> str:
         raise SpecError("--bug compares one bug; for several use --bugs NAME,NAME")
     if args.frames is not None and chosen[0] != "bug":
         raise SpecError("--frames animates a --bug comparison only")
-    if args.lossless and args.frames is None:
-        raise SpecError("--lossless applies to animations: give --frames N and -o NAME.webp")
+    check_still_options(args)
     if args.specs and args.spec:
         raise SpecError("--spec sets the base of --bug/--bugs; with two spec files leave it out")
     return chosen[0]
