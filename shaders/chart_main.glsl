@@ -4,6 +4,7 @@
 #include "camera.glsl"
 #include "surface_shading.glsl"
 #include "background.glsl"
+#include "loop_guard.glsl"
 #if INTERSECT == analytic
 #include "intersect.glsl"
 #else
@@ -43,6 +44,12 @@ layout(location = 2) out vec4 out_cell;          // col, row, NdotV (-1 for back
 #endif
 uniform vec2 u_tile_origin;                      // pixel offset of this tile in the image
 uniform int u_spp;
+#if SUPERSAMPLE
+// This draw's samples [first, end) of each pixel's u_spp; the draws add up (gpu/render.py: a
+// software rasterizer takes one sample a draw, since llvmpipe silently ends every loop of an
+// invocation once all of them have turned 65535 times).
+uniform ivec2 u_sample_range;
+#endif
 
 // R2 low-discrepancy offsets (Roberts 2018); sample 0 is the pixel centre.
 vec2 sample_offset(int i) {
@@ -258,38 +265,54 @@ void chart_pixel(vec2 frag_coord) {
         centre = intersect_scene(ro, centre_rd, footprint);
     }
 #endif
-#else
-    // SPP stratified rays over the pixel box; sample 0 is the centre.
-    vec4 radiance = trace_pixel(pixel + sample_offset(0), footprint, centre, centre_rd);
-    float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
-#if SUPERSAMPLE
-    // Only where spp > 1: llvmpipe runs a loop's body once even when it runs no turn.
-    for (int s = 1; s < u_spp; ++s) {
+#elif SUPERSAMPLE
+    // SPP stratified rays over the pixel box, this draw's share of their mean; sample 0 is the
+    // centre, whose hit the AOVs show (the draw without it adds nothing to them).
+    vec4 radiance = vec4(0.0);
+    float sphere_share = 0.0;
+    centre = NO_HIT;
+    centre_rd = vec3(0.0);
+    for (int s = u_sample_range.x; s < u_sample_range.y; ++s) {
         radiance += trace_pixel(pixel + sample_offset(s), footprint, other, other_rd);
         sphere_share += other.t >= 0.0 && other.cell.x >= 0 ? 1.0 : 0.0;
+        if (s == 0) {
+            centre = other;
+            centre_rd = other_rd;
+        }
     }
     radiance /= float(u_spp);
     sphere_share /= float(u_spp);
-#endif
+#else
+    // One ray through the pixel's centre (a loop only where spp > 1: llvmpipe runs a loop's
+    // body once even when it runs no turn).
+    vec4 radiance = trace_pixel(pixel + sample_offset(0), footprint, centre, centre_rd);
+    float sphere_share = centre.t >= 0.0 && centre.cell.x >= 0 ? 1.0 : 0.0;
 #endif
     out_radiance = radiance;
     out_normal_depth = centre.t < 0.0 ? vec4(0.0, 0.0, 0.0, 1.0 / 0.0) : vec4(centre.normal, centre.t);
     float n_dot_v = centre.t < 0.0 ? -1.0 : dot(centre.normal, -centre_rd);
     out_cell = centre.t < 0.0 ? vec4(-1.0, -1.0, -1.0, sphere_share) : vec4(vec2(centre.cell), n_dot_v, sphere_share);
+#if SUPERSAMPLE
+    if (u_sample_range.x > 0) {   // added to the first draw's AOVs: its share of the coverage only
+        out_normal_depth = vec4(0.0);
+        out_cell = vec4(0.0, 0.0, 0.0, sphere_share);
+    }
+#endif
 #if HALF_RADIANCE
     // A half-float target holds at most 65504; some drivers turn larger values into Inf.
     out_radiance = min(out_radiance, vec4(65504.0));
 #endif
+    loop_guard();   // last: whether all the loops above ran in full
 }
 
 #if CHART_STAGE == compute
 #if HALF_RADIANCE
-layout(rgba16f, binding = 0) uniform writeonly image2D u_radiance_out;
+layout(rgba16f, binding = 0) uniform image2D u_radiance_out;
 #else
-layout(rgba32f, binding = 0) uniform writeonly image2D u_radiance_out;
+layout(rgba32f, binding = 0) uniform image2D u_radiance_out;
 #endif
 layout(rgba32f, binding = 1) uniform writeonly image2D u_normal_depth_out;
-layout(rgba32f, binding = 2) uniform writeonly image2D u_cell_out;
+layout(rgba32f, binding = 2) uniform image2D u_cell_out;
 uniform ivec2 u_tile_size;
 uniform bool u_write_aovs;   // the AOV images are bound only when the AOVs are read
 
@@ -297,6 +320,13 @@ void main() {
     ivec2 id = ivec2(gl_GlobalInvocationID.xy);
     if (id.x >= u_tile_size.x || id.y >= u_tile_size.y) return;
     chart_pixel(vec2(id) + 0.5);
+#if SUPERSAMPLE
+    if (u_sample_range.x > 0) {   // a later draw of the pixel's samples: adds to what is there
+        imageStore(u_radiance_out, id, imageLoad(u_radiance_out, id) + out_radiance);
+        if (u_write_aovs) imageStore(u_cell_out, id, imageLoad(u_cell_out, id) + out_cell);
+        return;
+    }
+#endif
     imageStore(u_radiance_out, id, out_radiance);
     if (u_write_aovs) {
         imageStore(u_normal_depth_out, id, out_normal_depth);

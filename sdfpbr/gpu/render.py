@@ -200,6 +200,11 @@ class GridInstances:
         self.buffer.release()
 
 
+def sample_ranges(spp: int, per_draw: int) -> list[tuple[int, int]]:
+    """[first, end) of each draw's samples when ``per_draw`` of a pixel's ``spp`` go in one."""
+    return [(first, min(first + per_draw, spp)) for first in range(0, spp, per_draw)]
+
+
 class ChartDraw:
     """The chart's programs for a frame and what they draw with: the compute program, or the
     fragment program over each whole tile, then (SPHERE_PIXELS) its sphere pass over each
@@ -211,6 +216,13 @@ class ChartDraw:
         ctx = self.ctx = session.ctx
         self.compute = (stage or session.chart_stage) == "compute"
         self.vao = None
+        self.session, self.spec = session, plan.spec
+        # A supersampled pixel's samples go in as few draws as the renderer's loop limit allows
+        # (loop_guard.glsl), which add up in the targets; the session remembers the count per
+        # program.
+        self.supersample = plan.options["SUPERSAMPLE"]
+        self.program_key = (plan.chart_compute if self.compute else plan.chart).text
+        self.guard = ctx.buffer(reserve=4)   # loop_guard.glsl's count of invocations cut short
         self.overlays: list[GridInstances] = []   # the sphere and edge passes, in their order
         if self.compute:
             self.program = session.programs.compute(plan.chart_compute)
@@ -240,26 +252,65 @@ class ChartDraw:
         """The tile at (x0, y0) of (tw, th) pixels into ``targets`` (radiance, then the AOVs'
         when they are read): through ``fbo`` (bound here) on the fragment path, as images
         0..2 for the compute program, which stores the AOVs only when they are bound."""
+        spp = self.spec.spp
+        known = self.session.samples_per_draw
+        per_draw = known.get(self.program_key, spp)
+        while True:
+            self._draw_samples(x0, y0, tw, th, targets, fbo, sample_ranges(spp, per_draw) if self.supersample else [None])
+            cut = self._loops_cut()
+            if not cut:
+                break
+            if not self.supersample or per_draw == 1:
+                raise SpecError(f"this chart needs more loop turns per pixel than the {self.session.renderer} "
+                                f"renderer runs ({cut} pixels would be cut short, silently wrong): lower the "
+                                "quality, the spp, the grid or the lights, or render on a GPU")
+            per_draw = max(1, per_draw // 4)
+            known[self.program_key] = per_draw
+
+    def _draw_samples(self, x0, y0, tw, th, targets, fbo, draws) -> None:
+        """One pass over the tile per entry of ``draws``: a range of a supersampled pixel's
+        samples, whose draws add up from zero, or None (the pixel's one ray)."""
+        self.guard.write(b"\0\0\0\0")
+        self.guard.bind_to_storage_buffer(0)
         if self.compute:
-            for unit, target in enumerate(targets):
-                target.bind_to_image(unit, read=False, write=True)
-            set_uniforms(self.program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
-                                        "u_write_aovs": len(targets) > 1})
-            self.program.run((tw + 7) // 8, (th + 7) // 8, 1)
-            self.ctx.memory_barrier()
+            for unit, target in enumerate(targets):   # read where a later draw adds to them
+                target.bind_to_image(unit, read=True, write=True)
+            for draw in draws:
+                set_uniforms(self.program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
+                                            "u_write_aovs": len(targets) > 1, "u_sample_range": draw,
+                                            "u_guard_turns": 2})
+                self.program.run((tw + 7) // 8, (th + 7) // 8, 1)
+                self.ctx.memory_barrier()
             return
         fbo.use()
         for program in self.programs:
-            set_uniforms(program, {"u_tile_origin": (x0, y0)})
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+            set_uniforms(program, {"u_tile_origin": (x0, y0), "u_guard_turns": 2})
+        adding = len(draws) > 1   # the later draws add to the first (chart_main.glsl)
+        if adding:
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.ONE, moderngl.ONE
+            self.ctx.blend_equation = moderngl.FUNC_ADD
+        try:
+            for draw in draws:
+                set_uniforms(self.program, {"u_sample_range": draw})
+                self.vao.render(moderngl.TRIANGLES, vertices=3)
+        finally:
+            if adding:
+                self.ctx.disable(moderngl.BLEND)
         for overlay in self.overlays:
             overlay.render((x0, y0), (tw, th))
 
+    def _loops_cut(self) -> int:
+        """Invocations of the last draws whose loops the renderer cut short (loop_guard.glsl)."""
+        self.ctx.memory_barrier()   # the shaders' writes, before the buffer is read
+        return int(np.frombuffer(self.guard.read(), np.uint32)[0])
+
     def release(self) -> None:
-        for obj in (self.vao, *self.overlays):
+        for obj in (self.vao, *self.overlays, self.guard):
             if obj is not None:
                 obj.release()
-        self.vao, self.overlays = None, []
+        self.vao, self.overlays, self.guard = None, [], None
 
 
 def _draw(session, chart: ChartDraw, display, spec: ChartSpec, aovs: bool, read_hdr: bool,

@@ -1,0 +1,14 @@
+// Whether a software rasterizer cut this invocation's loops short. llvmpipe ends every loop of
+// an invocation, silently, once all of its loops together have turned 65535 times (gallivm's
+// LP_MAX_TGSI_LOOP_ITERATIONS, one count shared by every loop); past that a loop still runs
+// its body once, since the count is tested at a turn's end. A loop that should turn twice
+// (u_guard_turns, a uniform the compiler cannot fold) then turns once, and the invocation
+// counts itself in u_loops_cut; the renderer reads the count after the draw (gpu/render.py).
+layout(std430, binding = 0) buffer LoopGuard { uint u_loops_cut; };
+uniform int u_guard_turns;
+
+void loop_guard() {
+    int turns = 0;
+    for (int i = 0; i < u_guard_turns; ++i) turns++;
+    if (turns != u_guard_turns) atomicAdd(u_loops_cut, 1u);
+}

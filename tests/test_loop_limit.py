@@ -1,0 +1,90 @@
+"""A software rasterizer's loop limit: llvmpipe ends every loop of a shader invocation, silently,
+once all of its loops together have turned 65535 times (shaders/loop_guard.glsl). A supersampled
+pixel's samples are drawn over as many draws as that takes, adding up to what one draw would
+give; a chart whose single ray is past the limit is refused rather than drawn wrong."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from sdfpbr.errors import SpecError
+from sdfpbr.gpu.session import SOFTWARE_RENDERERS, Session
+from sdfpbr.shading.plan import render_plan
+from sdfpbr.spec import presets
+from sdfpbr.spec.chart_spec import make_spec
+
+# At the high preset a floor pixel beside a rough sphere runs ~1600 loop turns a sample (its
+# bounce rays each integrate the environment), so 64 samples in one invocation pass 65535.
+HEAVY = dict(rows=1, cols=2, roughness=(1.0, 1.0), quality="high", spp=64, width=64, height=32)
+
+
+def fresh(session, per_draw: int | None = None, spec=None) -> Session:
+    """A session on the same context that has learnt nothing yet (or draws ``per_draw`` of a
+    pixel's samples at a time)."""
+    s = Session(session.ctx, session.cache)
+    if per_draw is not None:
+        plan = render_plan(spec)
+        for source in (plan.chart, plan.chart_compute):
+            s.samples_per_draw[source.text] = per_draw
+    return s
+
+
+def software(session) -> bool:
+    return any(name in session.renderer.lower() for name in SOFTWARE_RENDERERS)
+
+
+def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(session):
+    """One sample a draw keeps every invocation to one ray's loops, far under the limit; the
+    chart drawn as the session chooses must agree with it to float rounding (the sums run in
+    another order). Before the draws were split, llvmpipe's one draw lost the floor's bounce
+    light in half the pixels here (up to 30 % dark)."""
+    spec = make_spec(**HEAVY)
+    chosen = fresh(session).render(spec)
+    one_by_one = fresh(session, 1, spec).render(spec)
+    np.testing.assert_allclose(chosen.hdr, one_by_one.hdr, rtol=1e-4, atol=1e-6 * float(one_by_one.hdr.max()))
+    np.testing.assert_allclose(chosen.alpha, one_by_one.alpha, atol=1e-5)
+    for name in one_by_one.aov:   # the centre's hit, the samples' coverage
+        np.testing.assert_allclose(chosen.aov[name], one_by_one.aov[name], atol=1e-5, err_msg=name)
+
+
+def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session):
+    """An independent check of the same: the floor is smooth beside the sphere, so the mean of
+    64 points of each pixel's box is the pixel-centre value within the floor's change across a
+    pixel (< 1 % here, away from the silhouettes and the shadow's edge)."""
+    spec = make_spec(**HEAVY)
+    many = fresh(session).render(spec)
+    one = fresh(session).render(dataclasses.replace(spec, spp=1))
+    floor = (one.aov["coverage"] == 0) & (many.aov["coverage"] == 0)
+    # away from any edge: the pixel and its 8 neighbours all floor, and not in the shadow's edge
+    core = floor.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            core &= np.roll(np.roll(floor, dy, 0), dx, 1)
+    lum = lambda r: r.hdr @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    ratio = lum(many)[core] / lum(one)[core]
+    assert core.sum() > 200
+    assert np.percentile(ratio, 5) > 0.97, np.percentile(ratio, [0, 5, 50])
+
+
+def test_the_session_remembers_how_many_samples_a_draw_may_take(session):
+    spec = make_spec(**HEAVY)
+    s = fresh(session)
+    s.render(spec)
+    if software(session):
+        assert list(s.samples_per_draw.values()) == [16]   # 64 was cut, a quarter of it was not
+    else:
+        assert s.samples_per_draw == {}
+
+
+def test_a_chart_past_the_limit_with_one_ray_a_pixel_is_refused(session, monkeypatch):
+    """More environment samples per pixel than the limit, in one ray: llvmpipe cannot draw it
+    (it would cut the loop at 65535 and come out dark), so it says so; a GPU draws it."""
+    heavy = dataclasses.replace(presets.QUALITY_PRESETS["high"], ibl_pixel_samples=70000)
+    monkeypatch.setitem(presets.QUALITY_PRESETS, "high", heavy)
+    spec = make_spec(rows=1, cols=1, quality="high", width=16, height=16)
+    s = fresh(session)
+    if software(session):
+        with pytest.raises(SpecError, match=r"more loop turns per pixel than the .* renderer runs \(\d+ pixels"):
+            s.render(spec)
+    else:
+        s.render(spec)
