@@ -5,6 +5,7 @@ targets; the display pass applies exposure, the tone mapper and the sRGB OETF. A
 back top row first."""
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -200,6 +201,16 @@ class GridInstances:
         self.buffer.release()
 
 
+def sample_lattice_step(spp: int) -> int:
+    """The generator g of a pixel's spp samples, the rank-1 lattice ((i + 1/2) / spp, (i g mod spp
+    + 1/2) / spp) (chart_main.glsl sample_offset): g coprime with spp, so each axis holds every
+    stratum once and the points' mean is the pixel's centre, as the reference's box integral's
+    is; the one nearest spp / golden ratio spreads them best (a Fibonacci lattice where spp is a
+    Fibonacci number)."""
+    target = spp / 1.618033988749895
+    return min((g for g in range(1, max(spp, 2)) if math.gcd(g, spp) == 1), key=lambda g: (abs(g - target), -g))
+
+
 def sample_ranges(spp: int, per_draw: int) -> list[tuple[int, int]]:
     """[first, end) of each draw's samples when ``per_draw`` of a pixel's ``spp`` go in one."""
     return [(first, min(first + per_draw, spp)) for first in range(0, spp, per_draw)]
@@ -221,6 +232,7 @@ class ChartDraw:
         # (loop_guard.glsl), which add up in the targets; the session remembers the count per
         # program.
         self.supersample = plan.options["SUPERSAMPLE"]
+        self.sample_step = sample_lattice_step(plan.spec.spp)
         self.program_key = (plan.chart_compute if self.compute else plan.chart).text
         self.guard = ctx.buffer(reserve=4)   # loop_guard.glsl's count of invocations cut short
         self.overlays: list[GridInstances] = []   # the sphere and edge passes, in their order
@@ -278,13 +290,13 @@ class ChartDraw:
             for draw in draws:
                 set_uniforms(self.program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
                                             "u_write_aovs": len(targets) > 1, "u_sample_range": draw,
-                                            "u_guard_turns": 2})
+                                            "u_guard_turns": 2, "u_sample_step": self.sample_step})
                 self.program.run((tw + 7) // 8, (th + 7) // 8, 1)
                 self.ctx.memory_barrier()
             return
         fbo.use()
         for program in self.programs:
-            set_uniforms(program, {"u_tile_origin": (x0, y0), "u_guard_turns": 2})
+            set_uniforms(program, {"u_tile_origin": (x0, y0), "u_guard_turns": 2, "u_sample_step": self.sample_step})
         adding = len(draws) > 1   # the later draws add to the first (chart_main.glsl)
         if adding:
             fbo.clear(0.0, 0.0, 0.0, 0.0)
