@@ -46,9 +46,8 @@ uniform vec2 u_tile_origin;                      // pixel offset of this tile in
 uniform int u_spp;
 uniform int u_sample_step;   // the samples' lattice generator, coprime with u_spp (gpu/render.py)
 #if SUPERSAMPLE
-// This draw's samples [first, end) of each pixel's u_spp; the draws add up (gpu/render.py: a
-// software rasterizer takes one sample a draw, since llvmpipe silently ends every loop of an
-// invocation once all of them have turned 65535 times).
+// This draw's samples [first, end) of each pixel's u_spp; the draws add up (gpu/render.py: as
+// many draws as a software rasterizer's loop limit needs, loop_guard.glsl).
 uniform ivec2 u_sample_range;
 #endif
 

@@ -1,4 +1,5 @@
 #include "common.glsl"
+#include "loop_guard.glsl"
 #include "hit.glsl"
 #include "scene.glsl"
 #include "camera.glsl"
@@ -16,7 +17,7 @@ uniform vec2 u_plate_origin;
 uniform ivec2 u_bounce_tile;
 uniform float u_bounce_step;
 
-void main() {
+void bounce_plate_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     g_cell = texel / u_bounce_tile;   // (col, row from the top), as grid_cell gives the chart
     vec2 position = u_plate_origin + 0.5 + vec2(texel - g_cell * u_bounce_tile) * u_bounce_step;
@@ -26,4 +27,9 @@ void main() {
     if (t <= 0.0) { out_bounce = vec4(0.0); return; }   // no floor there: nothing to light
     vec2 footprint = pixel_footprint();
     out_bounce = vec4(sphere_bounce(ro + rd * t, -rd, g_cell, footprint.x + footprint.y * t), 1.0);
+}
+
+void main() {
+    bounce_plate_texel();
+    loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
 }

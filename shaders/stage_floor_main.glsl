@@ -1,4 +1,5 @@
 #include "common.glsl"
+#include "loop_guard.glsl"
 #include "hit.glsl"
 #include "scene.glsl"
 #include "camera.glsl"
@@ -16,7 +17,7 @@
 layout(location = 0) out vec4 out_radiance;
 uniform vec2 u_plate_origin;
 
-void main() {
+void floor_plate_texel() {
     vec2 position = gl_FragCoord.xy + u_plate_origin;   // the pixel centre, in the cell's frame
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
@@ -31,4 +32,9 @@ void main() {
 #else
     out_radiance = vec4(shade_ground(p, -rd, pixel_size), 1.0);
 #endif
+}
+
+void main() {
+    floor_plate_texel();
+    loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
 }

@@ -1,4 +1,5 @@
 #include "common.glsl"
+#include "loop_guard.glsl"
 #include "hit.glsl"
 #include "scene.glsl"
 #include "camera.glsl"
@@ -25,7 +26,7 @@ Hit nearest_on_sphere(vec3 ro, vec3 rd) {
     return Hit(dot(n * u_radius - ro, rd), n, g_cell);
 }
 
-void main() {
+void sphere_plate_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     ivec2 tile = texel / u_sphere_tile;
     int index = tile.y * u_sphere_tiles_x + tile.x;
@@ -84,4 +85,9 @@ void main() {
 #endif
     vec3 p = ro + rd * hit.t;
     out_radiance = vec4(shade_sphere(p, hit.normal, -rd, g_cell, footprint.x + footprint.y * hit.t), 1.0);
+}
+
+void main() {
+    sphere_plate_texel();
+    loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
 }

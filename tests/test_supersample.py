@@ -14,17 +14,23 @@ from sdfpbr.gpu.render import sample_lattice_step
 from sdfpbr.gpu.session import SOFTWARE_RENDERERS, Session
 from sdfpbr.shading.plan import render_plan
 from sdfpbr.spec import presets
-from sdfpbr.spec.chart_spec import make_spec
+from sdfpbr.spec.chart_spec import Light, make_spec
 
-# At the high preset a floor pixel beside a rough sphere runs ~1600 loop turns a sample (its
-# bounce rays each integrate the environment), so 64 samples in one invocation pass 65535.
+# At the high preset a floor pixel beside a rough sphere runs well over 1000 loop turns a sample
+# (its bounce rays each integrate the environment), so 64 samples in one invocation pass 65535.
 HEAVY = dict(rows=1, cols=2, roughness=(1.0, 1.0), quality="high", spp=64, width=64, height=32)
 
 
-def fresh(session, per_draw: int | None = None, spec=None) -> Session:
-    """A session on the same context that has learnt nothing yet (or draws ``per_draw`` of a
-    pixel's samples at a time)."""
-    s = Session(session.ctx, session.cache)
+@pytest.fixture(scope="module")
+def compute(session):
+    """The compute variant on the same context, in tiles smaller than the image."""
+    return Session(session.ctx, session.cache, chart_stage="compute", tile=32)
+
+
+def draw_per(s: Session, spec, per_draw: int | None) -> Session:
+    """``s`` having learnt nothing of its loop limit yet, or drawing ``per_draw`` of a pixel's
+    samples at a time."""
+    s.samples_per_draw.clear()
     if per_draw is not None:
         plan = render_plan(spec)
         for source in (plan.chart, plan.chart_compute):
@@ -36,18 +42,22 @@ def software(session) -> bool:
     return any(name in session.renderer.lower() for name in SOFTWARE_RENDERERS)
 
 
-def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(session):
+@pytest.mark.parametrize("stage", ["fragment", "compute"])
+def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(session, compute, stage):
     """One sample a draw keeps every invocation to one ray's loops, far under the limit; the
     chart drawn as the session chooses must agree with it to float rounding (the sums run in
     another order). Before the draws were split, llvmpipe's one draw lost the floor's bounce
-    light in half the pixels here (up to 30 % dark)."""
+    light in half the pixels here (up to 36 % dark). The compute variant adds its draws in its
+    images, here in tiles."""
+    s = session if stage == "fragment" else compute
     spec = make_spec(**HEAVY)
-    chosen = fresh(session).render(spec)
-    one_by_one = fresh(session, 1, spec).render(spec)
+    chosen = draw_per(s, spec, None).render(spec)
+    one_by_one = draw_per(s, spec, 1).render(spec)
     np.testing.assert_allclose(chosen.hdr, one_by_one.hdr, rtol=1e-4, atol=1e-6 * float(one_by_one.hdr.max()))
     np.testing.assert_allclose(chosen.alpha, one_by_one.alpha, atol=1e-5)
     for name in one_by_one.aov:   # the centre's hit, the samples' coverage
         np.testing.assert_allclose(chosen.aov[name], one_by_one.aov[name], atol=1e-5, err_msg=name)
+    s.samples_per_draw.clear()
 
 
 def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session):
@@ -55,10 +65,10 @@ def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session
     64 points of each pixel's box is the pixel-centre value within the floor's change across a
     pixel (< 1 % here, away from the silhouettes and the shadow's edge)."""
     spec = make_spec(**HEAVY)
-    many = fresh(session).render(spec)
-    one = fresh(session).render(dataclasses.replace(spec, spp=1))
+    many = draw_per(session, spec, None).render(spec)
+    one = session.render(dataclasses.replace(spec, spp=1))
     floor = (one.aov["coverage"] == 0) & (many.aov["coverage"] == 0)
-    # away from any edge: the pixel and its 8 neighbours all floor, and not in the shadow's edge
+    # away from any edge: the pixel and its 8 neighbours all floor
     core = floor.copy()
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
@@ -67,16 +77,31 @@ def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session
     ratio = lum(many)[core] / lum(one)[core]
     assert core.sum() > 200
     assert np.percentile(ratio, 5) > 0.97, np.percentile(ratio, [0, 5, 50])
+    session.samples_per_draw.clear()
 
 
 def test_the_session_remembers_how_many_samples_a_draw_may_take(session):
     spec = make_spec(**HEAVY)
-    s = fresh(session)
-    s.render(spec)
-    if software(session):
-        assert list(s.samples_per_draw.values()) == [16]   # 64 was cut, a quarter of it was not
+    draw_per(session, spec, None).render(spec)
+    if software(session):   # 64 in one draw were cut; a quarter or less were not
+        assert len(session.samples_per_draw) == 1 and 1 <= list(session.samples_per_draw.values())[0] <= 16
     else:
-        assert s.samples_per_draw == {}
+        assert session.samples_per_draw == {}
+    session.samples_per_draw.clear()
+
+
+def test_a_supersampled_half_float_chart_adds_up_in_float32(session):
+    """Its draws' partial sums would each round in a half-float target, and a light over the
+    half range (65504) would add up to Inf: a supersampled chart's radiance target is float32
+    whatever hdr_precision says, and so draws what a float32 chart draws."""
+    sun = Light("directional", direction=(-0.3, 0.8, 0.5), intensity=2e5, angular_radius_deg=1.0)
+    spec = make_spec(rows=1, cols=1, roughness=(0.0, 0.0), metallic=(1.0, 1.0), lights=(sun,), width=32,
+                     height=32, quality="draft", spp=4, hdr_precision="float16")
+    half = draw_per(session, spec, 1).render(spec)
+    full = draw_per(session, spec, 1).render(dataclasses.replace(spec, hdr_precision="float32"))
+    assert np.isfinite(half.hdr).all() and half.hdr.max() > 65504
+    np.testing.assert_array_equal(half.hdr, full.hdr)
+    session.samples_per_draw.clear()
 
 
 def test_a_chart_past_the_limit_with_one_ray_a_pixel_is_refused(session, monkeypatch):
@@ -85,12 +110,11 @@ def test_a_chart_past_the_limit_with_one_ray_a_pixel_is_refused(session, monkeyp
     heavy = dataclasses.replace(presets.QUALITY_PRESETS["high"], ibl_pixel_samples=70000)
     monkeypatch.setitem(presets.QUALITY_PRESETS, "high", heavy)
     spec = make_spec(rows=1, cols=1, quality="high", width=16, height=16)
-    s = fresh(session)
     if software(session):
         with pytest.raises(SpecError, match=r"more loop turns per pixel than the .* renderer runs \(\d+ pixels"):
-            s.render(spec)
+            session.render(spec)
     else:
-        s.render(spec)
+        session.render(spec)
 
 
 @pytest.mark.parametrize("spp", [2, 3, 4, 8, 13, 64])
@@ -112,8 +136,8 @@ def test_a_supersampled_sphere_sits_where_its_exact_coverage_puts_it(session, sp
     sampled rim's own error (under 1 / spp of a pixel on ~120 rim pixels, of both signs round
     the circle) moves the centroid by ~0.005 px: 0.03 px is a sixth of the old shift."""
     spec = make_spec(rows=1, cols=1, width=48, height=48, quality="draft")
-    exact = fresh(session).render(spec).aov["coverage"].astype(np.float64)
-    sampled = fresh(session).render(dataclasses.replace(spec, spp=spp)).aov["coverage"].astype(np.float64)
+    exact = session.render(spec).aov["coverage"].astype(np.float64)
+    sampled = session.render(dataclasses.replace(spec, spp=spp)).aov["coverage"].astype(np.float64)
     y, x = np.mgrid[:48, :48]
     for c in (x, y):
         assert abs((c * sampled).sum() / sampled.sum() - (c * exact).sum() / exact.sum()) < 0.03

@@ -24,6 +24,7 @@ from ..shading.camera import cell_sphere_box
 from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, bounce_step
+from . import loop_guard
 from .frame import SceneBindings, array_key, table_texture
 from .programs import set_uniforms
 
@@ -99,7 +100,8 @@ def _reads_only_the_scene(program, scene: SceneBindings) -> bool:
     """Everything ``program`` reads but its vertex attributes -- uniforms, samplers, blocks --
     is set by the scene (else its value, left on the program by an earlier draw, would be
     missing from the key)."""
-    return all(name in scene.uniforms for name in program if not isinstance(program[name], moderngl.Attribute))
+    return all(name in scene.uniforms for name in program
+               if not isinstance(program[name], moderngl.Attribute) and name not in loop_guard.NAMES)
 
 
 def _plate_pass(session, plan: RenderPlan, source: ComposedSource, scene, size: tuple[int, int],
@@ -134,9 +136,11 @@ def _draw_plate(session, source: ComposedSource, scene, size: tuple[int, int], b
     plate = ctx.texture(size, 4, dtype="f4")
     fbo = ctx.framebuffer(color_attachments=[plate])
     vao = ctx.vertex_array(program, [])
+    guard = loop_guard.LoopGuard(ctx)
     try:
         fbo.use()
         set_uniforms(program, scene.bind())
+        guard.arm(program)
         if boxes is None:
             vao.render(moderngl.TRIANGLES, vertices=3)
         else:
@@ -145,6 +149,9 @@ def _draw_plate(session, source: ComposedSource, scene, size: tuple[int, int], b
                 fbo.scissor = box
                 vao.render(moderngl.TRIANGLES, vertices=3)
             fbo.scissor = None
+        cut = guard.cut()
+        if cut:   # drawn wrong: neither used nor kept
+            raise loop_guard.cut_error(session.renderer, cut, "this chart's plate of its stage")
         # GL rows, bottom first; only the boxes' texels where it has them (glReadPixels of a
         # box: reading the whole sphere plate took 35 ms at 1024² on llvmpipe).
         texels = None if not read else np.concatenate([
@@ -154,6 +161,7 @@ def _draw_plate(session, source: ComposedSource, scene, size: tuple[int, int], b
         plate.release()
         raise
     finally:
+        guard.release()
         vao.release()
         fbo.release()
     return plate, texels

@@ -1,10 +1,12 @@
 """Render a chart spec to linear HDR radiance, AOVs and the display image on a session.
 
-One pass of the chart program per tile writes radiance + coverage and the AOVs into float
+One pass of the chart program per tile (a supersampled pixel's samples over as many as a
+software renderer's loop limit needs) writes radiance + coverage and the AOVs into float
 targets; the display pass applies exposure, the tone mapper and the sRGB OETF. Arrays come
 back top row first."""
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -20,6 +22,7 @@ from ..shading.compose import ComposedSource
 from ..shading.plan import RenderPlan, render_plan
 from ..shading.sheen import sheen_centroid_uniform
 from ..spec.chart_spec import ChartSpec
+from .loop_guard import LoopGuard, cut_error
 from .frame import AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings, tiles
 from .plates import bind_frame
 from .programs import set_uniforms
@@ -201,14 +204,25 @@ class GridInstances:
         self.buffer.release()
 
 
+@functools.lru_cache(maxsize=64)
 def sample_lattice_step(spp: int) -> int:
     """The generator g of a pixel's spp samples, the rank-1 lattice ((i + 1/2) / spp, (i g mod spp
     + 1/2) / spp) (chart_main.glsl sample_offset): g coprime with spp, so each axis holds every
     stratum once and the points' mean is the pixel's centre, as the reference's box integral's
-    is; the one nearest spp / golden ratio spreads them best (a Fibonacci lattice where spp is a
-    Fibonacci number)."""
-    target = spp / 1.618033988749895
-    return min((g for g in range(1, max(spp, 2)) if math.gcd(g, spp) == 1), key=lambda g: (abs(g - target), -g))
+    is; of those, the one whose points lie farthest apart on the torus (nearest spp / golden
+    ratio on a tie), not on a few lines (g = 9 of 16 put half of them on the diagonal)."""
+    if spp <= 2:
+        return 1
+    i = np.arange(1, spp)
+    best, best_key = 1, None
+    for g in range(1, spp):
+        if math.gcd(g, spp) != 1:
+            continue
+        d = np.minimum(i, spp - i) ** 2 + np.minimum(i * g % spp, spp - i * g % spp) ** 2
+        key = (int(d.min()), -abs(g - spp / 1.618033988749895))
+        if best_key is None or key > best_key:
+            best, best_key = g, key
+    return best
 
 
 def sample_ranges(spp: int, per_draw: int) -> list[tuple[int, int]]:
@@ -232,17 +246,20 @@ class ChartDraw:
         # (loop_guard.glsl), which add up in the targets; the session remembers the count per
         # program.
         self.supersample = plan.options["SUPERSAMPLE"]
+        self.half = plan.options["HALF_RADIANCE"]
         self.sample_step = sample_lattice_step(plan.spec.spp)
         self.program_key = (plan.chart_compute if self.compute else plan.chart).text
-        self.guard = ctx.buffer(reserve=4)   # loop_guard.glsl's count of invocations cut short
+        self.guard = None
         self.overlays: list[GridInstances] = []   # the sphere and edge passes, in their order
         if self.compute:
             self.program = session.programs.compute(plan.chart_compute)
             self.programs = [self.program]
+            self.guard = LoopGuard(ctx)
             return
         self.program = session.programs.fragment(plan.chart)
         self.programs = [self.program]
         try:
+            self.guard = LoopGuard(ctx)
             self.vao = ctx.vertex_array(self.program, [])
             for source, shapes in ((plan.sphere_pass, sphere_boxes), (plan.edge_pass, silhouette_ring)):
                 if source is None:
@@ -266,37 +283,34 @@ class ChartDraw:
         0..2 for the compute program, which stores the AOVs only when they are bound."""
         spp = self.spec.spp
         known = self.session.samples_per_draw
-        per_draw = known.get(self.program_key, spp)
+        per_draw = min(known.get(self.program_key, spp), spp)
         while True:
             self._draw_samples(x0, y0, tw, th, targets, fbo, sample_ranges(spp, per_draw) if self.supersample else [None])
-            cut = self._loops_cut()
+            cut = self.guard.cut()
             if not cut:
                 break
             if not self.supersample or per_draw == 1:
-                raise SpecError(f"this chart needs more loop turns per pixel than the {self.session.renderer} "
-                                f"renderer runs ({cut} pixels would be cut short, silently wrong): lower the "
-                                "quality, the spp, the grid or the lights, or render on a GPU")
+                raise cut_error(self.session.renderer, cut)
             per_draw = max(1, per_draw // 4)
             known[self.program_key] = per_draw
 
     def _draw_samples(self, x0, y0, tw, th, targets, fbo, draws) -> None:
         """One pass over the tile per entry of ``draws``: a range of a supersampled pixel's
         samples, whose draws add up from zero, or None (the pixel's one ray)."""
-        self.guard.write(b"\0\0\0\0")
-        self.guard.bind_to_storage_buffer(0)
+        self.guard.arm(*self.programs)
         if self.compute:
             for unit, target in enumerate(targets):   # read where a later draw adds to them
                 target.bind_to_image(unit, read=True, write=True)
             for draw in draws:
                 set_uniforms(self.program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
                                             "u_write_aovs": len(targets) > 1, "u_sample_range": draw,
-                                            "u_guard_turns": 2, "u_sample_step": self.sample_step})
+                                            "u_sample_step": self.sample_step})
                 self.program.run((tw + 7) // 8, (th + 7) // 8, 1)
                 self.ctx.memory_barrier()
             return
         fbo.use()
         for program in self.programs:
-            set_uniforms(program, {"u_tile_origin": (x0, y0), "u_guard_turns": 2, "u_sample_step": self.sample_step})
+            set_uniforms(program, {"u_tile_origin": (x0, y0), "u_sample_step": self.sample_step})
         adding = len(draws) > 1   # the later draws add to the first (chart_main.glsl)
         if adding:
             fbo.clear(0.0, 0.0, 0.0, 0.0)
@@ -308,15 +322,11 @@ class ChartDraw:
                 set_uniforms(self.program, {"u_sample_range": draw})
                 self.vao.render(moderngl.TRIANGLES, vertices=3)
         finally:
-            if adding:
+            if adding:   # back to GL's defaults
+                self.ctx.blend_func = moderngl.ONE, moderngl.ZERO
                 self.ctx.disable(moderngl.BLEND)
         for overlay in self.overlays:
             overlay.render((x0, y0), (tw, th))
-
-    def _loops_cut(self) -> int:
-        """Invocations of the last draws whose loops the renderer cut short (loop_guard.glsl)."""
-        self.ctx.memory_barrier()   # the shaders' writes, before the buffer is read
-        return int(np.frombuffer(self.guard.read(), np.uint32)[0])
 
     def release(self) -> None:
         for obj in (self.vao, *self.overlays, self.guard):
@@ -334,7 +344,7 @@ def _draw(session, chart: ChartDraw, display, spec: ChartSpec, aovs: bool, read_
     alpha = np.empty((H, W), np.float32) if read_hdr else None
     image = np.empty((H, W, 4), np.uint8) if image is None else image
     aov = AOVBuffers(spec, H, W) if aovs else None
-    half = spec.hdr_precision == "float16"
+    half = chart.half
     # Radiance, then (normal, depth) and (col, row, NdotV, coverage) when the AOVs are read:
     # without their targets the program's writes to those outputs go nowhere.
     dtypes = ("f2" if half else "f4",) + (("f4", "f4") if aovs else ())

@@ -192,7 +192,9 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
         "SHADOW_CATCHER": has_shadow_catcher(spec),
         "NUM_DIR_LIGHTS": directional,
         "NUM_POINT_LIGHTS": point,
-        "HALF_RADIANCE": spec.hdr_precision == "float16",
+        # A supersampled pixel's samples may add up over several draws (gpu/render.py), which a
+        # half-float target would round at each and could overflow: float32 there.
+        "HALF_RADIANCE": spec.hdr_precision == "float16" and spec.spp == 1,
         "USE_TEXTURES": spec.uses_textures(),
         # Some sphere shows what lies behind it (glTF alpha modes).
         "SEE_THROUGH": spec_see_through(spec),

@@ -283,7 +283,7 @@ FIELDS: tuple[Field, ...] = (
     _int("spp", 1, 1, 1024, "samples per pixel"),
     _bool("antialias", True, "at spp 1 on the cells stage, the spheres' edges covered analytically "
           "(the pixel box the reference integrates)"),
-    _choice("hdr_precision", "float32", HDR_PRECISIONS, "float format of the radiance target"),
+    _choice("hdr_precision", "float32", HDR_PRECISIONS, "float format of the radiance target (float32 where spp > 1: the samples add up in it)"),
     _bool("multiscatter", True, "multiple-scattering energy compensation", sweep=(True, False)),
     _choice("brdf", "gltf", BRDF_MODELS, "BRDF model", sweep=BRDF_MODELS),
     _choice("stage", "cells", STAGES, "shared: one floor under the whole grid, neighbours in reflections; "

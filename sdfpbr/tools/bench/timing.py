@@ -120,6 +120,8 @@ def time_compile(ctx, vertex: str, fragment: str, formats: list[tuple[int, str]]
     targets = [ctx.texture((16, 16), comps, dtype=dtype) for comps, dtype in formats]
     fbo = ctx.framebuffer(color_attachments=targets)
     vao = ctx.vertex_array(program, [])
+    if "u_sample_range" in program:   # a supersampled chart's first sample, as one ray's chart draws
+        program["u_sample_range"] = (0, 1)
     fbo.use()
     ctx.finish()
     start = time.perf_counter()
