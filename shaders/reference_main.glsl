@@ -30,9 +30,9 @@
 // Pixel footprint: pixel p (lower-left corner, GL pixel coordinates; under STAGE == cells
 // first moved into its cell's frame by cell_pixel, as chart_main does) integrates the unit
 // square [p, p + 1)^2 with a box filter: the offsets fract(rotation + s * R2) cover [0, 1)^2.
-// The chart's spp > 1 average uses offsets fract(0.5 + s * R2) (chart_main.glsl:
-// sample_offset) on the same square, so both estimate the same pixel integral; the chart's
-// sample 0 (and the AOVs of both) is the pixel centre p + 0.5. The random numbers are keyed
+// The chart's spp > 1 average uses a rank-1 lattice centred in the same square (chart_main.glsl
+// sample_offset), so both estimate the same pixel integral; the AOVs of both are the pixel
+// centre p + 0.5's. The random numbers are keyed
 // by the image pixel, so the cells of the cells stage get independent noise.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform image2D u_sum;       // rgb: sum of radiance, a: sum of coverage

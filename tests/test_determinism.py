@@ -12,7 +12,7 @@ from sdfpbr.spec.chart_spec import Light, make_spec
 from sdfpbr.tools.stress.cases import generate_cases
 from sdfpbr.spec.fields import spec_to_toml
 
-# Supersampled (R2 offsets), both light kinds, IBL, AO, shadows, a tone map with a knee.
+# Supersampled (a lattice of 3 points a pixel), both light kinds, IBL, AO, shadows, a tone map with a knee.
 SPEC = make_spec(width=96, height=72, rows=2, cols=3, spp=3, quality="draft", tonemap="neutral",
                  lights=(Light("directional", direction=(-0.5, 0.7, 0.5), intensity=3.0, angular_radius_deg=2.5),
                          Light("point", position=(4.0, 2.0, 6.0), intensity=20.0)))

@@ -189,7 +189,8 @@ def test_aovs_match_the_chart_on_the_cells_stage(session, grid):
 # ---- pixel footprint ----------------------------------------------------------------------------
 
 def test_chart_and_reference_integrate_the_same_pixel_square(session):
-    """Coverage of silhouette pixels: the chart at spp = N (R2 offsets fract(0.5 + s R2)) and
+    """Coverage of silhouette pixels: the chart at spp = N (a rank-1 lattice centred in the
+    pixel, gpu/render.py sample_lattice_step) and
     the reference at N spp (R2 under a per-pixel rotation) both converge to the coverage of
     the unit pixel square [p, p + 1)^2 in the cell's frame, computed here by a 48 x 48
     midpoint rule (error below 1/48 per pixel for an edge crossing it).

@@ -13,8 +13,8 @@ cell's scene only, one sphere at the origin on its own floor y = -R, so shadows,
 interreflection between the sphere and its floor are exact and every cell is the same scene.
 
 Pixel footprint: both the chart (spp > 1) and the reference integrate the unit pixel square
-[p, p + 1)^2 (in the cell's frame on the cells stage) with a box filter: the chart at R2
-offsets fract(0.5 + s R2), the reference at fract(rotation + s R2); the AOVs of both are the
+[p, p + 1)^2 (in the cell's frame on the cells stage) with a box filter: the chart on a rank-1
+lattice centred in it, the reference at fract(rotation + s R2); the AOVs of both are the
 pixel centre's (tests/test_reference_cells.py checks the coverage of silhouette pixels).
 
 Sampling: GGX visible normals (Heitz 2018) mixed with cosine-weighted diffuse, one light
