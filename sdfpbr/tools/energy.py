@@ -25,11 +25,17 @@ FURNACE = dict(env="uniform", env_intensity=1.0, lights=(), ground=False, ao=Fal
                ibl=True, transparent=False, spp=1, antialias=False)
 
 
+def furnace_is_white(spec: ChartSpec, white: bool = True) -> bool:
+    """Whether ``spec``'s furnace turns its base colours white when ``white`` is asked: not a
+    glTF asset's, whose materials keep their own colours."""
+    return white and not spec.gltf
+
+
 def furnace_spec(spec: ChartSpec, white: bool = True) -> ChartSpec:
     """The spec in a white furnace (FURNACE), so each pixel is the BRDF at the AOV's NdotV,
-    grazing angles included."""
+    grazing angles included; its base colours white where furnace_is_white says."""
     overrides = dict(FURNACE)
-    if white and not spec.gltf:   # an asset's materials keep their own colours
+    if furnace_is_white(spec, white):
         overrides.update(base_color=(1.0, 1.0, 1.0), row_materials=())
     return make_spec(spec, **overrides)
 

@@ -18,15 +18,16 @@ def run(args) -> int:
 
     from ...gpu.session import default_session
     from ..main import spec_from_args
-    from ...tools.energy import cell_energy, format_table, furnace_spec, model_summary, replaced_settings, to_json
+    from ...tools.energy import (cell_energy, format_table, furnace_is_white, furnace_spec, model_summary,
+                                 replaced_settings, to_json)
     from ...files import atomic_file
     from ...image.io import check_writable
     from ...spec.chart_spec import ChartSpec
 
     spec = spec_from_args(args)
     # White unless the user named a colour (flag, presets, or a spec file that differs from the default).
-    white = (args.base_color is None and not spec.row_materials and spec.base_color == ChartSpec().base_color
-             and not spec.gltf)   # an asset's materials keep their own colours
+    white = furnace_is_white(spec, args.base_color is None and not spec.row_materials
+                             and spec.base_color == ChartSpec().base_color)
     if args.json and args.json != "-":
         check_writable(args.json, (".json",), "--json")
     replaced = replaced_settings(spec)
