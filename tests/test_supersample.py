@@ -34,7 +34,7 @@ def draw_per(s: Session, spec, per_draw: int | None) -> Session:
     if per_draw is not None:
         plan = render_plan(spec)
         for source in (plan.chart, plan.chart_compute):
-            s.samples_per_draw[source.text] = per_draw
+            s.samples_per_draw[source.digest] = per_draw
     return s
 
 

@@ -248,7 +248,7 @@ class ChartDraw:
         self.supersample = plan.options["SUPERSAMPLE"]
         self.half = plan.options["HALF_RADIANCE"]
         self.sample_step = sample_lattice_step(plan.spec.spp)
-        self.program_key = (plan.chart_compute if self.compute else plan.chart).text
+        self.program_key = (plan.chart_compute if self.compute else plan.chart).digest
         self.guard = None
         self.overlays: list[GridInstances] = []   # the sphere and edge passes, in their order
         if self.compute:

@@ -57,8 +57,9 @@ class Session:
         if chart_stage is not None and chart_stage not in CHART_STAGES:
             raise SpecError(f"chart_stage must be one of {', '.join(CHART_STAGES)}, got {chart_stage!r}")
         self.chart_stage = chart_stage or chart_stage_for(self.renderer)   # see chart_stage_for
-        # Per chart program, how many of a pixel's samples one draw may take within the
-        # renderer's loop limit (gpu/render.py ChartDraw, found where the limit cut a draw short).
+        # Per chart program (its source's digest), how many of a pixel's samples one draw may
+        # take within the renderer's loop limit (gpu/render.py ChartDraw, found where the limit
+        # cut a draw short).
         self.samples_per_draw: dict[str, int] = {}
         self.targets = TargetPool(self.ctx)   # render targets kept between renders
         # Tiles never exceed what the context can render into; images larger than that are tiled.
