@@ -36,6 +36,7 @@ class LoopGuard:
 
 
 def cut_error(renderer: str, cut: int, what: str = "this chart") -> SpecError:
+    """Raised where one ray a pixel is already past the limit (fewer samples would not help)."""
     return SpecError(f"{what} needs more loop turns per pixel than the {renderer} renderer runs ({cut} pixels "
-                     "would be cut short, silently wrong): lower the quality, the spp, the grid or the "
-                     "lights, or render on a GPU")
+                     "would be cut short, silently wrong): lower the quality, the grid or the lights, "
+                     "or render on a GPU")
