@@ -261,6 +261,19 @@ void chart_pixel(vec2 frag_coord) {
     }
 #endif
 #if EDGE_PIXELS != skipped
+#if EDGE_SAMPLES > 1 && !SPHERE_PLATE
+    // A silhouette pixel's covered part: the mean of points spread across it, those whose rays
+    // meet the sphere (as the sphere plate's texel, stage_sphere_main.glsl).
+    if (edge) {
+        vec4 sum = vec4(0.0);
+        float count = 0.0;
+        for (int k = 0; k < EDGE_SAMPLES; ++k) {
+            vec4 c = trace_pixel(edge_inside_point(split, (float(k) + 0.5) / float(EDGE_SAMPLES)), footprint, other, other_rd);
+            if (other.t >= 0.0 && other.cell.x >= 0) { sum += c; count += 1.0; }
+        }
+        if (count > 0.0) radiance = sum / count;
+    }
+#endif
     if (edge) {
         radiance = mix(trace_pixel(split.outside, footprint, other, other_rd), radiance, split.coverage);
         sphere_share = split.coverage;

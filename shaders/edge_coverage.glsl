@@ -3,7 +3,8 @@
 // distance s (distance of the ray from the sphere's centre minus the radius) is linear in the
 // pixel coordinates to well under 1 %, so the covered fraction of the box is the probability
 // that s(centre) + U_a + U_b < 0, U_a, U_b uniform of widths |ds/dx|, |ds/dy|: the CDF of a
-// trapezoid. Edge pixels shade one ray on each side of the silhouette and blend them by it.
+// trapezoid. Edge pixels shade the covered part at its median point along s (or EDGE_SAMPLES
+// points spread along it) and the rest at one point, and blend them by it.
 
 #if STAGE == cells
 // The cell's sphere, at the origin of the cell frame.
@@ -40,11 +41,34 @@ float box_coverage(float x, float a, float b) {
     return y < 0.0 ? tail : 1.0 - tail;
 }
 
+// y with P(U_a + U_b < y) = p: the inverse of box_coverage's trapezoid CDF.
+float box_quantile(float p, float a, float b) {
+    float w_max = max(a, b);
+    float h = 0.5 * (a + b);
+    float p_tail = 0.5 * min(a, b) / max(w_max, 1e-30);   // the CDF where its flat top begins
+    if (p < p_tail) return -h + sqrt(2.0 * a * b * p);
+    if (p > 1.0 - p_tail) return h - sqrt(2.0 * a * b * (1.0 - p));
+    return (p - 0.5) * w_max;
+}
+
 struct EdgeSplit {
     float coverage;   // share of the pixel box covered by the sphere
     vec2 inside;      // a pixel position whose ray hits the sphere (inside the covered part)
     vec2 outside;     // one whose ray passes beside it
+    vec2 centre;      // the pixel's centre, the silhouette distance's gradient across the box
+    vec2 grad;        // and its widths along x and y (edge_point)
+    float a, b;
 };
+
+// The point of the pixel box at quantile p of the silhouette distance over the box (s + U_a +
+// U_b), on the line through the centre along the distance's gradient: the covered part is
+// p < coverage, and points at p = coverage (k + 0.5) / n share it evenly along the distance,
+// across which the sphere's shading changes fastest.
+vec2 edge_point(EdgeSplit split, float p) {
+    return split.centre + split.grad * (box_quantile(p, split.a, split.b) / max(dot(split.grad, split.grad), 1e-30));
+}
+// The covered part's point at its own quantile q.
+vec2 edge_inside_point(EdgeSplit split, float q) { return edge_point(split, q * split.coverage); }
 
 // The split of the pixel centred at `centre` (cell frame on the cells stage); coverage 0 or 1
 // away from edges.
@@ -55,11 +79,13 @@ EdgeSplit edge_split(vec2 centre) {
                      silhouette_distance(centre + vec2(0.0, 1.0), sphere)) - s;
     float a = abs(grad.x), b = abs(grad.y);
     float c = box_coverage(s, a, b);
-    // Sample points a quarter of the box's extent along s into each side (or the centre when
-    // it is already that deep): roughly the centroids of the two parts.
+    EdgeSplit split = EdgeSplit(c, centre, centre, centre, grad, a, b);
+    // Inside, the covered part's median point along the distance: the sphere's shading
+    // changes fast across its silhouette. Outside, a quarter of the box's extent beyond the
+    // silhouette (or the centre when it is already that far): the floor there changes slowly,
+    // and a ray that close to the sphere could count as meeting it.
     float g2 = max(dot(grad, grad), 1e-30);
-    float depth = 0.25 * (a + b);
-    vec2 inside = centre - grad * ((s - min(s, -depth)) / g2);
-    vec2 outside = centre - grad * ((s - max(s, depth)) / g2);
-    return EdgeSplit(c, inside, outside);
+    split.inside = edge_inside_point(split, 0.5);
+    split.outside = centre - grad * ((s - max(s, 0.25 * (a + b))) / g2);
+    return split;
 }

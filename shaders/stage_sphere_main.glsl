@@ -56,6 +56,28 @@ void sphere_plate_texel() {
 #endif
     }
 #if ANALYTIC_AA   // (without it the chart takes one ray a pixel, as the plate does below)
+#if EDGE_SAMPLES > 1
+    // A silhouette pixel: the mean of points spread across its covered part
+    // (edge_coverage.glsl), those whose rays meet the sphere, as the chart takes them.
+    if (edge) {
+        vec3 sum = vec3(0.0);
+        float count = 0.0;
+        for (int k = 0; k < EDGE_SAMPLES; ++k) {
+            vec2 q = edge_inside_point(split, (float(k) + 0.5) / float(EDGE_SAMPLES));
+            vec3 d;
+            vec3 o = camera_ray(2.0 * q / u_resolution - 1.0, d);
+            Hit h = intersect_scene(o, d, footprint);
+            if (h.t >= 0.0 && h.cell.x >= 0) {
+                sum += shade_sphere(o + d * h.t, h.normal, -d, g_cell, footprint.x + footprint.y * h.t);
+                count += 1.0;
+            }
+        }
+        if (count > 0.0) {
+            out_radiance = vec4(sum / count, 1.0);
+            return;
+        }
+    }
+#endif
 #if SPHERE_SAMPLES > 1
     // A sphere only a few pixels wide: its pixels average n x n points of their box (the box
     // the reference integrates), so a highlight smaller than a pixel is a small disc, not one

@@ -54,7 +54,7 @@ SCHEMA = OptionSchema(
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
             "HIDDEN_SKY_SAMPLES",
-            "SPHERE_SAMPLES", "FLOOR_RETURN_STEPS", "SHEEN_CENTROID_MU_STEPS", "SHEEN_CENTROID_R_STEPS"),
+            "SPHERE_SAMPLES", "EDGE_SAMPLES", "FLOOR_RETURN_STEPS", "SHEEN_CENTROID_MU_STEPS", "SHEEN_CENTROID_R_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
@@ -280,6 +280,7 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
     if opts["ANALYTIC_AA"]:
         opts["SPHERE_SAMPLES"] = 1 if opts["USE_TEXTURES"] else sphere_samples(spec)
+        opts["EDGE_SAMPLES"] = max(1, q.edge_samples)
     if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
         opts["IBL_METHOD"] = q.ibl_method
         opts["IBL_DOMINANT_DIR"] = q.ibl_dominant_dir
