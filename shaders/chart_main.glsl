@@ -236,8 +236,8 @@ void chart_pixel(vec2 frag_coord) {
 #if EDGE_PIXELS == only
     if (!edge) discard;   // the chart pass's pixel stands
 #endif
-    // Two traces, not three, where a SIMD group holds an edge: the first ray is the centre's,
-    // or the inside one's at an edge.
+    // Two traces, not three, where a SIMD group holds an edge (EDGE_SAMPLES 1): the first ray
+    // is the centre's, or the covered part's first sample at an edge.
     vec2 first = edge ? split.inside : pixel + 0.5;
 #endif
     vec4 radiance = trace_pixel(first, footprint, centre, centre_rd);
@@ -262,13 +262,13 @@ void chart_pixel(vec2 frag_coord) {
 #endif
 #if EDGE_PIXELS != skipped
 #if EDGE_SAMPLES > 1 && !SPHERE_PLATE
-    // A silhouette pixel's covered part: the mean of points spread across it, those whose rays
-    // meet the sphere (as the sphere plate's texel, stage_sphere_main.glsl).
+    // A silhouette pixel's covered part: the mean of its samples whose rays meet the sphere
+    // (as the sphere plate's texel, stage_sphere_main.glsl); the first ray was sample 0.
     if (edge) {
-        vec4 sum = vec4(0.0);
-        float count = 0.0;
-        for (int k = 0; k < EDGE_SAMPLES; ++k) {
-            vec4 c = trace_pixel(edge_inside_point(split, (float(k) + 0.5) / float(EDGE_SAMPLES)), footprint, other, other_rd);
+        vec4 sum = radiance * sphere_share;
+        float count = sphere_share;
+        for (int k = 1; k < EDGE_SAMPLES; ++k) {
+            vec4 c = trace_pixel(edge_sample_point(split, k), footprint, other, other_rd);
             if (other.t >= 0.0 && other.cell.x >= 0) { sum += c; count += 1.0; }
         }
         if (count > 0.0) radiance = sum / count;

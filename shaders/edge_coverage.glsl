@@ -3,8 +3,8 @@
 // distance s (distance of the ray from the sphere's centre minus the radius) is linear in the
 // pixel coordinates to well under 1 %, so the covered fraction of the box is the probability
 // that s(centre) + U_a + U_b < 0, U_a, U_b uniform of widths |ds/dx|, |ds/dy|: the CDF of a
-// trapezoid. Edge pixels shade the covered part at its median point along s (or EDGE_SAMPLES
-// points spread along it) and the rest at one point, and blend them by it.
+// trapezoid. Edge pixels shade the covered part at EDGE_SAMPLES points spread along s (one:
+// its median) and the rest at one point, and blend them by it.
 
 #if STAGE == cells
 // The cell's sphere, at the origin of the cell frame.
@@ -53,22 +53,26 @@ float box_quantile(float p, float a, float b) {
 
 struct EdgeSplit {
     float coverage;   // share of the pixel box covered by the sphere
-    vec2 inside;      // a pixel position whose ray hits the sphere (inside the covered part)
-    vec2 outside;     // one whose ray passes beside it
-    vec2 centre;      // the pixel's centre, the silhouette distance's gradient across the box
-    vec2 grad;        // and its widths along x and y (edge_point)
-    float a, b;
+    vec2 inside;      // the covered part's deepest sample point (edge_sample_point 0)
+    vec2 outside;     // a point whose ray passes beside the sphere
+    vec2 centre;      // the pixel's centre
+    vec2 grad;        // the silhouette distance's change per pixel along x and y
 };
 
-// The point of the pixel box at quantile p of the silhouette distance over the box (s + U_a +
-// U_b), on the line through the centre along the distance's gradient: the covered part is
-// p < coverage, and points at p = coverage (k + 0.5) / n share it evenly along the distance,
-// across which the sphere's shading changes fastest.
+// The point at quantile p of the silhouette distance over the box (s + U_a + U_b), on the line
+// through the centre along the distance's gradient (up to ~0.1 px outside the box where the
+// silhouette crosses it aslant: the distance is what the shading follows).
 vec2 edge_point(EdgeSplit split, float p) {
-    return split.centre + split.grad * (box_quantile(p, split.a, split.b) / max(dot(split.grad, split.grad), 1e-30));
+    vec2 g = split.grad;
+    return split.centre + g * (box_quantile(p, abs(g.x), abs(g.y)) / max(dot(g, g), 1e-30));
 }
-// The covered part's point at its own quantile q.
-vec2 edge_inside_point(EdgeSplit split, float q) { return edge_point(split, q * split.coverage); }
+
+// The covered part's sample k of EDGE_SAMPLES: at its quantile (k + 1/2) / EDGE_SAMPLES, so
+// the samples share it evenly along the distance, across which the sphere's shading changes
+// fastest (one sample: the median). Sample 0 is the deepest.
+vec2 edge_sample_point(EdgeSplit split, int k) {
+    return edge_point(split, split.coverage * (float(k) + 0.5) / float(EDGE_SAMPLES));
+}
 
 // The split of the pixel centred at `centre` (cell frame on the cells stage); coverage 0 or 1
 // away from edges.
@@ -78,14 +82,11 @@ EdgeSplit edge_split(vec2 centre) {
     vec2 grad = vec2(silhouette_distance(centre + vec2(1.0, 0.0), sphere),
                      silhouette_distance(centre + vec2(0.0, 1.0), sphere)) - s;
     float a = abs(grad.x), b = abs(grad.y);
-    float c = box_coverage(s, a, b);
-    EdgeSplit split = EdgeSplit(c, centre, centre, centre, grad, a, b);
-    // Inside, the covered part's median point along the distance: the sphere's shading
-    // changes fast across its silhouette. Outside, a quarter of the box's extent beyond the
-    // silhouette (or the centre when it is already that far): the floor there changes slowly,
-    // and a ray that close to the sphere could count as meeting it.
-    float g2 = max(dot(grad, grad), 1e-30);
-    split.inside = edge_inside_point(split, 0.5);
-    split.outside = centre - grad * ((s - max(s, 0.25 * (a + b))) / g2);
+    EdgeSplit split = EdgeSplit(box_coverage(s, a, b), centre, centre, centre, grad);
+    split.inside = edge_sample_point(split, 0);
+    // Outside, a quarter of the box's extent beyond the silhouette (or the centre when it is
+    // already that far): the floor there changes slowly, and a ray that close to the sphere
+    // could count as meeting it.
+    split.outside = centre - grad * ((s - max(s, 0.25 * (a + b))) / max(dot(grad, grad), 1e-30));
     return split;
 }

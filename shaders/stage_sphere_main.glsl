@@ -10,10 +10,10 @@
 #endif
 
 // The cells stage's sphere plate (SPHERE_PLATE, sdfpbr/shading/cells.py): each slot's sphere
-// shaded once per cell pixel at metallic 0 (tile 2 k) and 1 (tile 2 k + 1), at the point the
-// chart's own ray of that pixel meets it (the centre, or with the analytic edge the inside
-// sample at the silhouette, as chart_main.glsl's chart_pixel traces), with the material of a
-// cell of the slot.
+// shaded once per cell pixel at metallic 0 (tile 2 k) and 1 (tile 2 k + 1), at the points the
+// chart's own rays of that pixel meet it (the centre, or with the analytic edge the covered
+// part's samples, as chart_main.glsl's chart_pixel traces), with the material of a cell of
+// the slot.
 layout(location = 0) out vec4 out_radiance;
 uniform ivec2 u_sphere_origin;     // the cell pixel of a tile's texel (0, 0)
 uniform ivec2 u_sphere_tile;       // texels of a tile: a cell's pixels and the image's margins
@@ -63,7 +63,7 @@ void sphere_plate_texel() {
         vec3 sum = vec3(0.0);
         float count = 0.0;
         for (int k = 0; k < EDGE_SAMPLES; ++k) {
-            vec2 q = edge_inside_point(split, (float(k) + 0.5) / float(EDGE_SAMPLES));
+            vec2 q = edge_sample_point(split, k);
             vec3 d;
             vec3 o = camera_ray(2.0 * q / u_resolution - 1.0, d);
             Hit h = intersect_scene(o, d, footprint);
@@ -81,7 +81,7 @@ void sphere_plate_texel() {
 #if SPHERE_SAMPLES > 1
     // A sphere only a few pixels wide: its pixels average n x n points of their box (the box
     // the reference integrates), so a highlight smaller than a pixel is a small disc, not one
-    // bright pixel or none. Edge pixels keep their one inside point (their coverage blends).
+    // bright pixel or none. Edge pixels keep their covered part's samples (their coverage blends).
     // The points whose rays meet the sphere (all but a few by the silhouette), as the chart
     // takes them where it shades the sphere itself.
     if (!edge) {

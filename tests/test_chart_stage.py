@@ -1,5 +1,6 @@
 """The chart as a compute shader (for GPUs that run few fragment units) draws what the fragment
 shader draws; which one a session uses follows its renderer, or $SDFPBR_CHART_STAGE."""
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -71,20 +72,29 @@ EDGE_CASES = [dict(), dict(width=256, height=256, rows=64, cols=64), dict(width=
               dict(y_axis="clearcoat", sheen_color=(0.6, 0.3, 0.4), ior=2.0),
               dict(row_materials=("gold", "copper", "silver"), rows=3, cols=4, transparent=True),
               dict(gltf=str(DATA / "materials.glb"), width=300, height=200),
-              dict(y_axis="clearcoat", width=256, height=256, rows=20, cols=20)]
+              dict(y_axis="clearcoat", width=256, height=256, rows=20, cols=20),
+              # the covered part in four samples (high's): the sphere plate's, the sphere pass's,
+              # the shared stage's and a see-through sphere's edges
+              dict(edge_samples=4), dict(edge_samples=4, y_axis="clearcoat", sheen_color=(0.6, 0.3, 0.4), ior=2.0),
+              dict(edge_samples=4, stage="shared", rows=2, cols=7, width=420, height=160),
+              dict(edge_samples=4, alpha=(0.3, 1.0), x_axis="alpha")]
 
 
 @pytest.mark.parametrize("options", EDGE_CASES, ids=[",".join(f"{k}={v}" for k, v in c.items()) or "default"
                                                      for c in EDGE_CASES])
-def test_the_edge_pass_draws_what_the_chart_draws_inline(session, options):
+def test_the_edge_pass_draws_what_the_chart_draws_inline(session, monkeypatch, options):
     """The fragment chart leaves its silhouettes' pixels to a pass over a ring of triangles
     round each one (a software rasterizer runs an if's body for every pixel): every pixel the
     silhouette crosses must lie in a ring, and the pass must shade it as the chart program
     does inline. Same arithmetic per pixel: the same radiance, coverage and AOVs."""
     from sdfpbr.gpu.render import render_chart
     from sdfpbr.shading.plan import render_plan
+    from sdfpbr.spec.presets import QUALITY_PRESETS
     options = dict(options)
     tile = options.pop("tile", None)
+    if "edge_samples" in options:
+        monkeypatch.setitem(QUALITY_PRESETS, "draft", dataclasses.replace(QUALITY_PRESETS["draft"],
+                                                                          edge_samples=options.pop("edge_samples")))
     spec = make_spec(**{"width": 256, "height": 256, "quality": "draft", **options})
     plan = render_plan(spec, passes=True)
     assert plan.edge_pass is not None and plan.options["EDGE_PIXELS"] == "skipped"

@@ -14,7 +14,7 @@ def box_coverage(s0, a, b):
     w_max, w_min = np.maximum(a, b), np.minimum(a, b)
     h = 0.5 * (a + b)
     y = -s0
-    flat = (np.abs(y) <= 0.5 * (w_max - w_min)) | (w_min < 1e-12 * w_max)
+    flat = (np.abs(y) <= 0.5 * (w_max - w_min)) | (w_min < 1e-6 * w_max)
     linear = np.clip(0.5 + y / np.where(w_max > 0, w_max, 1.0), 0.0, 1.0)
     tail = (h - np.abs(y)) ** 2 / np.where(a * b > 0, 2.0 * a * b, 1.0)
     curved = np.where(y < 0, tail, 1.0 - tail)
@@ -33,10 +33,11 @@ def box_quantile(p, a, b):
     return np.where(p < p_tail, low, np.where(p > 1.0 - p_tail, high, (p - 0.5) * w_max))
 
 
-def edge_inside_points(centre, s0, grad, samples: int):
+def edge_sample_points(centre, s0, grad, samples: int):
     """The points (..., samples, 2) at which the chart shades the covered part of the box
     centred at ``centre`` (..., 2), s0 and grad (..., 2) the silhouette distance there and its
-    change per pixel: at the covered part's own quantiles (k + 1/2) / samples of s."""
+    change per pixel: at the covered part's own quantiles (k + 1/2) / samples of s (the
+    shader's edge_sample_point)."""
     centre, grad = np.asarray(centre, np.float64), np.asarray(grad, np.float64)
     a, b = np.abs(grad[..., 0]), np.abs(grad[..., 1])
     c = box_coverage(s0, a, b)

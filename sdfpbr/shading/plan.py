@@ -251,8 +251,8 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     opts["NEIGHBOUR_LIGHT"] = (q.neighbour_light and opts["STAGE"] == "shared" and opts["USE_AO"]
                                and opts.get("AO_METHOD") == "analytic" and not opts.get("BUG_FEWTAP_IBL", False))
     # Each slot's sphere shaded once per cell pixel as a dielectric and as a metal, and mixed
-    # by each cell's metallic (stage_sphere_main.glsl): one ray per pixel (the centre's, or the
-    # analytic edge's), opaque, where cells share all but their metallic (cells.py). A map's metallic
+    # by each cell's metallic (stage_sphere_main.glsl): the chart's rays (the centre's, or the
+    # analytic edge's covered part's), opaque, where cells share all but their metallic (cells.py). A map's metallic
     # scales the cell's (m_factor m_map), and the shading is linear in it, so a textured slot
     # is shaded at m_map and at 0 and mixed by m_factor alike; not a glTF asset's, whose maps
     # are each cell's own (the material table does not tell them apart). The few-tap bug's
@@ -465,7 +465,7 @@ def _sphere_plate(chart: dict) -> ComposedSource | None:
 def _edge_pass(chart: dict, edge_pass: bool) -> ComposedSource | None:
     """The chart's silhouette pixels, drawn over the chart pass (which skips them) on a ring of
     triangles round each silhouette: the chart program with only those pixels, all of them
-    shaded (their inside ray meets a sphere)."""
+    shaded (their first inside ray meets a sphere)."""
     if not edge_pass:
         return None
     return compose_program("chart_main.glsl", {**chart, "EDGE_PIXELS": "only", "SPHERE_PIXELS": "inline"})
