@@ -55,11 +55,6 @@ HiddenSky sky_behind_sphere(vec3 p, vec3 v, float alpha) {
 }
 #endif
 
-// The share of the ground's specular lobe (seen along v) its cell's sphere hides.
-float ground_specular_occlusion(vec3 p, vec3 v, float alpha) {
-    float dist = length(p);
-    return specular_occlusion(reflect(-v, vec3(0.0, 1.0, 0.0)), -p / dist, asin(min(u_radius / dist, 1.0)), alpha);
-}
 #else
 float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
     float visible = 1.0;

@@ -73,7 +73,9 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     float spacing = acos(ring_cos);   // the rays' spacing, which the lights' highlights are spread over
     Material sphere_material = cell_material(cell, axis);
     float resolved = bounce_resolves(sphere_material.alpha);
-    vec3 sum = vec3(0.0);
+    Material floor_material = ground_material();
+    float n_dot_v = max(v.y, MIN_N_DOT_V);   // the floor's normal is +y
+    vec3 sum = vec3(0.0), specular = vec3(0.0);
     float weight = 0.0;
     int rays = ff < BOUNCE_FEW_FF ? 1 : BOUNCE_RAYS;
     for (int i = 0; i < rays; ++i) {
@@ -85,11 +87,17 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
         float th = ray_sphere(q, w, vec3(0.0), u_radius);
         if (th <= 0.0) continue;
         vec3 s = q + w * th;
-        sum += share * cos_q * shade_sphere_for_bounce(s, s / u_radius, -w, cell, pixel_size, spacing, resolved);
+        vec3 radiance = shade_sphere_for_bounce(s, s / u_radius, -w, cell, pixel_size, spacing, resolved);
+        sum += share * cos_q * radiance;
         weight += share * cos_q;
+#if AO_METHOD == analytic && !BUG_FEWTAP_IBL
+        vec3 h = normalize(w + v);
+        specular += share * d_ggx(max(h.y, 0.0), floor_material.alpha)
+                  * vis_smith_ggx_correlated(cos_q, n_dot_v, floor_material.alpha)
+                  * fresnel_schlick(vec3(DIELECTRIC_F0), saturate(dot(v, h))).x * cos_q * radiance;
+#endif
     }
-    Material floor_material = ground_material();
-    vec3 dfg = dfg_lookup(max(v.y, MIN_N_DOT_V), floor_material.perceptual_roughness);
+    vec3 dfg = dfg_lookup(n_dot_v, floor_material.perceptual_roughness);
     vec3 mirrored = vec3(0.0);
     if (resolved < 1.0) {
         mirrored = sphere_reflected_light(q, vec3(0.0), sphere_material);
@@ -101,9 +109,11 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     if (weight <= 0.0) return reflected;
     vec3 albedo = floor_material.base_color_linear * dfg.z * ff;
 #if AO_METHOD == analytic && !BUG_FEWTAP_IBL
-    // The specular share the sphere hides (shade.glsl) comes back as its light too.
-    float so = ground_specular_occlusion(q, v, floor_material.alpha);
-    albedo += (DIELECTRIC_F0 * dfg.x + dfg.y) * energy_compensation(vec3(DIELECTRIC_F0), dfg.x + dfg.y) * so;
+    // The specular the sphere hides (shade.glsl takes the sky's f cos L over its disc away,
+    // ao.glsl sky_behind_sphere) comes back as the sphere's own, the same integral over its
+    // radiance at the rays' points: the floor's lobe sees the sphere's part it points at (in
+    // front of the sphere its lit front, not the cap's mean, which the dark underside lowers).
+    specular *= 2.0 * PI * cap * energy_compensation(vec3(DIELECTRIC_F0), dfg.x + dfg.y);
 #endif
-    return albedo * sum / weight + reflected;
+    return albedo * sum / weight + specular + reflected;
 }
