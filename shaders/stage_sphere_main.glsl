@@ -26,6 +26,20 @@ Hit nearest_on_sphere(vec3 ro, vec3 rd) {
     return Hit(dot(n * u_radius - ro, rd), n, g_cell);
 }
 
+#if ANALYTIC_AA
+// One of the points a texel averages (as the chart takes them): the sphere's light along the
+// ray through pixel position q, added to sum and counted where the ray meets the sphere.
+void add_sphere_point(vec2 q, vec2 footprint, inout vec3 sum, inout float count) {
+    vec3 d;
+    vec3 o = camera_ray(2.0 * q / u_resolution - 1.0, d);
+    Hit h = intersect_scene(o, d, footprint);
+    if (h.t >= 0.0 && h.cell.x >= 0) {
+        sum += shade_sphere(o + d * h.t, h.normal, -d, g_cell, footprint.x + footprint.y * h.t);
+        count += 1.0;
+    }
+}
+#endif
+
 void sphere_plate_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     ivec2 tile = texel / u_sphere_tile;
@@ -62,16 +76,8 @@ void sphere_plate_texel() {
     if (edge) {
         vec3 sum = vec3(0.0);
         float count = 0.0;
-        for (int k = 0; k < EDGE_SAMPLES; ++k) {
-            vec2 q = edge_sample_point(split, k);
-            vec3 d;
-            vec3 o = camera_ray(2.0 * q / u_resolution - 1.0, d);
-            Hit h = intersect_scene(o, d, footprint);
-            if (h.t >= 0.0 && h.cell.x >= 0) {
-                sum += shade_sphere(o + d * h.t, h.normal, -d, g_cell, footprint.x + footprint.y * h.t);
-                count += 1.0;
-            }
-        }
+        for (int k = 0; k < EDGE_SAMPLES; ++k)
+            add_sphere_point(edge_sample_point(split, k), footprint, sum, count);
         if (count > 0.0) {
             out_radiance = vec4(sum / count, 1.0);
             return;
@@ -88,16 +94,8 @@ void sphere_plate_texel() {
         vec3 sum = vec3(0.0);
         float count = 0.0;
         for (int j = 0; j < SPHERE_SAMPLES; ++j)
-            for (int i = 0; i < SPHERE_SAMPLES; ++i) {
-                vec2 q = pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES);
-                vec3 d;
-                vec3 o = camera_ray(2.0 * q / u_resolution - 1.0, d);
-                Hit h = intersect_scene(o, d, footprint);
-                if (h.t >= 0.0 && h.cell.x >= 0) {
-                    sum += shade_sphere(o + d * h.t, h.normal, -d, g_cell, footprint.x + footprint.y * h.t);
-                    count += 1.0;
-                }
-            }
+            for (int i = 0; i < SPHERE_SAMPLES; ++i)
+                add_sphere_point(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, sum, count);
         if (count > 0.0) {
             out_radiance = vec4(sum / count, 1.0);
             return;
