@@ -246,9 +246,9 @@ def test_timing_only_run_writes_json_and_no_plot(tmp_path):
 
 def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     """The bench keeps a reference until what the path tracer runs changes: editing a
-    chart-only shader (the floor return) keeps hours of references, editing the path tracer's
-    renders them again. The preset is not the scene (one key for every preset); the samples
-    and the seed are."""
+    chart-only shader (the floor return), or a comment, a docstring or the spacing of what it
+    runs, keeps hours of references; editing the path tracer's code renders them again. The
+    preset is not the scene (one key for every preset); the samples and the seed are."""
     import shutil
     from sdfpbr.shading import compose
     spec = suite.scene_spec("cells", suite.BenchConfig(width=64, height=64))
@@ -259,11 +259,31 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     shaders = tmp_path / "shaders"
     shutil.copytree(compose.shader_dir(), shaders)
     monkeypatch.setattr(compose, "shader_dir", lambda: shaders)
-    assert accuracy.reference_key(spec, 64, 0) in keys
+    def key():
+        return accuracy.reference_key(spec, 64, 0)
+    assert key() in keys
+    path = shaders / "reference_path.glsl"
+    path.write_text(path.read_text().replace("\n", "\n// a note /* and more */\n", 1) + "\n/* a\n block */\n\n   \n")
+    assert key() in keys
     for module, kept in (("floor_return.glsl", True), ("reference_path.glsl", False)):
         path = shaders / module
-        path.write_text(path.read_text() + "\n// an edit\n")
-        assert (accuracy.reference_key(spec, 64, 0) in keys) == kept, module
-    # Its Python: the integrator and its tables are keyed, its labels are not.
+        path.write_text(path.read_text() + "\nconst float AN_EDIT = 1.0;\n")
+        assert (key() in keys) == kept, module
+    monkeypatch.undo()
+    assert key() in keys
+    # Its Python: the integrator and its tables are keyed, its labels are not; as code.
     names = {p.name for p in accuracy.reference_code_files()}
     assert {"integrator.py", "tables.py", "__init__.py", "mirror.py"} <= names and "labels.py" not in names
+    copies = []
+    for i, p in enumerate(accuracy.reference_code_files()):
+        (tmp_path / "py" / str(i)).mkdir(parents=True)
+        copies.append(Path(shutil.copy(p, tmp_path / "py" / str(i) / p.name)))
+    monkeypatch.setattr(accuracy, "reference_code_files", lambda: copies)
+    assert key() in keys
+    integrator = next(p for p in copies if p.name == "integrator.py")
+    text = integrator.read_text()
+    assert text.startswith('"""')
+    integrator.write_text('"""A docstring\'s edit. ' + text[3:].replace("annotations\n", "annotations  # a note\n\n", 1))
+    assert key() in keys
+    integrator.write_text(text + "\nAN_EDIT = 1\n")
+    assert key() not in keys

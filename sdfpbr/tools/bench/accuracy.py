@@ -2,8 +2,10 @@
 code) and the error columns of a chart against its reference."""
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib.util
+import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,17 +57,41 @@ def reference_code_files() -> list[Path]:
     return files + [Path(importlib.util.find_spec(name).origin) for name in REFERENCE_DEPENDENCIES]
 
 
+_GLSL_COMMENT = re.compile(r"/\*.*?\*/|//[^\n]*", re.S)
+
+
+def glsl_code(text: str) -> str:
+    """GLSL as the compiler runs it: comments out, each line's spacing collapsed, blank lines
+    and #line directives (the composer's, which name lines for error messages) dropped."""
+    lines = (" ".join(line.split()) for line in _GLSL_COMMENT.sub(" ", text).splitlines())
+    return "\n".join(line for line in lines if line and not line.startswith("#line"))
+
+
+def python_code(text: str) -> str:
+    """Python as the interpreter runs it: its syntax tree, without comments, layout or
+    docstrings."""
+    tree = ast.parse(text)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
+                and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            node.body = body[1:] or [ast.Pass()]
+    return ast.dump(tree)
+
+
 def _reference_code_digest(spec: ChartSpec) -> str:
     """The reference's code for this spec: reference_code_files and the programs its plan
-    composes (so an edit of a chart-only shader or of the reference's labels leaves the bench's
-    references alone, and any edit of what the path tracer runs re-renders them)."""
+    composes, as code (so an edit of a chart-only shader, of the reference's labels or of a
+    comment leaves the bench's references alone, and any edit of what the path tracer runs
+    re-renders them)."""
     from ...shading.plan import reference_plan
     h = hashlib.sha256()
     for p in reference_code_files():
         h.update(p.name.encode())
-        h.update(p.read_bytes())
+        h.update(python_code(p.read_text(encoding="utf-8")).encode())
     for source in reference_plan(spec).sources():
-        h.update(source.text.encode())
+        h.update(glsl_code(source.text).encode())
     return h.hexdigest()
 
 
