@@ -287,3 +287,26 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     assert key() in keys
     integrator.write_text(text + "\nAN_EDIT = 1\n")
     assert key() not in keys
+
+
+def test_a_bigger_reference_goes_on_from_a_cached_smaller_one(session, tmp_path):
+    """The bench asked for 4n samples goes on from a cached run of n (or 2n) with the same
+    seed, keeps the first run's time in its own, and gives the straight run's bits; another
+    seed starts from zero."""
+    from sdfpbr.cache import ArrayCache
+    from sdfpbr.gpu.session import Session
+    from sdfpbr.tools.reference import render_reference
+    fresh = Session(session.ctx, ArrayCache(tmp_path / "cache"))
+    spec = suite.scene_spec("cells", suite.BenchConfig(width=24, height=24))
+    lines = []
+    first = accuracy.get_reference(fresh, spec, 3, 0, lines.append)
+    bigger = accuracy.get_reference(fresh, spec, 12, 0, lines.append)
+    other = accuracy.get_reference(fresh, spec, 12, 1, lines.append)
+    assert not first.cached and not bigger.cached and not other.cached
+    assert "going on from the cached 3" in lines[1] and "going on" not in lines[0] + lines[2], lines
+    assert bigger.seconds > first.seconds and bigger.samples == 12
+    straight = render_reference(spec, samples=12, seed=0, session=session)
+    assert np.array_equal(bigger.hdr, straight.hdr) and np.array_equal(bigger.image, straight.image)
+    assert np.array_equal(bigger.stderr, straight.stderr, equal_nan=True)
+    again = accuracy.get_reference(fresh, spec, 12, 0, lines.append)
+    assert again.cached and np.array_equal(again.hdr, bigger.hdr) and len(lines) == 3

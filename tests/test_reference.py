@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+from sdfpbr.errors import SpecError
 from sdfpbr.oracle import lobes, mirror
 from sdfpbr.shading.camera import frame_grid, sphere_centers
 from sdfpbr.tools.reference import batch_size, render_reference
@@ -182,6 +183,37 @@ def test_same_seed_is_bit_identical_and_another_seed_is_not(session):
     assert not np.array_equal(a.hdr, c.hdr)
     assert np.abs(a.hdr - c.hdr).mean() > 1e-3 * a.hdr.mean()
     assert a.non_finite == 0 and np.isfinite(a.hdr).all()
+
+
+@pytest.mark.parametrize("scene", [dict(width=32, height=32, **SHARED),
+                                   dict(width=24, height=24, rows=2, cols=2, transparent=True)],
+                         ids=["shared", "cells-shadow-catcher"])
+def test_a_resumed_run_equals_the_straight_run_bit_for_bit(session, scene):
+    """More samples for a finished reference go on from its accumulators: 3 then 7 more (a
+    batch boundary the straight run does not have) gives the straight 10-sample run's bits,
+    shadow catcher included. Resuming from the wrong seed's state would not."""
+    spec = make_spec(**scene)
+    straight = render_reference(spec, samples=10, seed=11, session=session)
+    first = render_reference(spec, samples=3, seed=11, session=session)
+    assert first.accumulators.samples == 3 and not np.array_equal(first.hdr, straight.hdr)
+    assert (first.accumulators.catcher is not None) == spec.transparent
+    resumed = render_reference(spec, samples=10, seed=11, session=session, resume=first.accumulators)
+    assert resumed.samples == 10
+    for name in ("hdr", "alpha", "stderr", "image"):
+        assert np.array_equal(getattr(resumed, name), getattr(straight, name), equal_nan=True), name
+    other = render_reference(spec, samples=10, seed=12, session=session, resume=first.accumulators)
+    assert not np.array_equal(other.hdr, straight.hdr)
+
+
+def test_resume_needs_fewer_samples_of_the_same_size(session):
+    spec = make_spec(width=16, height=16, **SHARED)
+    state = render_reference(spec, samples=4, seed=1, session=session).accumulators
+    with pytest.raises(SpecError, match="more samples than its 4"):
+        render_reference(spec, samples=4, seed=1, session=session, resume=state)
+    with pytest.raises(SpecError, match="not 8x16 RGBA"):
+        render_reference(make_spec(width=8, height=16, **SHARED), samples=8, session=session, resume=state)
+    with pytest.raises(SpecError, match="not to a target error"):
+        render_reference(spec, target_error=0.1, session=session, resume=state)
 
 
 def test_stderr_shrinks_as_one_over_sqrt_n_and_is_honest(session):

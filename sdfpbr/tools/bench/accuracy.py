@@ -104,25 +104,49 @@ def reference_key(spec: ChartSpec, samples: int, seed: int) -> str:
 
 
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
+    """The reference of ``spec`` at ``samples`` per pixel and ``seed``: from the cache, else
+    rendered, going on from the cached run of the same seed with half (a quarter, ...) the
+    samples when there is one; ``seconds`` is the render time of all its samples."""
     from ..reference import render_reference
     key = reference_key(spec, samples, seed)
     cached = session.cache.get("bench-reference", key, require_finite=False)   # stderr may be NaN
     if cached is not None:
         return Reference(cached["hdr"], cached["image"], cached["stderr"], cached["row"], cached["col"],
                          int(cached["samples"]), float(cached["seconds"]), True)
+    resume, before = _resumable(session, spec, samples, seed)
     if log:
-        log(f"reference: {spec.rows}x{spec.cols} {spec.width}x{spec.height}, {samples} samples/pixel ...")
+        log(f"reference: {spec.rows}x{spec.cols} {spec.width}x{spec.height}, {samples} samples/pixel"
+            + (f", going on from the cached {resume.samples}" if resume else "") + " ...")
     start = time.perf_counter()
-    ref = render_reference(spec, samples=samples, seed=seed, session=session)
-    seconds = time.perf_counter() - start
+    ref = render_reference(spec, samples=samples, seed=seed, session=session, resume=resume)
+    seconds = before + time.perf_counter() - start
     aov = ref.aov
     out = Reference(np.asarray(ref.hdr, np.float32), np.asarray(ref.image, np.uint8),
                     np.asarray(ref.stderr, np.float32), np.asarray(aov["row"]), np.asarray(aov["col"]),
                     int(np.max(ref.samples)), seconds, False)
+    state = ref.accumulators
+    extra = {} if state.catcher is None else {"catcher": state.catcher}
     session.cache.put("bench-reference", key, {"hdr": out.hdr, "image": out.image, "stderr": out.stderr,
                                                 "row": out.row, "col": out.col, "samples": np.array(out.samples),
-                                                "seconds": np.array(seconds)})
+                                                "seconds": np.array(seconds), "sums": state.sums,
+                                                "moments": state.moments, **extra})
     return out
+
+
+def _resumable(session, spec: ChartSpec, samples: int, seed: int):
+    """(accumulators, their render seconds) of the cached reference of ``spec`` and ``seed``
+    with the most samples among samples/2, samples/4, ... that kept its accumulators, else
+    (None, 0.0). A reference's samples are hashes of (seed, pixel, sample index), so going on
+    from one gives the straight run's bits."""
+    from ..reference import Accumulators
+    fewer = samples // 2
+    while fewer >= 1:
+        cached = session.cache.get("bench-reference", reference_key(spec, fewer, seed), require_finite=False)
+        if cached is not None and "sums" in cached:
+            state = Accumulators(cached["sums"], cached["moments"], cached.get("catcher"), fewer)
+            return state, float(cached["seconds"])
+        fewer //= 2
+    return None, 0.0
 
 
 # A reference judges a figure only if its own noise is well below it: the FLIP between two

@@ -21,7 +21,9 @@ Sampling: GGX visible normals (Heitz 2018) mixed with cosine-weighted diffuse, o
 sample per light and one environment sample (a tabulated equirect CDF) per surface point,
 combined by multiple importance sampling with the power heuristic. Pixel samples follow the
 R2 sequence under a per-pixel random rotation; all random numbers are hashes of (seed,
-pixel, sample, draw), so a seed gives bit-identical output.
+pixel, sample, draw), so a seed gives bit-identical output. Each pixel adds its samples one by
+one in sample order, so a run resumed from another's accumulators (``resume``) with more
+samples gives the bits of the straight run; the bench goes on from its cached references so.
 
 The energy compensation's single-scatter albedo E(NdotV, r) comes from a float64 quadrature
 table (sdfpbr.mirror), not the chart's sampled LUT, so the reference integrates the model
@@ -38,10 +40,10 @@ independent samples).
 """
 from __future__ import annotations
 
-from .integrator import (DEFAULT_MAX_BOUNCES, ReferenceResult, batch_size, cell_reach, relative_error,
-                         render_reference, validate_arguments)
+from .integrator import (DEFAULT_MAX_BOUNCES, Accumulators, ReferenceResult, batch_size, cell_reach,
+                         relative_error, render_reference, validate_arguments)
 from .labels import footer_text, label
 from .tables import compensation_table, environment_cdfs
 
-__all__ = ["DEFAULT_MAX_BOUNCES", "ReferenceResult", "batch_size", "cell_reach", "compensation_table",
-           "environment_cdfs", "footer_text", "label", "relative_error", "render_reference", "validate_arguments"]
+__all__ = ["DEFAULT_MAX_BOUNCES", "Accumulators", "ReferenceResult", "batch_size", "cell_reach",
+           "compensation_table", "environment_cdfs", "footer_text", "label", "relative_error", "render_reference", "validate_arguments"]

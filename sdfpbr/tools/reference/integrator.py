@@ -35,6 +35,19 @@ LOCAL = 8
 
 
 @dataclass
+class Accumulators:
+    """The integrator's running state after ``samples`` per pixel, top row first: per-pixel
+    sums of the samples (RGBA), the luminance moments about a per-pixel shift (x: sum of
+    shifted values, y: sum of their squares, z: the shift, w: non-finite samples dropped) and,
+    with a shadow catcher, its sums. Samples are added one by one in sample order, so a run
+    resumed from the state after n samples equals, bit for bit, a run that went straight on."""
+    sums: np.ndarray
+    moments: np.ndarray
+    catcher: np.ndarray | None
+    samples: int
+
+
+@dataclass
 class ReferenceResult:
     hdr: np.ndarray          # (H, W, 3) float32 linear radiance, before exposure (premultiplied if transparent)
     alpha: np.ndarray        # (H, W) coverage
@@ -49,6 +62,7 @@ class ReferenceResult:
     max_bounces: int
     non_finite: int          # samples dropped as NaN/Inf (expected 0)
     timings: dict = field(default_factory=dict)
+    accumulators: Accumulators | None = None   # the state to resume from for more samples
 
 
 def cell_reach(spec: ChartSpec) -> int:
@@ -147,7 +161,8 @@ def _aovs(session: Session, plan: ReferencePlan, spec: ChartSpec, uniforms: dict
 
 def render_reference(spec: ChartSpec, samples: int | None = None, target_error: float | None = None,
                      seed: int = 0, max_bounces: int = DEFAULT_MAX_BOUNCES, progress: bool = False,
-                     session: Session | None = None, *, lambert: bool = False) -> ReferenceResult:
+                     session: Session | None = None, *, lambert: bool = False,
+                     resume: Accumulators | None = None) -> ReferenceResult:
     """Path-trace ``spec`` until ``samples`` per pixel, or until the mean relative standard
     error over sphere pixels reaches ``target_error`` (checked after each batch once 16
     samples are in; ``samples`` then caps the run, default 16384). Without either: 64 spp.
@@ -159,14 +174,32 @@ def render_reference(spec: ChartSpec, samples: int | None = None, target_error: 
     (spec.backend, spec.device_index), so the chart and its reference share one context.
     ``lambert`` replaces every BRDF by a Lambert reflector of its base colour (a check of the
     integrator itself).
+    ``resume``: the accumulators of an earlier run of the same spec, seed, bounces and
+    lambert flag with fewer samples (its result's ``accumulators``); the run goes on from its
+    state, and equals bit for bit a run of ``samples`` from the start. Fixed sample counts
+    only: a target error's stopping schedule starts at the first sample.
     """
     samples, target_error, seed, max_bounces = validate_arguments(spec, samples, target_error, seed, max_bounces)
+    if resume is not None:
+        _check_resume(resume, spec, samples, target_error)
     session = session or default_session(spec.backend, spec.device_index)
     with session:
-        return _render(session, spec, samples, target_error, seed, max_bounces, progress, bool(lambert))
+        return _render(session, spec, samples, target_error, seed, max_bounces, progress, bool(lambert), resume)
 
 
-def _render(session: Session, spec, samples, target_error, seed, max_bounces, progress, lambert) -> ReferenceResult:
+def _check_resume(resume: Accumulators, spec: ChartSpec, samples: int, target_error) -> None:
+    if target_error is not None:
+        raise SpecError("a reference resumes to a sample count, not to a target error")
+    shape = (spec.height, spec.width, 4)
+    if not 0 < resume.samples < samples:
+        raise SpecError(f"a resumed reference needs more samples than its {resume.samples}, got {samples}")
+    arrays = [resume.sums, resume.moments] + ([] if resume.catcher is None else [resume.catcher])
+    if any(np.shape(a) != shape for a in arrays):
+        raise SpecError(f"the accumulators to resume from are not {spec.width}x{spec.height} RGBA")
+
+
+def _render(session: Session, spec, samples, target_error, seed, max_bounces, progress, lambert,
+            resume: Accumulators | None) -> ReferenceResult:
     ctx = session.ctx
     timings = {}
     t0 = time.perf_counter()
@@ -198,14 +231,19 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         set_uniforms(program, uniforms)
         w, h = spec.width, spec.height
         zeros = np.zeros((h, w, 4), np.float32).tobytes()
-        sum_tex = ctx.texture((w, h), 4, zeros, dtype="f4")
-        moments_tex = ctx.texture((w, h), 4, zeros, dtype="f4")
+
+        def start(name):   # a texture's first contents: zeros, or the state resumed from
+            state = None if resume is None else getattr(resume, name)
+            return zeros if state is None else np.ascontiguousarray(state[::-1], np.float32).tobytes()
+
+        sum_tex = ctx.texture((w, h), 4, start("sums"), dtype="f4")
+        moments_tex = ctx.texture((w, h), 4, start("moments"), dtype="f4")
         owned += [sum_tex, moments_tex]
         sum_tex.bind_to_image(0, read=True, write=True)
         moments_tex.bind_to_image(1, read=True, write=True)
         catcher_tex = None
         if plan.options.get("SHADOW_CATCHER"):   # the floor's light with and without the spheres
-            catcher_tex = ctx.texture((w, h), 4, zeros, dtype="f4")
+            catcher_tex = ctx.texture((w, h), 4, start("catcher"), dtype="f4")
             owned.append(catcher_tex)
             catcher_tex.bind_to_image(2, read=True, write=True)
         # Drivers that compile at first use, per texture state (Mesa), do it on this empty
@@ -216,16 +254,19 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         ctx.finish()
         timings["compile_s"] += time.perf_counter() - t_warm
         t3 = time.perf_counter()
-        done = _accumulate(ctx, program, sum_tex, moments_tex, w, h, samples, target_error, sphere, progress)
-        moments = read_rgba(moments_tex, w, h)
+        first = 0 if resume is None else resume.samples
+        done = _accumulate(ctx, program, sum_tex, moments_tex, w, h, first, samples, target_error, sphere, progress)
+        moments = read_rgba(moments_tex, w, h).copy()
         timings["render_s"] = time.perf_counter() - t3
         timings["s_per_spp_per_mpx"] = timings["render_s"] / done / (w * h / 1e6)
 
         t4 = time.perf_counter()
-        sums = read_rgba(sum_tex, w, h)
+        state = Accumulators(read_rgba(sum_tex, w, h).copy(), moments, None, done)
+        sums = state.sums
         if catcher_tex is not None:
+            state.catcher = read_rgba(catcher_tex, w, h).copy()
             sums = sums.copy()
-            sums[..., 3] += catcher_coverage(read_rgba(catcher_tex, w, h))
+            sums[..., 3] += catcher_coverage(state.catcher)
         # The mean, as a texture (GL rows bottom-up), through the chart's display program.
         mean_tex = ctx.texture((w, h), 4, np.ascontiguousarray(sums[::-1] / done, np.float32).tobytes(), dtype="f4")
         owned.append(mean_tex)
@@ -241,7 +282,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
     return ReferenceResult(hdr=np.ascontiguousarray(mean[..., :3], np.float32), alpha=mean[..., 3].copy(),
                            stderr=stderr, samples=done, error=error, image=image.copy(), aov=aov, camera=scene.camera,
                            source=plan.integrator, seed=seed, max_bounces=max_bounces,
-                           non_finite=int(moments[..., 3].sum()), timings=timings)
+                           non_finite=int(moments[..., 3].sum()), timings=timings, accumulators=state)
 
 
 def catcher_coverage(catcher: np.ndarray) -> np.ndarray:
@@ -254,13 +295,16 @@ def catcher_coverage(catcher: np.ndarray) -> np.ndarray:
     return catcher[..., 2] * (1.0 - np.clip(kept, 0.0, 1.0))
 
 
-def _accumulate(ctx, program, sum_tex, moments_tex, w, h, samples, target_error, sphere, progress) -> int:
-    """Run batches until ``samples`` per pixel or the target error; returns the samples done.
-    The error is checked on a schedule that depends only on the sample count (every batch
-    up to 5 % more samples), so where a run stops does not depend on timing."""
+def _accumulate(ctx, program, sum_tex, moments_tex, w, h, first, samples, target_error, sphere, progress) -> int:
+    """Run batches from sample ``first`` until ``samples`` per pixel or the target error;
+    returns the samples done. The error is checked on a schedule that depends only on the
+    sample count (every batch up to 5 % more samples), so where a run stops does not depend
+    on timing."""
     per_batch = batch_size(w, h)
     bar = Progress(samples, "sdfpbr reference", unit="spp", enabled=progress)
-    done, error = 0, float("nan")
+    if first:
+        bar.update(first, "")
+    done, error = first, float("nan")
     next_check = min(MIN_SAMPLES_FOR_TARGET, samples)
     last_shown = -math.inf
     with bar:
