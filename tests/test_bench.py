@@ -62,6 +62,8 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
     noise = {s: {r["ref_noise_flip"] for r in rows.values() if r["scene"] == s} for s in cfg.scenes}
     assert all(len(v) == 1 for v in noise.values())   # one floor per scene
     assert "render ms" in stdout and "FLIP" in stdout
+    hint = f"--ref-samples {2 * cfg.ref_samples} goes on from the cached {cfg.ref_samples}-sample ones"
+    assert (hint in stdout) == any(not r["ref_judges"] for r in rows.values()), stdout
     assert path.with_suffix(".png").stat().st_size > 1000    # the time-vs-error plot
     heat = sorted(p.name for p in (path.parent / "heat").iterdir())
     assert heat == sorted(f"flip_{s}_{p}.png" for s, p in rows)

@@ -72,6 +72,10 @@ def format_table(report: dict) -> str:
     methods = sorted({r["timing"] for r in report["rows"] if r.get("timing")})
     lines.append(f"timing: {', '.join(methods)}; {report['machine']['gl_renderer']}, "
                  f"{report['machine']['cpu_count']} CPUs")
+    noisy = sorted({r["ref_samples"] for r in report["rows"] if r.get("ref_judges") is False and r.get("ref_samples")})
+    if noisy:   # a bigger reference goes on from the cached one (accuracy.get_reference)
+        lines.append(f"a reference too noisy to judge: --ref-samples {2 * noisy[-1]} goes on from the "
+                     f"cached {noisy[-1]}-sample ones")
     return "\n".join(lines)
 
 
