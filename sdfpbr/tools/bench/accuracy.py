@@ -97,10 +97,9 @@ def _reference_code_digest(spec: ChartSpec) -> str:
 
 def reference_key(spec: ChartSpec, samples: int, seed: int) -> str:
     from ...cache import content_key
-    d = spec.to_dict()
-    for k in ("quality", "backend", "device_index", "labels", "title"):
-        d.pop(k, None)
-    return content_key("bench-reference", d, samples, seed, __version__, _reference_code_digest(spec))
+    from ..reference import scene_fields
+    return content_key("bench-reference", scene_fields(spec), samples, seed, __version__,
+                       _reference_code_digest(spec))
 
 
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
@@ -138,12 +137,12 @@ def _resumable(session, spec: ChartSpec, samples: int, seed: int):
     with the most samples among samples/2, samples/4, ... that kept its accumulators, else
     (None, 0.0). A reference's samples are hashes of (seed, pixel, sample index), so going on
     from one gives the straight run's bits."""
-    from ..reference import Accumulators
+    from ..reference import Accumulators, run_key
     fewer = samples // 2
     while fewer >= 1:
         cached = session.cache.get("bench-reference", reference_key(spec, fewer, seed), require_finite=False)
         if cached is not None and "sums" in cached:
-            state = Accumulators(cached["sums"], cached["moments"], cached.get("catcher"), fewer)
+            state = Accumulators(cached["sums"], cached["moments"], cached.get("catcher"), fewer, run_key(spec, seed))
             return state, float(cached["seconds"])
         fewer //= 2
     return None, 0.0

@@ -34,17 +34,39 @@ RELATIVE_FLOOR = 0.01
 LOCAL = 8
 
 
+# A spec's fields that do not change its reference's pixels: the reference has no quality
+# preset, and where it runs or how the chart is labelled is not the scene.
+PRESENTATION_FIELDS = ("quality", "backend", "device_index", "labels", "title")
+
+
+def scene_fields(spec: ChartSpec) -> dict:
+    """The spec's fields a reference's pixels depend on (with its seed and bounces)."""
+    d = spec.to_dict()
+    for name in PRESENTATION_FIELDS:
+        d.pop(name, None)
+    return d
+
+
+def run_key(spec: ChartSpec, seed: int, max_bounces: int = DEFAULT_MAX_BOUNCES, lambert: bool = False) -> str:
+    """Names the sample sequence of a reference: runs with one key differ only in how many
+    samples they took."""
+    from ...cache import content_key
+    return content_key("reference-run", scene_fields(spec), int(seed), int(max_bounces), bool(lambert))
+
+
 @dataclass
 class Accumulators:
-    """The integrator's running state after ``samples`` per pixel, top row first: per-pixel
-    sums of the samples (RGBA), the luminance moments about a per-pixel shift (x: sum of
-    shifted values, y: sum of their squares, z: the shift, w: non-finite samples dropped) and,
-    with a shadow catcher, its sums. Samples are added one by one in sample order, so a run
-    resumed from the state after n samples equals, bit for bit, a run that went straight on."""
+    """The integrator's running state after ``samples`` per pixel of the run ``run`` (run_key),
+    top row first: per-pixel sums of the samples (RGBA), the luminance moments about a per-pixel
+    shift (x: sum of shifted values, y: sum of their squares, z: the shift, w: non-finite
+    samples dropped) and, with a shadow catcher, its sums. Samples are added one by one in
+    sample order, so a run resumed from the state after n samples equals, bit for bit, a run
+    that went straight on."""
     sums: np.ndarray
     moments: np.ndarray
     catcher: np.ndarray | None
     samples: int
+    run: str
 
 
 @dataclass
@@ -180,26 +202,30 @@ def render_reference(spec: ChartSpec, samples: int | None = None, target_error: 
     only: a target error's stopping schedule starts at the first sample.
     """
     samples, target_error, seed, max_bounces = validate_arguments(spec, samples, target_error, seed, max_bounces)
+    run = run_key(spec, seed, max_bounces, lambert)
     if resume is not None:
-        _check_resume(resume, spec, samples, target_error)
+        _check_resume(resume, run, spec, samples, target_error)
     session = session or default_session(spec.backend, spec.device_index)
     with session:
-        return _render(session, spec, samples, target_error, seed, max_bounces, progress, bool(lambert), resume)
+        return _render(session, spec, samples, target_error, seed, max_bounces, progress, bool(lambert), resume, run)
 
 
-def _check_resume(resume: Accumulators, spec: ChartSpec, samples: int, target_error) -> None:
+def _check_resume(resume: Accumulators, run: str, spec: ChartSpec, samples: int, target_error) -> None:
     if target_error is not None:
         raise SpecError("a reference resumes to a sample count, not to a target error")
-    shape = (spec.height, spec.width, 4)
+    if resume.run != run:
+        raise SpecError("the accumulators to resume from are another run's: another scene, seed, bounce count "
+                        "or lambert flag")
     if not 0 < resume.samples < samples:
         raise SpecError(f"a resumed reference needs more samples than its {resume.samples}, got {samples}")
+    shape = (spec.height, spec.width, 4)
     arrays = [resume.sums, resume.moments] + ([] if resume.catcher is None else [resume.catcher])
     if any(np.shape(a) != shape for a in arrays):
         raise SpecError(f"the accumulators to resume from are not {spec.width}x{spec.height} RGBA")
 
 
 def _render(session: Session, spec, samples, target_error, seed, max_bounces, progress, lambert,
-            resume: Accumulators | None) -> ReferenceResult:
+            resume: Accumulators | None, run: str) -> ReferenceResult:
     ctx = session.ctx
     timings = {}
     t0 = time.perf_counter()
@@ -261,7 +287,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         timings["s_per_spp_per_mpx"] = timings["render_s"] / done / (w * h / 1e6)
 
         t4 = time.perf_counter()
-        state = Accumulators(read_rgba(sum_tex, w, h).copy(), moments, None, done)
+        state = Accumulators(read_rgba(sum_tex, w, h).copy(), moments, None, done, run)
         sums = state.sums
         if catcher_tex is not None:
             state.catcher = read_rgba(catcher_tex, w, h).copy()
