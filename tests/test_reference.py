@@ -4,6 +4,7 @@ Expected pixel values are integrated here independently of the renderer: primary
 re-traced in numpy at 6 x 6 points per pixel (the reference averages over the pixel), and
 the BRDF integrals come from the float64 mirror. Tolerances are k standard errors of the
 reference's own per-pixel estimate plus a stated bias bound."""
+import dataclasses
 import subprocess
 import sys
 
@@ -219,6 +220,9 @@ def test_resume_needs_the_same_run_with_fewer_samples(session):
                              session=session, resume=state)
     with pytest.raises(SpecError, match="not to a target error"):
         render_reference(spec, target_error=0.1, session=session, resume=state)
+    cut = dataclasses.replace(state, sums=state.sums[:8])   # its own run's name on arrays of another size
+    with pytest.raises(SpecError, match="not 16x16 RGBA"):
+        render_reference(spec, samples=8, seed=1, session=session, resume=cut)
     # What does not change the pixels does not change the run.
     render_reference(make_spec(width=16, height=16, quality="high", title="x", **SHARED), samples=5, seed=1,
                      session=session, resume=state)
