@@ -250,7 +250,9 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     """The bench keeps a reference until what the path tracer runs changes: editing a
     chart-only shader (the floor return), or a comment, a docstring or the spacing of what it
     runs, keeps hours of references; editing the path tracer's code renders them again. The
-    preset is not the scene (one key for every preset); the samples and the seed are."""
+    oracle enters by the values of the compensation table it gives the path tracer: a table
+    one ulp off is another key, the same values in a new array the same key. The preset is not
+    the scene (one key for every preset); the samples and the seed are."""
     import shutil
     from sdfpbr.shading import compose
     spec = suite.scene_spec("cells", suite.BenchConfig(width=64, height=64))
@@ -275,7 +277,13 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     assert key() in keys
     # Its Python: the integrator and its tables are keyed, its labels are not; as code.
     names = {p.name for p in accuracy.reference_code_files()}
-    assert {"integrator.py", "tables.py", "__init__.py", "mirror.py"} <= names and "labels.py" not in names
+    assert {"integrator.py", "tables.py", "__init__.py"} <= names and not {"labels.py", "mirror.py", "lobes.py"} & names
+    from sdfpbr.tools import reference
+    table = reference.compensation_table(spec.brdf)
+    for values, kept in ((table.copy(), True), (np.nextafter(table, np.float32(2.0)), False)):
+        monkeypatch.setattr(reference, "compensation_table", lambda model, cache=None, sheen=False, t=values: t)
+        assert (key() in keys) == kept
+    monkeypatch.undo()
     copies = []
     for i, p in enumerate(accuracy.reference_code_files()):
         (tmp_path / "py" / str(i)).mkdir(parents=True)

@@ -36,9 +36,10 @@ def reference_available() -> bool:
 
 
 # The Python a reference's pixels depend on besides its own package: the frame (tiles, bindings,
-# display), the camera and the stage's geometry, and the float64 BRDF its tables come from.
-REFERENCE_DEPENDENCIES = ("sdfpbr.gpu.frame", "sdfpbr.shading.camera", "sdfpbr.shading.cells",
-                          "sdfpbr.oracle.lobes", "sdfpbr.oracle.mirror")
+# display), the camera and the stage's geometry. The float64 BRDF its compensation table comes
+# from (sdfpbr.oracle) enters by the table's values, not its code: an oracle edit that leaves
+# the table as it was leaves the references too.
+REFERENCE_DEPENDENCIES = ("sdfpbr.gpu.frame", "sdfpbr.shading.camera", "sdfpbr.shading.cells")
 
 
 # The reference package's modules no pixel depends on (its labels), left out of the key.
@@ -80,26 +81,30 @@ def python_code(text: str) -> str:
     return ast.dump(tree)
 
 
-def _reference_code_digest(spec: ChartSpec) -> str:
+def _reference_code_digest(spec: ChartSpec, cache=None) -> str:
     """The reference's code for this spec: reference_code_files and the programs its plan
-    composes, as code (so an edit of a chart-only shader, of the reference's labels or of a
-    comment leaves the bench's references alone, and any edit of what the path tracer runs
-    re-renders them)."""
+    composes, as code, and the values of the compensation table it reads (so an edit of a
+    chart-only shader, of the reference's labels, of a comment or of the oracle beside the
+    table leaves the bench's references alone, and any edit of what the path tracer runs or
+    reads re-renders them). ``cache``: where the table is kept (else computed)."""
     from ...shading.plan import reference_plan
+    from ..reference import compensation_choice, compensation_table
     h = hashlib.sha256()
     for p in reference_code_files():
         h.update(p.name.encode())
         h.update(python_code(p.read_text(encoding="utf-8")).encode())
-    for source in reference_plan(spec).sources():
+    plan = reference_plan(spec)
+    for source in plan.sources():
         h.update(glsl_code(source.text).encode())
+    h.update(np.ascontiguousarray(compensation_table(cache=cache, **compensation_choice(spec, plan))).tobytes())
     return h.hexdigest()
 
 
-def reference_key(spec: ChartSpec, samples: int, seed: int) -> str:
+def reference_key(spec: ChartSpec, samples: int, seed: int, cache=None) -> str:
     from ...cache import content_key
     from ..reference import scene_fields
     return content_key("bench-reference", scene_fields(spec), samples, seed, __version__,
-                       _reference_code_digest(spec))
+                       _reference_code_digest(spec, cache))
 
 
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
@@ -107,7 +112,7 @@ def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -
     rendered, going on from the cached run of the same seed with half (a quarter, ...) the
     samples when there is one; ``seconds`` is the render time of all its samples."""
     from ..reference import render_reference
-    key = reference_key(spec, samples, seed)
+    key = reference_key(spec, samples, seed, session.cache)
     cached = session.cache.get("bench-reference", key, require_finite=False)   # stderr may be NaN
     if cached is not None:
         return Reference(cached["hdr"], cached["image"], cached["stderr"], cached["row"], cached["col"],
@@ -140,7 +145,7 @@ def _resumable(session, spec: ChartSpec, samples: int, seed: int):
     from ..reference import Accumulators, run_key
     fewer = samples // 2
     while fewer >= 1:
-        cached = session.cache.get("bench-reference", reference_key(spec, fewer, seed), require_finite=False)
+        cached = session.cache.get("bench-reference", reference_key(spec, fewer, seed, session.cache), require_finite=False)
         if cached is not None and "sums" in cached:
             state = Accumulators(cached["sums"], cached["moments"], cached.get("catcher"), fewer, run_key(spec, seed))
             return state, float(cached["seconds"])

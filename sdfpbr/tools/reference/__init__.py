@@ -43,8 +43,8 @@ from __future__ import annotations
 from .integrator import (DEFAULT_MAX_BOUNCES, Accumulators, ReferenceResult, batch_size, cell_reach,
                          relative_error, render_reference, run_key, scene_fields, validate_arguments)
 from .labels import footer_text, label
-from .tables import compensation_table, environment_cdfs
+from .tables import compensation_choice, compensation_table, environment_cdfs
 
 __all__ = ["DEFAULT_MAX_BOUNCES", "Accumulators", "ReferenceResult", "batch_size", "cell_reach",
-           "compensation_table", "environment_cdfs", "footer_text", "label", "relative_error", "render_reference",
+           "compensation_choice", "compensation_table", "environment_cdfs", "footer_text", "label", "relative_error", "render_reference",
            "run_key", "scene_fields", "validate_arguments"]

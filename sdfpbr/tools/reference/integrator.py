@@ -18,7 +18,7 @@ from ...shading.compose import ComposedSource
 from ...shading.cells import stage
 from ...shading.plan import ReferencePlan, quality, reference_plan
 from ...spec.chart_spec import ChartSpec
-from .tables import compensation_texture, environment_sampling
+from .tables import compensation_choice, compensation_texture, environment_sampling
 
 DEFAULT_MAX_BOUNCES = 4        # surface interactions per path; 1 = direct light only
 DEFAULT_SAMPLES = 64           # per pixel, when neither samples nor a target error is given
@@ -239,7 +239,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
     try:
         scene.uniforms.update({"u_cell_reach": cell_reach(spec), "u_max_bounces": max_bounces,
                                "u_lambert_only": int(lambert), "u_seed": seed})
-        scene.add_texture("u_dfg", compensation_texture(session, spec.brdf, bool(plan.options.get("SHEEN"))))
+        scene.add_texture("u_dfg", compensation_texture(session, **compensation_choice(spec, plan)))
         env_tables = environment_sampling(session, plan.env_table, scene.environment)
         scene.uniforms["u_env_sampling"] = int(env_tables is not None)
         scene.uniforms["u_env_map_size"] = env_tables["size"] if env_tables is not None else (1, 1)

@@ -21,6 +21,15 @@ ENV_SUPERSAMPLE = 2            # env evaluations per texel edge
 LOCAL = 8                      # compute work-group edge
 
 
+_tables: dict = {}   # this process's tables by key: a bench keys each reference by its table
+
+
+def compensation_choice(spec, plan) -> dict:
+    """The compensation table a reference of ``spec`` (its plan ``plan``) reads:
+    compensation_table's model and sheen."""
+    return {"model": spec.brdf, "sheen": bool(plan.options.get("SHEEN"))}
+
+
 def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarray:
     """(size, size, 4) float32: [j, i] = (A, B, C, E_s or 1) at NdotV = i/(size-1), r = j/(size-1),
     the layout dfg.glsl reads, by float64 quadrature (sdfpbr.oracle.mirror, .lobes for the
@@ -28,8 +37,11 @@ def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarra
     size, order = COMPENSATION_TABLE_SIZE, COMPENSATION_QUADRATURE
     key = content_key("reference-dfg", model, size, order, sheen, Path(mirror.__file__).read_bytes(),
                       Path(lobes.__file__).read_bytes() if sheen else b"")
+    if key in _tables:
+        return _tables[key]
     cached = cache.get("reference_dfg", key) if cache is not None else None
     if cached is not None:
+        _tables[key] = cached["table"]
         return cached["table"]
     grid = np.arange(size, dtype=np.float64) / (size - 1)
     a, b, c = mirror.dfg_integrate(np.maximum(grid[None, :], mirror.MIN_N_DOT_V), grid[:, None], model=model, n=order)
@@ -37,6 +49,7 @@ def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarra
     table = np.stack([a, b, c, e_sheen], axis=-1).astype(np.float32)
     if cache is not None:
         cache.put("reference_dfg", key, {"table": table})
+    _tables[key] = table
     return table
 
 
