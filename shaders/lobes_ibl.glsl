@@ -1,9 +1,11 @@
 // The KHR layers of lobes.glsl under the environment, over the base's IBL:
-// sheen: colour x E_s(N.V) x the mean radiance its lobe gathers; the base's specular scaled by
-// 1 - max3(colour) E_s(N.V) (its light comes in about the mirror direction, where N.L = N.V),
-// its diffuse by the spec's exact min(1 - c E_s(N.V), 1 - c E_s(N.L)) averaged over the cosine
-// (the simplified form on both, the base's diffuse at N.V > 0.5 read 2-7 % brighter than
-// the reference's exact form under the furnace). The lobe is wide and leans from N
+// sheen: colour x E_s(N.V) x the mean radiance its lobe gathers; the base scaled by the spec's
+// exact min(1 - c E_s(N.V), 1 - c E_s(N.L)), averaged over the light each part takes: its
+// diffuse over the cosine; its specular, on the sampled path (the high preset), over its GGX
+// lobe, else by the spec's simplified form at N.V alone (a rough base's specular 3-9 % bright
+// under the furnace: a rough lobe takes light from lower N.L, where E_s is larger; the
+// simplified form on the diffuse read it 2-7 % bright at N.V > 0.5). The lobe's rule costs
+// 32 lookups a pixel, 2x the draft's lobes chart for no measured FLIP. The lobe is wide and leans from N
 // towards V and the horizon: with SHEEN_LEAN the irradiance is read along the lobe's mean
 // direction c (shading.sheen's float64 table), its first band scaled by |c| over the cosine's
 // 2/3 (exact for bands 0 and 1) and its second by the square; else along N, as a cosine lobe;
@@ -49,6 +51,81 @@ float sheen_diffuse_scaling(float c, float e_sheen_view, float sheen_perceptual_
     return sum;
 }
 
+#if IBL_METHOD == sampled
+#include "hammersley.glsl"
+#include "sampling.glsl"
+
+// The sampled path's (the high preset's) specular scaling under light from every direction:
+// 1 - c max(E_s(N.V), E_s(N.L)) (the min above) averaged over the base's GGX lobe, weighted per
+// channel as its light is: f cos with F = f0_a (1 - Fc) + f0_b Fc (f0_a, f0_b: what multiplies
+// the DFG's A and B, the dielectric and metal lobes mixed by metallic). By an 8 x 4
+// Gauss-Legendre product over the visible-normal square (Heitz 2018; only N.V matters, so V
+// lies in the x-z plane), the azimuth over the half on one side of the N-V plane (the lobe is
+// mirror-symmetric about it); u's nodes are the rule's above. Within 0.009 of the float64
+// ratio for the lobes scene's material, 0.017 for a white sheen (tests/test_lobes.py bounds
+// it per pixel); the simplified form is up to 0.08 off.
+const float SHEEN_AZIMUTH_NODES[4] = float[4](-0.21528408, -0.08499526, 0.08499526, 0.21528408);
+const float SHEEN_AZIMUTH_WEIGHTS[4] = float[4](0.17392742, 0.32607258, 0.32607258, 0.17392742);
+
+vec3 sheen_specular_scaling(Material m, float c, float e_sheen_view, float n_dot_v) {
+#if KHR_SPECULAR
+    float weight = m.specular_weight;
+#else
+    float weight = 1.0;
+#endif
+    vec3 f0_a = mix(weight * dielectric_f0(m), m.base_color_linear, m.metallic);
+    float f0_b = mix(weight, 1.0, m.metallic);
+    vec3 v_local = vec3(sqrt(max(1.0 - n_dot_v * n_dot_v, 0.0)), 0.0, n_dot_v);
+    vec3 lobe = vec3(0.0), scaled = vec3(0.0);
+    for (int i = 0; i < 8; i++) {
+        for (int j = 0; j < 4; j++) {
+            // l = reflect(-v, h); its f cos / pdf is Vis N.L times a constant of the pixel.
+            vec3 h = sample_ggx_vndf(v_local, m.alpha, vec2(SHEEN_U_NODES[i], SHEEN_AZIMUTH_NODES[j]));
+            float v_dot_h = dot(v_local, h);
+            float n_dot_l = 2.0 * v_dot_h * h.z - n_dot_v;
+            if (n_dot_l <= 0.0) continue;
+            float fc = pow5_one_minus(v_dot_h);
+            vec3 w = (SHEEN_U_WEIGHTS[i] * SHEEN_AZIMUTH_WEIGHTS[j] * visibility_ibl(n_dot_l, n_dot_v, m.alpha) * n_dot_l)
+                   * (f0_a * (1.0 - fc) + f0_b * fc);
+            lobe += w;
+            scaled += w * max(e_sheen_view, sheen_albedo(n_dot_l, m.sheen_perceptual_roughness));
+        }
+    }
+    return 1.0 - c * scaled / max(lobe, vec3(1e-20));
+}
+
+// The sampled path's sheen (the high preset): the mean radiance its lobe gathers, integrated per
+// pixel like the specular (ibl_sampled.glsl): SHEEN_PIXEL_SAMPLES cosine-weighted directions
+// (the Charlie lobe is wide), each weighted by f_sheen / (cos / pi) and read from the
+// prefiltered map at the level whose kernel covers its solid angle, through the stage's
+// parallax. A ratio estimator: under a uniform environment it is that radiance, exactly.
+// The SH9 read along the lobe's mean direction (below) put the sheen 2 % bright at N.V 0.35-0.6
+// and 1.3 % dark at N.V > 0.85 under the studio (lobes scene, environment only).
+#define SHEEN_PIXEL_SAMPLES (IBL_PIXEL_SAMPLES / 2)
+vec3 sampled_sheen_radiance(Material m, vec3 n, vec3 v, float n_dot_v) {
+    vec3 t, b;
+    basis(n, t, b);
+    float alpha = sq(m.sheen_perceptual_roughness);
+    uint count = uint(SHEEN_PIXEL_SAMPLES);
+    vec3 sum = vec3(0.0);
+    float weights = 0.0;
+    for (uint i = 0u; i < count; ++i) {
+        vec3 l_local = sample_cosine_hemisphere(hammersley(i, count));
+        if (l_local.z <= 0.0) continue;
+        vec3 l = l_local.x * t + l_local.y * b + l_local.z * n;
+        float w = d_charlie(saturate(dot(n, normalize(v + l))), alpha) * v_sheen(l_local.z, n_dot_v, alpha);
+        float lod = filtered_lod(PI / (float(count) * l_local.z));
+#if STAGE_PROBE
+        sum += w * textureLod(u_prefiltered, stage_parallax(l), lod).rgb;
+#else
+        sum += w * textureLod(u_prefiltered, l, lod).rgb;
+#endif
+        weights += w;
+    }
+    return sum / max(weights, 1e-20);
+}
+#endif
+
 // The irradiance the sheen lobe gathers, in the cosine lobe's units (E / pi is its mean radiance).
 vec3 sheen_irradiance(Material m, vec3 n, vec3 v, float n_dot_v) {
 #if SHEEN_LEAN
@@ -76,10 +153,19 @@ vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base, vec3 base_d
     float e_sheen = sheen_albedo(n_dot_v, m.sheen_perceptual_roughness);
 #if !BUG_SHEEN_NO_SCALING
     float c = max3(m.sheen_color_linear);
-    color = (base - base_diffuse) * (1.0 - c * e_sheen)
+#if IBL_METHOD == sampled
+    vec3 specular_scaling = sheen_specular_scaling(m, c, e_sheen, n_dot_v);
+#else
+    vec3 specular_scaling = vec3(1.0 - c * e_sheen);
+#endif
+    color = (base - base_diffuse) * specular_scaling
           + base_diffuse * sheen_diffuse_scaling(c, e_sheen, m.sheen_perceptual_roughness);
 #endif
+#if IBL_METHOD == sampled
+    color += m.sheen_color_linear * e_sheen * sampled_sheen_radiance(m, n, v, n_dot_v);
+#else
     color += m.sheen_color_linear * e_sheen * sheen_irradiance(m, n, v, n_dot_v) * INV_PI;
+#endif
 #endif
 #if CLEARCOAT
     vec3 n_c = m.clearcoat_normal;

@@ -196,23 +196,68 @@ def sheen_factorisation_gap(n_dot_v, m, n=64):
     return np.abs((kernel * scale[:, :, None]).sum((1, 2)) - kernel.sum((1, 2)) * cosine_mean)
 
 
+def sheen_specular_rule(n_dot_v, m):
+    """lobes_ibl.glsl's sheen_specular_scaling in float64 (..., 3): 1 - c max(E_s(N.V), E_s(N.L))
+    averaged over the base's GGX lobe by its 8 x 4 Gauss-Legendre product over the
+    visible-normal square, the azimuth on one side of the N-V plane, each node weighted by
+    Vis N.L F (Heitz 2018's map of the square to half vectors, written again here), with the
+    float64 E_s; and the rule's N.L (..., 32) with each node's share of the weight (..., 32, 3)."""
+    mu = np.clip(np.asarray(n_dot_v, np.float64), mirror.MIN_N_DOT_V, 1.0)[:, None]
+    r = max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
+    alpha = r * r
+    r_s = max(m.sheen_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
+    x8, w8 = mirror.gauss_legendre01(8)
+    x4, w4 = np.polynomial.legendre.leggauss(4)
+    u1, u2, w = np.repeat(x8, 4), np.tile(x4 / 4.0, 8), np.repeat(w8, 4) * np.tile(w4, 8)
+    sin_v = np.sqrt(1.0 - mu * mu)
+    vh = np.stack(np.broadcast_arrays(alpha * sin_v, 0.0 * mu, mu), -1)
+    vh = vh / np.linalg.norm(vh, axis=-1, keepdims=True)
+    tilted = vh[..., 0] > 0.0   # t1 = (0, 1, 0) off the normal, (1, 0, 0) on it
+    t1 = np.where(tilted[..., None], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0])
+    t2 = np.cross(vh, t1)
+    p1, p2 = np.sqrt(u1) * np.cos(2.0 * np.pi * u2), np.sqrt(u1) * np.sin(2.0 * np.pi * u2)
+    s = 0.5 * (1.0 + vh[..., 2])
+    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
+    nh = p1[..., None] * t1 + p2[..., None] * t2 + np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))[..., None] * vh
+    h = np.stack(np.broadcast_arrays(alpha * nh[..., 0], alpha * nh[..., 1], np.maximum(nh[..., 2], 0.0)), -1)
+    h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+    v_dot_h = sin_v * h[..., 0] + mu * h[..., 2]
+    n_dot_l = 2.0 * v_dot_h * h[..., 2] - mu
+    lit = n_dot_l > 0.0
+    nl = np.where(lit, n_dot_l, 1.0)
+    f0 = lobes.dielectric_f0(m.ior, m.specular_color)
+    f0_a = (1.0 - m.metallic) * m.specular * f0 + m.metallic * np.asarray(m.base_color)
+    f0_b = (1.0 - m.metallic) * m.specular + m.metallic
+    fc = mirror.fresnel_weight(v_dot_h)[..., None]
+    weight = np.where(lit, w * mirror.vis_smith_ggx_correlated(nl, mu, alpha) * nl, 0.0)[..., None] \
+        * (f0_a * (1.0 - fc) + f0_b * fc)
+    share = weight / weight.sum(1, keepdims=True)
+    e_s = np.maximum(lobes.sheen_albedo_interpolated(mu, r_s), lobes.sheen_albedo_interpolated(nl, r_s))
+    return 1.0 - max(m.sheen_color) * (share * e_s[..., None]).sum(1), nl, share
+
+
+@pytest.mark.parametrize("quality", ["default", "high"])
 @pytest.mark.parametrize("lobe", sorted(LOBE_MATERIALS))
-def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe):
-    """The chart's split sum with the layers (lobes_ibl.glsl) under the white furnace: exact
-    there but for its tables, against the mirror's albedo with the sheen scaled as the chart's
-    environment light scales it: the base's diffuse by the spec's exact form (its cosine mean
-    over N.L by an 8-point rule), its specular by the simplified form, at N.V (its light comes
-    in about the mirror direction). The specular's share is what a black base of the same
+def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
+    """The chart's split sum with the layers (lobes_ibl.glsl) under the white furnace, and the
+    high preset's per-pixel sampling (the specular's and the sheen's lobes: ratio estimators,
+    the furnace's radiance whatever their samples): exact there but for tables and rules,
+    against the mirror's albedo with the sheen scaled as the chart scales it: the base's
+    diffuse by the spec's exact form (its cosine mean over N.L by an 8-point rule), its
+    specular by the simplified form at N.V (split sum) or by the exact form's mean over the
+    GGX lobe by an 8 x 4 rule (sampled). The specular's share is what a black base of the same
     material reflects, under either form. Bound, per pixel, from what the chart reads: the DFG
     table's A, B, C at the base's roughness (each entering at most as 2 / E, C as the base
     colour), its E at the coat's (times the coat's weight), E_s at N.V (on the sheen and the
-    base it scales) and at the rule's eight N.L, the rule's own error, the chart's form of the
+    base it scales) and at the rules' N.L, each rule's own error (the specular's against
+    oracle.lobes.sheen_specular_scaling, times the base's specular), the chart's form of the
     sheen's diffuse scaling (the Lambert weight and the scaling averaged apart: 5e-4 at N.V
-    0.43), the mirror's albedo (interpolated on its 257-point grid; its quadrature's order), and
-    float32. (Not counted: the mirror's own E_s table inside layered_albedo, within 6e-5 of
+    0.43), the mirror's albedo (interpolated on its 257-point grid; its quadrature's order),
+    and float32. (Not counted: the mirror's own E_s table inside layered_albedo, within 6e-5 of
     the quadrature above N.V 0.05.)"""
+    sampled = render_plan(make_spec(quality=quality)).options.get("IBL_METHOD") == "sampled"
     m, keys = LOBE_MATERIALS[lobe]
-    spec = furnace_spec(make_spec(**keys, width=96, height=96, rows=1, cols=1, metallic=0.0), white=False)
+    spec = furnace_spec(make_spec(**keys, width=96, height=96, rows=1, cols=1, metallic=0.0, quality=quality), white=False)
     res = session.render(spec)
     aov = res.aov
     mask = (aov["row"] == 0) & (aov["ndotv"] >= 0.2)
@@ -221,7 +266,7 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe):
 
     def albedo_on(grid, order=64):
         albedo = lobes.layered_albedo(grid, m, n=order)
-        if lobe == "sheen":
+        if lobe == "sheen" and not sampled:
             black = dataclasses.replace(m, base_color=(0.0, 0.0, 0.0))
             albedo = albedo + lobes.layered_albedo(grid, black, sheen_scaling="view", n=order) \
                 - lobes.layered_albedo(grid, black, n=order)
@@ -256,11 +301,29 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe):
         view_error = dfg_read_error(table, mu, np.full(mu.shape, r_s), e_view, 3)
         bound = bound + view_error * (shade * base_max + shade) + base_max * (rule_error + shade * node_error) \
             + base_max * sheen_factorisation_gap(mu, m)
+        # The sampled path's specular rule: its error against the float64 ratio (and that
+        # ratio's own, its step to twice its order) and E_s as read at N.V and at its N.L, each
+        # node by its share of the weight, times the base's specular, (f0 A + B) compensated.
+        exact = lobes.sheen_specular_scaling(mu, m)
+        rule, nodes, share = sheen_specular_rule(mu, m)
+        f0 = lobes.dielectric_f0(m.ior, m.specular_color)
+        base_specular = m.specular * (f0 * a[:, None] + b[:, None]) * mirror.energy_compensation(f0, a + b)
+        if sampled:
+            rule_error = np.abs(rule - exact) + np.abs(lobes.sheen_specular_scaling(mu, m, n=128) - exact)
+            node_read = dfg_read_error(table, nodes.ravel(), np.full(nodes.size, r_s),
+                                       lobes.sheen_albedo_interpolated(nodes.ravel(), r_s), 3).reshape(nodes.shape)
+            e_s_read = (share * np.maximum(node_read, view_error[:, None])[..., None]).sum(1)
+            bound = bound + (base_specular * (rule_error + shade * e_s_read)).max(-1)
     got = res.hdr[mask][:, :3].astype(np.float64)
     assert (np.abs(got - want) <= bound[:, None]).all(), (np.abs(got - want).max(-1) / bound).max()
-    if lobe == "sheen":   # the two forms of the scaling differ by more than the chart's whole bound
+    if lobe == "sheen":   # the two forms of the scaling differ by more than the chart's whole bound,
+        # on the base's specular alone too
         simplified = lobes.layered_albedo(grid, m, sheen_scaling="view")
         assert np.abs(simplified - albedo)[grid >= 0.2].max() > 2 * bound.max()
+        view = 1.0 - shade * lobes.sheen_albedo_interpolated(mu, r_s)
+        assert (base_specular * np.abs(view[:, None] - exact)).max() > 2 * bound.max()
+        # and the sampled path's rule tells them apart by more than its own error
+        assert np.abs(view[:, None] - exact).max() > 4 * np.abs(rule - exact).max()
     core_albedo = lobes.layered_albedo(grid, Material(base_color=m.base_color, roughness=m.roughness))
     assert np.abs(albedo - core_albedo).max() > 0.05   # the lobe changes the albedo by far more than the bound
 
@@ -304,6 +367,17 @@ def test_emission_is_added_as_is_and_dimmed_by_a_coat(session):
         fresnel = 0.04 + 0.96 * (1 - aov["ndotv"][mask].astype(np.float64)) ** 5
         want = np.array([2.0, 1.0, 0.5]) * (1 - coat * fresnel)[:, None]
         np.testing.assert_allclose(res.hdr[mask][:, :3], want, rtol=2e-3, atol=1e-5)
+
+
+@pytest.mark.parametrize("preset", ["draft", "default", "high"])
+def test_the_lobes_scene_renders_finite_under_its_environment(session, preset):
+    """Every lobe at once under the environment (the bench's lobes scene): no pixel is NaN or
+    infinite, the sphere centres included, where N.V rounds to just over 1 (the specular's
+    sheen scaling builds V's tangent part from 1 - N.V^2 there)."""
+    from sdfpbr.tools.bench import suite
+    spec = suite.scene_spec("lobes", suite.BenchConfig(width=96, height=96), preset)
+    res = session.render(spec)
+    assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0.0
 
 
 def test_a_scene_compiles_only_the_lobes_it_uses():

@@ -138,7 +138,7 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
     """Directional albedo int f cos dl (..., 3) at each N.V: the pixel value of the Material
     under a uniform environment of radiance 1 (the furnace), by quadrature.
     sheen_scaling "view": the base scaled by 1 - max3(c) E_s(N.V) alone, the spec's simplified
-    form that the chart's environment light uses (lobes_ibl.glsl).
+    form (which the chart's environment light once used for the base's specular).
 
     Each GGX lobe (base, coat) is integrated over its half vector with the mirror's split
     quadrature, weighted by the smooth factors the layers put on it; the Lambert and sheen
@@ -155,9 +155,9 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
         if sheen <= 0.0:
             return np.ones_like(n_dot_l)
         if sheen_scaling == "view":
-            return np.broadcast_to(1.0 - sheen * _sheen_albedo_interp(mu3, rs), np.broadcast_shapes(n_dot_l.shape, mu3.shape))
-        return np.minimum(1.0 - sheen * _sheen_albedo_interp(mu3, rs),
-                          1.0 - sheen * _sheen_albedo_interp(np.maximum(n_dot_l, MIN_N_DOT_V), rs))
+            return np.broadcast_to(1.0 - sheen * sheen_albedo_interpolated(mu3, rs), np.broadcast_shapes(n_dot_l.shape, mu3.shape))
+        return np.minimum(1.0 - sheen * sheen_albedo_interpolated(mu3, rs),
+                          1.0 - sheen * sheen_albedo_interpolated(np.maximum(n_dot_l, MIN_N_DOT_V), rs))
 
     # The base's GGX lobe: F weights (1 - Fc) and Fc for f0 and the rest, times the sheen scaling.
     A, B = _ggx_integrals(mu, r, model, n, sheen_scale if sheen > 0.0 else None)
@@ -185,11 +185,36 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
     return out.reshape(np.shape(n_dot_v) + (3,))
 
 
+def sheen_specular_scaling(n_dot_v, m, model="gltf", n=64):
+    """The base's specular scaling under light from every direction (..., 3): the spec's
+    min(1 - c E_s(N.V), 1 - c E_s(N.L)) averaged over the base's GGX lobe with the weights its
+    light takes, f_spec cos F per channel (F = f0_a (1 - Fc) + f0_b Fc, the dielectric and
+    metal lobes mixed by metallic); 1 without a sheen. lobes_ibl.glsl's
+    sheen_specular_scaling is a rule for it."""
+    mu = np.clip(np.asarray(n_dot_v, np.float64).ravel(), MIN_N_DOT_V, 1.0)
+    sheen = max(m.sheen_color)
+    if sheen <= 0.0:
+        return np.ones(np.shape(n_dot_v) + (3,))
+    r, _ = _params(m)
+    rs = max(m.sheen_roughness, MIN_PERCEPTUAL_ROUGHNESS)
+    f0 = dielectric_f0(m.ior, m.specular_color)
+    f0_a = (1.0 - m.metallic) * m.specular * f0 + m.metallic * np.asarray(m.base_color, np.float64)
+    f0_b = (1.0 - m.metallic) * m.specular + m.metallic
+
+    def scale(n_dot_l, mu3):
+        return np.minimum(1.0 - sheen * sheen_albedo_interpolated(mu3, rs),
+                          1.0 - sheen * sheen_albedo_interpolated(np.maximum(n_dot_l, MIN_N_DOT_V), rs))
+    a_scaled, b_scaled = _ggx_integrals(mu, r, model, n, scale)
+    a, b = _ggx_integrals(mu, r, model, n, None)
+    out = (f0_a * a_scaled[:, None] + f0_b * b_scaled[:, None]) / (f0_a * a[:, None] + f0_b * b[:, None])
+    return out.reshape(np.shape(n_dot_v) + (3,))
+
+
 _SHEEN_GRID = np.linspace(0.0, 1.0, 513) ** 2   # even in sqrt(N.V): E_s is steep at grazing
 _sheen_tables: dict = {}
 
 
-def _sheen_albedo_interp(n_dot_l, rs):
+def sheen_albedo_interpolated(n_dot_l, rs):
     """E_s at many N.L: the float64 quadrature on 513 N.V points even in sqrt(N.V), linearly
     interpolated (within 1e-3 of the quadrature below N.V 0.001, 6e-5 above 0.05, over r
     0.045-1 on 4001 points; an even grid of 257 was 0.036 off in its first step)."""
