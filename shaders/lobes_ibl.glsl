@@ -147,25 +147,27 @@ vec3 sheen_irradiance(Material m, vec3 n, vec3 v, float n_dot_v) {
 }
 #endif
 
-vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base, vec3 base_diffuse) {
+// bounce_ray (a literal): the cells stage's bounce rays, which average the sphere's light over
+// its cap onto the floor, take the split sum's sheen on the sampled path too (its per-pixel
+// integrals there cost 5 rays x 160 lookups a floor pixel for light the average smooths out).
+vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base, vec3 base_diffuse, bool bounce_ray) {
     vec3 color = base;
 #if SHEEN
     float e_sheen = sheen_albedo(n_dot_v, m.sheen_perceptual_roughness);
 #if !BUG_SHEEN_NO_SCALING
     float c = max3(m.sheen_color_linear);
-#if IBL_METHOD == sampled
-    vec3 specular_scaling = sheen_specular_scaling(m, c, e_sheen, n_dot_v);
-#else
     vec3 specular_scaling = vec3(1.0 - c * e_sheen);
+#if IBL_METHOD == sampled
+    if (!bounce_ray) specular_scaling = sheen_specular_scaling(m, c, e_sheen, n_dot_v);
 #endif
     color = (base - base_diffuse) * specular_scaling
           + base_diffuse * sheen_diffuse_scaling(c, e_sheen, m.sheen_perceptual_roughness);
 #endif
 #if IBL_METHOD == sampled
-    color += m.sheen_color_linear * e_sheen * sampled_sheen_radiance(m, n, v, n_dot_v);
-#else
-    color += m.sheen_color_linear * e_sheen * sheen_irradiance(m, n, v, n_dot_v) * INV_PI;
+    if (!bounce_ray) color += m.sheen_color_linear * e_sheen * sampled_sheen_radiance(m, n, v, n_dot_v);
+    else
 #endif
+    color += m.sheen_color_linear * e_sheen * sheen_irradiance(m, n, v, n_dot_v) * INV_PI;
 #endif
 #if CLEARCOAT
     vec3 n_c = m.clearcoat_normal;

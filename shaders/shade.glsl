@@ -39,13 +39,14 @@ float mirrored_sky_share(float y) {
 // code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
 // `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
 // false gives the open floor a shadow catcher divides by. `light_spread`, `light_specular`:
-// the bounce rays' (shade_sphere_for_bounce), 0 and 1 (literals) elsewhere.
+// the bounce rays' (shade_sphere_for_bounce), 0 and 1 (literals) elsewhere; `bounce_ray` (a
+// literal) true there.
 #if SPHERE_PLATE_PASS
 float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at metallic 0 and 1
 #endif
 
 vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
-                 float light_specular, bool blocked) {
+                 float light_specular, bool blocked, bool bounce_ray) {
 #if STAGE_PROBE
     g_shading_point = p;   // for the probe's parallax correction
 #endif
@@ -118,7 +119,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     vec3 sky_specular = ibl - diffuse_ibl;
 #endif
 #if LAYERED_IBL
-    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl, diffuse_ibl);
+    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl, diffuse_ibl, bounce_ray);
 #endif
 #if USE_AO
 #if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL
@@ -213,7 +214,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
 }
 
 vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0, 1.0, true);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, 0.0, 1.0, true, false);
 }
 
 // The sphere's light as a few bounce rays sample it: each punctual light's highlight spread as
@@ -222,18 +223,18 @@ vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 // (stage_bounce.glsl). With what its floor gives back (FLOOR_RETURN): the floor's light
 // returned by the sphere reaches the floor again (default chart 0.0292 -> 0.0289 mean FLIP).
 vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread, float specular) {
-    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, true);
+    return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, true, true);
 }
 
 vec3 shade_ground(vec3 p, vec3 v, float pixel_size) {
-    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, true);
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, true, false);
 }
 
 #if SHADOW_CATCHER || (SEE_THROUGH && STAGE == cells)
 // The ground as if no sphere stood on it: what a shadow catcher's transmittance is relative to,
 // and a see-through sphere's floor in the share of the light it lets past.
 vec3 shade_open_ground(vec3 p, vec3 v, float pixel_size) {
-    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, false);
+    return shade_point(p, vec3(0.0, 1.0, 0.0), v, ivec2(-1), pixel_size, true, 0.0, 1.0, false, false);
 }
 #endif
 
