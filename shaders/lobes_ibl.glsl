@@ -4,13 +4,16 @@
 // diffuse over the cosine; its specular, on the sampled path (the high preset), over its GGX
 // lobe, else by the spec's simplified form at N.V alone (a rough base's specular 3-9 % bright
 // under the furnace: a rough lobe takes light from lower N.L, where E_s is larger; the
-// simplified form on the diffuse read it 2-7 % bright at N.V > 0.5). The lobe's rule costs
-// 32 lookups a pixel, 2x the draft's lobes chart for no measured FLIP. The lobe is wide and leans from N
-// towards V and the horizon: with SHEEN_LEAN the irradiance is read along the lobe's mean
+// simplified form on the diffuse read it 2-7 % bright at N.V > 0.5). The GGX lobe's rule costs
+// 32 lookups a pixel: 2x the draft's lobes chart, for no FLIP measured. The sheen's light: on
+// the sampled path integrated per pixel; else (and in the bounce rays) from the SH9 irradiance.
+// Its lobe is wide and leans from N towards V and the horizon: with SHEEN_LEAN that irradiance is read along the lobe's mean
 // direction c (shading.sheen's float64 table), its first band scaled by |c| over the cosine's
 // 2/3 (exact for bands 0 and 1) and its second by the square; else along N, as a cosine lobe;
 // clearcoat: the coat's split sum E_c(N_c.V) x the prefiltered radiance along the coat's
 // mirror direction at its roughness, mixed over the rest by clearcoat F(N_c.V).
+#include "bounce_split.glsl"
+
 #if SHEEN
 #if SHEEN_LEAN
 #define SHEEN_CENTROID_ENTRIES (SHEEN_CENTROID_MU_STEPS * SHEEN_CENTROID_R_STEPS)
@@ -174,6 +177,11 @@ vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base, vec3 base_d
     float n_c_dot_v = max(dot(n_c, v), MIN_N_DOT_V);
     vec3 dfg_c = dfg_lookup(n_c_dot_v, m.clearcoat_perceptual_roughness);
     vec3 coat = prefiltered_radiance(reflect(-v, n_c), m.clearcoat_perceptual_roughness) * (dfg_c.x + dfg_c.y);
+#if BOUNCE_MIRROR_DIRECTIONS > 0
+    // The bounce rays: the coat's image of the sky is stage_bounce.glsl's closed form but for
+    // the share the rays resolve; they keep its image of the floor (as the base's, shade.glsl).
+    if (bounce_ray) coat *= mix(1.0, bounce_resolves(m.clearcoat_alpha), mirrored_sky_share(reflect(-v, n_c).y));
+#endif
 #if BUG_CLEARCOAT_ADDS
     color += coat * clearcoat_weight(m, v);
 #else

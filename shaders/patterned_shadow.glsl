@@ -34,7 +34,7 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops, float 
             if (hidden > 0.0) share += hidden * (light_ray_coverage(cell, vec3(0.0), o, l, angle) - stops);
         }
         if (share != 0.0)
-            taken += lights_brdf_cos(m, n, v, l, n_dot_v, u_dir_light_angular_radius[i], e_single, 1.0)
+            taken += lights_brdf_cos(m, n, v, l, n_dot_v, u_dir_light_angular_radius[i], e_single, 1.0, false)
                    * u_dir_light_illuminance[i] * (0.25 * share);
     }
 #endif
@@ -52,7 +52,7 @@ vec3 patterned_shadow_correction(vec3 p, vec3 v, ivec2 cell, float stops, float 
                 share += (1.0 - visible) * (light_ray_coverage(cell, vec3(0.0), ro + o, l, max(angle, 1e-4)) - stops);
         }
         if (share != 0.0)
-            taken += lights_brdf_cos(m, n, v, l, n_dot_v, angle, e_single, 1.0)
+            taken += lights_brdf_cos(m, n, v, l, n_dot_v, angle, e_single, 1.0, false)
                    * u_point_light_intensity[i] * point_falloff(dist, u_point_light_range[i]) * (0.25 * share);
     }
 #endif

@@ -1,3 +1,5 @@
+#include "bounce_split.glsl"
+
 #if USE_IBL
 // The ground's IBL: its view-direction table where the plan bakes one (GROUND_IBL: within 1 % of
 // the exact integral where the split sum is up to 8 % off, at the grazing angles a far floor
@@ -14,23 +16,33 @@ vec3 ground_ibl_term(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
 // A punctual light's f cos, its specular share weighted by `specular` (1, a literal, at every
 // call but the bounce's: stage_bounce.glsl takes the rest of a smooth sphere's reflection of
 // the lights and of the sky in closed form).
-vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
-                     float specular) {
+vec3 base_lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
+                          float specular) {
     if (specular >= 1.0) return brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single);
     if (specular <= 0.0) return diffuse_brdf_cos(m, n, v, l);
     return mix(diffuse_brdf_cos(m, n, v, l), brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single), specular);
 }
 
-#if BOUNCE_MIRROR_DIRECTIONS > 0
-// How much of a smooth sphere's reflection towards its floor along a direction with height y
-// stage_bounce.glsl mirrors in closed form (the sky, at infinity), and the rest the bounce rays
-// carry (the floor, near): a ramp across the horizon.
-#define MIRRORED_SKY_RAMP 0.1
-float mirrored_sky_share(float y) {
-    return smoothstep(-MIRRORED_SKY_RAMP, MIRRORED_SKY_RAMP, y);
+// bounce_ray (a literal): a coat's image of the light is stage_bounce.glsl's too, but for the
+// share of it the rays resolve; the base under it keeps its own split.
+vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
+                     float specular, bool bounce_ray) {
+#if CLEARCOAT
+    if (bounce_ray && m.clearcoat > 0.0) {
+        Material base = m;
+        base.clearcoat = 0.0;
+#if BUG_CLEARCOAT_ADDS
+        float kept = 1.0;
+#else
+        float kept = 1.0 - clearcoat_weight(m, v);
+#endif
+        return base_lights_brdf_cos(base, n, v, l, n_dot_v, light_angle, e_single, specular) * kept
+             + clearcoat_layer(m, vec3(0.0), v, l, light_angle) * bounce_resolves(m.clearcoat_alpha);
+    }
+#endif
+    return base_lights_brdf_cos(m, n, v, l, n_dot_v, light_angle, e_single, specular);
 }
 
-#endif
 
 // Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
 // lights (shadowed on the ground where shadows are composed in).
@@ -164,7 +176,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
         vec3 l = u_dir_light_direction[i];
         vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single,
-                                 light_specular) * u_dir_light_illuminance[i];
+                                 light_specular, bounce_ray) * u_dir_light_illuminance[i];
 #if USE_SHADOWS && (STAGE == cells || SCENE_SDF == nearest_cell)
         // The ground receives every light's shadow (each sphere's share of the disc, shadow.glsl;
         // on the cells stage over the pixel's footprint).
@@ -189,7 +201,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         float dist = length(to_light);
         vec3 l = to_light / dist;
         float angle = point_angular_radius(i, dist);
-        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(angle, light_spread), e_single, light_specular)
+        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(angle, light_spread), e_single, light_specular, bounce_ray)
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
