@@ -28,6 +28,16 @@ float filtered_lod(float omega) {
     return k + saturate((x4 - k4) / (k14 - k4));
 }
 
+// The environment along l as a sample of the sampled path reads it: the prefiltered map at lod,
+// through the stage's parallax where the stage has a probe.
+vec3 sampled_radiance(vec3 l, float lod) {
+#if STAGE_PROBE
+    return textureLod(u_prefiltered, stage_parallax(l), lod).rgb;
+#else
+    return textureLod(u_prefiltered, l, lod).rgb;
+#endif
+}
+
 struct SampledSpecular { vec3 mean_a; vec3 mean_b; };
 
 SampledSpecular sampled_specular(vec3 n, vec3 v, float n_dot_v, float alpha) {
@@ -51,11 +61,7 @@ SampledSpecular sampled_specular(vec3 n, vec3 v, float n_dot_v, float alpha) {
         vec3 l = l_local.x * t + l_local.y * b + l_local.z * n;
         float pdf = d_ggx(h_local.z, alpha) / (2.0 * lambda_denominator);
         float weight = visibility_ibl(l_local.z, n_dot_v, alpha) * l_local.z * 2.0 * lambda_denominator;
-#if STAGE_PROBE
-        vec3 radiance = textureLod(u_prefiltered, stage_parallax(l), filtered_lod(1.0 / (float(count) * pdf))).rgb;
-#else
-        vec3 radiance = textureLod(u_prefiltered, l, filtered_lod(1.0 / (float(count) * pdf))).rgb;
-#endif
+        vec3 radiance = sampled_radiance(l, filtered_lod(1.0 / (float(count) * pdf)));
         float fc = pow5_one_minus(v_dot_h);
         sum_a += radiance * (weight * (1.0 - fc));
         sum_b += radiance * (weight * fc);

@@ -117,12 +117,7 @@ vec3 sampled_sheen_radiance(Material m, vec3 n, vec3 v, float n_dot_v) {
         if (l_local.z <= 0.0) continue;
         vec3 l = l_local.x * t + l_local.y * b + l_local.z * n;
         float w = d_charlie(saturate(dot(n, normalize(v + l))), alpha) * v_sheen(l_local.z, n_dot_v, alpha);
-        float lod = filtered_lod(PI / (float(count) * l_local.z));
-#if STAGE_PROBE
-        sum += w * textureLod(u_prefiltered, stage_parallax(l), lod).rgb;
-#else
-        sum += w * textureLod(u_prefiltered, l, lod).rgb;
-#endif
+        sum += w * sampled_radiance(l, filtered_lod(PI / (float(count) * l_local.z)));
         weights += w;
     }
     return sum / max(weights, 1e-20);

@@ -101,10 +101,13 @@ def _reference_code_digest(spec: ChartSpec, cache=None) -> str:
 
 
 def reference_key(spec: ChartSpec, samples: int, seed: int, cache=None) -> str:
+    return _key(spec, samples, seed, _reference_code_digest(spec, cache))
+
+
+def _key(spec: ChartSpec, samples: int, seed: int, code_digest: str) -> str:
     from ...cache import content_key
     from ..reference import scene_fields
-    return content_key("bench-reference", scene_fields(spec), samples, seed, __version__,
-                       _reference_code_digest(spec, cache))
+    return content_key("bench-reference", scene_fields(spec), samples, seed, __version__, code_digest)
 
 
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
@@ -112,12 +115,13 @@ def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -
     rendered, going on from the cached run of the same seed with half (a quarter, ...) the
     samples when there is one; ``seconds`` is the render time of all its samples."""
     from ..reference import render_reference
-    key = reference_key(spec, samples, seed, session.cache)
+    code_digest = _reference_code_digest(spec, session.cache)
+    key = _key(spec, samples, seed, code_digest)
     cached = session.cache.get("bench-reference", key, require_finite=False)   # stderr may be NaN
     if cached is not None:
         return Reference(cached["hdr"], cached["image"], cached["stderr"], cached["row"], cached["col"],
                          int(cached["samples"]), float(cached["seconds"]), True)
-    resume, before = _resumable(session, spec, samples, seed)
+    resume, before = _resumable(session, spec, samples, seed, code_digest)
     if log:
         log(f"reference: {spec.rows}x{spec.cols} {spec.width}x{spec.height}, {samples} samples/pixel"
             + (f", going on from the cached {resume.samples}" if resume else "") + " ...")
@@ -137,7 +141,7 @@ def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -
     return out
 
 
-def _resumable(session, spec: ChartSpec, samples: int, seed: int):
+def _resumable(session, spec: ChartSpec, samples: int, seed: int, code_digest: str):
     """(accumulators, their render seconds) of the cached reference of ``spec`` and ``seed``
     with the most samples among samples/2, samples/4, ... that kept its accumulators, else
     (None, 0.0). A reference's samples are hashes of (seed, pixel, sample index), so going on
@@ -145,7 +149,7 @@ def _resumable(session, spec: ChartSpec, samples: int, seed: int):
     from ..reference import Accumulators, run_key
     fewer = samples // 2
     while fewer >= 1:
-        cached = session.cache.get("bench-reference", reference_key(spec, fewer, seed, session.cache), require_finite=False)
+        cached = session.cache.get("bench-reference", _key(spec, fewer, seed, code_digest), require_finite=False)
         if cached is not None and "sums" in cached:
             state = Accumulators(cached["sums"], cached["moments"], cached.get("catcher"), fewer, run_key(spec, seed))
             return state, float(cached["seconds"])
