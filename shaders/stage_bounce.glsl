@@ -46,7 +46,7 @@ vec3 sphere_reflected_sky(vec3 q, Material m) {
         vec3 l = spiral_direction(k, BOUNCE_MIRROR_DIRECTIONS, -MIRRORED_SKY_RAMP);
         float cos_i;
         float e = mirror_irradiance(q, l, width, cos_i);
-        if (e > 0.0) sum += sphere_fresnel(m, cos_i) * textureLod(u_prefiltered, l, lod).rgb * (e * mirrored_sky_share(l.y));
+        if (e > 0.0) sum += mirror_fresnel(m, cos_i) * textureLod(u_prefiltered, l, lod).rgb * (e * mirrored_sky_share(l.y));
     }
     return sum * share;
 }

@@ -8,6 +8,7 @@ import shutil
 import numpy as np
 import pytest
 from test_chart import chart_dfg_table, dfg_read_error
+from test_bugs import PROGRAM_RTOL
 from test_shading import rounding_bound
 from test_reference import FURNACE, check_converged, interior, luminance, primary_hits, table_bias
 
@@ -16,7 +17,7 @@ from sdfpbr.oracle import ibl_integral as ibl_oracle
 from sdfpbr.oracle import dfg_bake, display, lobes, mirror
 from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program, render_plan
-from sdfpbr.spec.chart_spec import make_spec
+from sdfpbr.spec.chart_spec import Light, make_spec
 from sdfpbr.spec.material import Material
 from sdfpbr.tools.energy import furnace_spec
 from sdfpbr.tools.reference import compensation_table, render_reference
@@ -367,6 +368,50 @@ def test_emission_is_added_as_is_and_dimmed_by_a_coat(session):
         fresnel = 0.04 + 0.96 * (1 - aov["ndotv"][mask].astype(np.float64)) ** 5
         want = np.array([2.0, 1.0, 0.5]) * (1 - coat * fresnel)[:, None]
         np.testing.assert_allclose(res.hdr[mask][:, :3], want, rtol=2e-3, atol=1e-5)
+
+
+# A clear coat over a white metal of its own roughness is that metal: the coat reflects
+# clearcoat F_c and the base, F = 1, reflects the rest, 1 - clearcoat F_c (the spec's
+# fresnel_coat). The floor under such a sphere takes its mirror image of the lights and the sky
+# in closed form (stage_bounce.glsl) from both layers, so the sum must come out as the bare
+# metal's: with the base's image not dimmed by the coat above it, the floor read up to 12 %
+# bright. `high` is left out: its sampled integrals draw the coat and the base with their own
+# sample sets, equal to the bare metal's in expectation only.
+@pytest.mark.parametrize("env", ["black", "studio"])
+@pytest.mark.parametrize("quality", ["draft", "default"])
+def test_a_clear_coat_over_a_white_mirror_leaves_its_floor_as_it_was(session, env, quality):
+    sun = Light("directional", direction=(-0.55, 0.65, 0.52), intensity=3.0, angular_radius_deg=2.0)
+    spec = dict(rows=1, cols=1, width=128, height=128, env=env, lights=(sun,), labels=False, quality=quality,
+                base_color=(1.0, 1.0, 1.0), roughness=0.05, metallic=1.0)
+    bare = session.render(make_spec(**spec), hdr=True, aovs=True)
+    coated = session.render(make_spec(**spec, clearcoat=1.0, clearcoat_roughness=0.05), hdr=True)
+    floor = bare.aov["coverage"] == 0
+    want, got = bare.hdr[floor][:, :3].astype(np.float64), coated.hdr[floor][:, :3].astype(np.float64)
+    assert want.max() > 0.1 and floor.sum() > 8000
+    # Two programs (the coat composes in): each rounding that moves is worth 2^-24 of the
+    # floor's light, of which the brightest pixel is a bound.
+    np.testing.assert_allclose(got, want, rtol=0, atol=PROGRAM_RTOL * want.max())
+
+
+# A sheen over a base that reflects nothing (black, no specular: KHR_materials_specular 0) is
+# the sheen alone, whatever the base's roughness. The floor's light from a smooth base comes
+# two ways (stage_bounce.glsl: the base's mirror image in closed form, the rest by the bounce
+# rays), from a rough one by the rays alone; the sheen's own lobe must reach the floor either
+# way. The rays of a smooth base kept only its diffuse: its floor read up to 1.2 % of its
+# brightest pixel off the rough base's.
+@pytest.mark.parametrize("env", ["black", "studio"])
+@pytest.mark.parametrize("quality", ["draft", "default", "high"])
+def test_a_sheens_light_on_its_floor_does_not_depend_on_the_base_under_it(session, env, quality):
+    sun = Light("directional", direction=(-0.55, 0.65, 0.52), intensity=3.0, angular_radius_deg=2.0)
+    spec = dict(rows=1, cols=1, width=128, height=128, env=env, lights=(sun,), labels=False, quality=quality,
+                base_color=(0.0, 0.0, 0.0), metallic=0.0, specular=0.0, sheen_color=(1.0, 0.6, 0.8),
+                sheen_roughness=0.4)
+    rough = session.render(make_spec(**spec, roughness=0.9), hdr=True, aovs=True)
+    smooth = session.render(make_spec(**spec, roughness=0.05), hdr=True)
+    floor = rough.aov["coverage"] == 0
+    want, got = rough.hdr[floor][:, :3].astype(np.float64), smooth.hdr[floor][:, :3].astype(np.float64)
+    assert want.max() > 0.1 and floor.sum() > 8000
+    np.testing.assert_allclose(got, want, rtol=0, atol=PROGRAM_RTOL * want.max())   # as above
 
 
 @pytest.mark.parametrize("preset", ["draft", "default", "high"])
