@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from sdfpbr.tools.bench import ablation, accuracy, cold, suite, timing
+from sdfpbr.tools.bench import ablation, accuracy, cold, end_to_end, suite, timing
 from sdfpbr.tools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
 from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import ShaderCompileError, SpecError
@@ -216,6 +216,7 @@ def test_code_identifiers_ignore_comments_and_count_uses():
     (["--baseline", "/nonexistent/shader.glsl"], "does not exist"),
     (["--json", "/nonexistent/dir/out.json"], "does not exist"),
     (["--json", "out.txt"], "must end in .json"),
+    (["--end-to-end", "--json", "out.txt"], "must end in .json"),
     (["--repeats", "0"], "repeats"),
     (["--repeats", "many"], "invalid int"),
     (["--size", "12x"], "size"),
@@ -244,6 +245,25 @@ def test_timing_only_run_writes_json_and_no_plot(tmp_path):
     assert out.exists() and not out.with_suffix(".png").exists()
     proc = subprocess.run(base + ["--plot", str(tmp_path / "p.png")], capture_output=True, text=True)
     assert proc.returncode == 2 and "--no-reference" in proc.stderr and not (tmp_path / "p.png").exists()
+
+
+def test_end_to_end_measures_each_figure_beside_its_target(session, tmp_path):
+    """`bench --end-to-end` at a toy size: every figure measured (a finite value, a target and
+    whether it is met; timings are reported, not asserted here), peak memory read from the
+    child processes, and an animation grows the cache by no more than the one bake its first
+    chart made (its later frames' bakes are not written)."""
+    charts = tmp_path / "charts"
+    charts.mkdir()
+    (charts / "one.toml").write_text('rows = 2\ncols = 2\nsize = "64x64"\n', encoding="utf-8")
+    cfg = suite.BenchConfig(width=64, height=64)
+    figures = end_to_end.end_to_end_figures(session, cfg, charts, frames=3, big_size=96)
+    assert len(figures) == 8, [f.name for f in figures]
+    for f in figures:
+        assert f.value is not None and math.isfinite(f.value) and f.target and isinstance(f.met, bool), f
+    by_unit = {f.unit: f for f in figures}
+    assert by_unit["GB"].value > 0 and by_unit["x one chart's"].value > 0
+    assert by_unit["MB"].met, by_unit["MB"]   # the orbit's cache growth within one bake
+    assert "every image rendered" in figures[3].detail and "nothing changed" in figures[4].name
 
 
 def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):

@@ -56,6 +56,11 @@ def register(subparsers) -> None:
     p.add_argument("--no-cold", action="store_true", help="skip the cold-process columns")
     p.add_argument("--ablation", action="store_true", help="add the feature ablation rows")
     p.add_argument("--baseline", metavar="FILE", help="also time a Shadertoy-style shader (.glsl or a document)")
+    p.add_argument("--end-to-end", action="store_true",
+                   help="instead of the scenes: what a chart costs around its draw (the warm API call, "
+                        "starts, a gallery build of --charts, an orbit's and an 8192² chart's peak memory), "
+                        "each beside its target")
+    p.add_argument("--charts", metavar="DIR", default="charts", help="--end-to-end's gallery (default: ./charts)")
     p.add_argument("--json", metavar="FILE.json",
                    help="write {machine, settings, rows: [...]} as JSON; rows carry every column and more "
                         "(link_ms, first_draw_ms, hdr_flip_mean, per-sphere flip_cells, ref_rel_noise, ...)")
@@ -97,6 +102,8 @@ def run(args) -> int:
     # Every destination is checked before the (long) run.
     if args.json:
         check_writable(args.json, (".json",), "--json")
+    if args.end_to_end:
+        return _end_to_end(cfg, Path(args.charts), args.json)
     plot = args.plot
     if plot and args.no_reference:
         raise SpecError("--plot draws time against error, which --no-reference does not measure")
@@ -119,4 +126,22 @@ def run(args) -> int:
         write_plot(plot, report)
         if not args.quiet:
             print(f"plot: {plot}", file=sys.stderr)
+    return 0
+
+
+def _end_to_end(cfg, charts, json_path) -> int:
+    import os
+    import sys
+
+    from ... import __version__
+    from ...gpu.session import default_session
+    from ...tools.bench.end_to_end import end_to_end_figures, format_figures
+    from ...tools.bench.report import write_json
+    session = default_session(cfg.backend, 0)
+    figures = end_to_end_figures(session, cfg, charts)
+    print(format_figures(figures))
+    if json_path:
+        machine = {"gl_renderer": session.renderer, "cpu_count": os.cpu_count(),
+                   "python": sys.version.split()[0], "sdfpbr": __version__}
+        write_json(json_path, {"machine": machine, "end_to_end": [f.row() for f in figures]})
     return 0
