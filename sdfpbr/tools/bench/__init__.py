@@ -24,6 +24,7 @@ For every scene of a fixed suite and every quality preset it measures
 
 Modules: ``suite`` (scenes, presets, ablations, the configuration), ``timing`` (draws and
 compiles on a GL context), ``cold`` (fresh processes), ``accuracy`` (cached references and the
-error columns), ``ablation`` (one feature off at a time), ``run`` (the benchmark) and
-``report`` (table, JSON, plot).
+error columns), ``ablation`` (one feature off at a time), ``run`` (the benchmark),
+``report`` (table, JSON, plot) and ``end_to_end`` (``--end-to-end``: what a chart costs around
+its draw, each figure beside its target).
 """
