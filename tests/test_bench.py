@@ -266,6 +266,16 @@ def test_end_to_end_measures_each_figure_beside_its_target(session, tmp_path):
     assert "every image rendered" in figures[3].detail and "nothing changed" in figures[4].name
 
 
+def test_end_to_end_reads_a_childs_own_peak_memory_not_the_bench_process_size(tmp_path):
+    """Linux starts a child's peak resident memory at what its parent held when it forked: a
+    bench that holds charts would read its own size as every child's peak. 512 MB held here, a
+    64 x 64 chart in a child (under 300 MB wherever it was measured) must read below it."""
+    held = np.ones(64 * 2**20)   # 512 MB, every page touched
+    child = end_to_end.run_process(["chart", "--size", "64x64", "-o", str(tmp_path / "c.png")])
+    assert held.sum() > 0 and child.peak_bytes is not None
+    assert 0 < child.peak_bytes < held.nbytes, child.peak_bytes / 2**20
+
+
 def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     """The bench keeps a reference until what the path tracer runs changes: editing a
     chart-only shader (the floor return), or a comment, a docstring or the spacing of what it

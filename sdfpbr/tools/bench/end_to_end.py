@@ -65,25 +65,43 @@ class Process:
     peak_bytes: int | None   # None where the platform does not report a child's peak memory
 
 
+# A process's peak memory, as Linux counts it, starts at what its parent held when it forked
+# (the copied or shared address space's high-water mark survives exec): every child of this
+# bench, which holds charts, would read at least the bench's own size. So each command runs
+# under a small launcher of its own, which times it and reads its rusage (os.wait4); the
+# launcher holds little beyond the interpreter.
+LAUNCHER = """
+import json, os, subprocess, sys, time
+err = open(sys.argv[1], "wb")
+start = time.perf_counter()
+proc = subprocess.Popen(sys.argv[2:], stdout=subprocess.DEVNULL, stderr=err)
+if hasattr(os, "wait4"):
+    _, status, usage = os.wait4(proc.pid, 0)
+    code, peak = os.waitstatus_to_exitcode(status), usage.ru_maxrss * (1 if sys.platform == "darwin" else 1024)
+else:
+    code, peak = proc.wait(), None
+proc.returncode = code
+print(json.dumps([time.perf_counter() - start, code, peak]))
+"""
+
+
 def run_process(args: list[str], env: dict | None = None) -> Process:
-    """Run `python -m sdfpbr ARGS`; its wall time and peak resident memory (os.wait4)."""
-    cmd = [sys.executable, "-m", "sdfpbr", *args]
-    with tempfile.TemporaryFile() as err:
-        start = time.perf_counter()
-        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err)
-        if hasattr(os, "wait4"):
-            _, status, usage = os.wait4(proc.pid, 0)
-            proc.returncode = os.waitstatus_to_exitcode(status)
-            # ru_maxrss: kilobytes on Linux, bytes on macOS
-            peak = usage.ru_maxrss * (1 if sys.platform == "darwin" else 1024)
-        else:
-            proc.wait()
-            peak = None
-        seconds = time.perf_counter() - start
-        if proc.returncode != 0:
-            err.seek(0)
-            lines = err.read().decode(errors="replace").strip().splitlines() or ["no message"]
+    """Run `python -m sdfpbr ARGS` under the launcher: its wall time and peak resident memory."""
+    import json
+    with tempfile.NamedTemporaryFile(prefix="sdfpbr-e2e-", suffix=".err", delete=False) as f:
+        err_path = f.name
+    try:
+        cmd = [sys.executable, "-c", LAUNCHER, err_path, sys.executable, "-m", "sdfpbr", *args]
+        out = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        if out.returncode != 0:
+            raise SdfpbrError(f"bench: the launcher of `sdfpbr {' '.join(args)}` failed: "
+                              f"{(out.stderr.strip().splitlines() or ['no message'])[-1]}")
+        seconds, code, peak = json.loads(out.stdout)
+        if code != 0:
+            lines = Path(err_path).read_text(errors="replace").strip().splitlines() or ["no message"]
             raise SdfpbrError(f"bench: `sdfpbr {' '.join(args)}` failed: {lines[-1]}")
+    finally:
+        os.unlink(err_path)
     return Process(seconds, peak)
 
 
