@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 import pytest
 
-from sdfpbr.tools.bench import ablation, accuracy, cold, end_to_end, suite, timing
+from sdfpbr.tools.bench import ablation, accuracy, cold, end_to_end, report, suite, timing
 from sdfpbr.tools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
 from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import ShaderCompileError, SpecError
@@ -217,6 +217,7 @@ def test_code_identifiers_ignore_comments_and_count_uses():
     (["--json", "/nonexistent/dir/out.json"], "does not exist"),
     (["--json", "out.txt"], "must end in .json"),
     (["--end-to-end", "--json", "out.txt"], "must end in .json"),
+    (["--ref-samples", "2000000"], "at most 1048576"),
     (["--repeats", "0"], "repeats"),
     (["--repeats", "many"], "invalid int"),
     (["--size", "12x"], "size"),
@@ -350,3 +351,23 @@ def test_a_bigger_reference_goes_on_from_a_cached_smaller_one(session, tmp_path)
     assert np.array_equal(bigger.stderr, straight.stderr, equal_nan=True)
     again = accuracy.get_reference(fresh, spec, 12, 0, lines.append)
     assert again.cached and np.array_equal(again.hdr, bigger.hdr) and len(lines) == 3
+    # Not only from halves: 16 goes on from 12 (as the reference's most, 1048576, from 655360).
+    most = accuracy.get_reference(fresh, spec, 16, 0, lines.append)
+    assert "going on from the cached 12" in lines[3], lines
+    assert np.array_equal(most.hdr, render_reference(spec, samples=16, seed=0, session=session).hdr)
+
+
+def test_resumable_counts_hold_every_sixteenth_and_the_halves_below():
+    counts = accuracy.resumable_counts(1048576)
+    assert counts == sorted(set(counts), reverse=True) and counts[0] == 983040 and 655360 in counts
+    assert all(1 <= c < 1048576 for c in counts) and {1048576 >> k for k in range(1, 21)} <= set(counts)
+    assert accuracy.resumable_counts(1) == [] and accuracy.resumable_counts(12) == [9, 6, 3]
+
+
+@pytest.mark.parametrize("samples, advice", [(655360, "--ref-samples 1048576 goes on from the cached 655360"),
+                                             (1048576, "at the reference's most samples (1048576)")])
+def test_a_noisy_references_advice_stays_within_the_references_most_samples(samples, advice):
+    row = {"scene": "lobes", "preset": "high", "width": 8, "height": 8, "timing": "finish-wall-clock",
+           "ref_judges": False, "ref_samples": samples}
+    table = report.format_table({"rows": [row], "machine": {"gl_renderer": "llvmpipe", "cpu_count": 2}})
+    assert advice in table.splitlines()[-1], table

@@ -49,8 +49,8 @@ def register(subparsers) -> None:
     p.add_argument("--repeats", type=int, metavar="N", help="timed draws per row (default 5)")
     p.add_argument("--warmup", type=int, metavar="N", help="untimed draws first (default 1)")
     p.add_argument("--ref-samples", type=int, metavar="N",
-                   help="reference samples per pixel (default 256); going on from a cached reference of the "
-                        "same seed with half (a quarter, ...) as many")
+                   help="reference samples per pixel (default 256, at most 1048576); going on from the "
+                        "cached reference of the same seed with the most samples among N k/16 (k < 16), N/32, N/64, ...")
     p.add_argument("--seed", type=SEED, default=0, help="reference seed (default 0)")
     p.add_argument("--no-reference", action="store_true", help="skip the error columns")
     p.add_argument("--no-cold", action="store_true", help="skip the cold-process columns")

@@ -35,6 +35,14 @@ def reference_available() -> bool:
     return importlib.util.find_spec(REFERENCE_MODULE) is not None
 
 
+def reference_samples_cap() -> int | None:
+    """The most samples a pixel of the reference takes, where the reference is installed."""
+    if not reference_available():
+        return None
+    from ..reference.integrator import MAX_SAMPLES
+    return MAX_SAMPLES
+
+
 # The Python a reference's pixels depend on besides its own package: the frame (tiles, bindings,
 # display), the camera and the stage's geometry. The float64 BRDF its compensation table comes
 # from (sdfpbr.oracle) enters by the table's values, not its code: an oracle edit that leaves
@@ -112,8 +120,8 @@ def _key(spec: ChartSpec, samples: int, seed: int, code_digest: str) -> str:
 
 def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -> Reference:
     """The reference of ``spec`` at ``samples`` per pixel and ``seed``: from the cache, else
-    rendered, going on from the cached run of the same seed with half (a quarter, ...) the
-    samples when there is one; ``seconds`` is the render time of all its samples."""
+    rendered, going on from the cached run of the same seed with the most samples among
+    resumable_counts(samples) when there is one; ``seconds`` is the render time of all its samples."""
     from ..reference import render_reference
     code_digest = _reference_code_digest(spec, session.cache)
     key = _key(spec, samples, seed, code_digest)
@@ -141,19 +149,29 @@ def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -
     return out
 
 
+def resumable_counts(samples: int) -> list[int]:
+    """The smaller sample counts a cached run of the same seed may hold, most first: samples
+    k / 16 (k = 15 .. 1, where whole: a doubling's half, and 655360 under the reference's most,
+    1048576), then samples / 32, / 64, ..."""
+    counts = [samples * k // 16 for k in range(15, 0, -1) if samples * k % 16 == 0]
+    fewer = samples // 32
+    while fewer >= 1:
+        counts.append(fewer)
+        fewer //= 2
+    return sorted({c for c in counts if 1 <= c < samples}, reverse=True)
+
+
 def _resumable(session, spec: ChartSpec, samples: int, seed: int, code_digest: str):
     """(accumulators, their render seconds) of the cached reference of ``spec`` and ``seed``
-    with the most samples among samples/2, samples/4, ... that kept its accumulators, else
+    with the most samples among resumable_counts(samples) that kept its accumulators, else
     (None, 0.0). A reference's samples are hashes of (seed, pixel, sample index), so going on
     from one gives the straight run's bits."""
     from ..reference import Accumulators, run_key
-    fewer = samples // 2
-    while fewer >= 1:
+    for fewer in resumable_counts(samples):
         cached = session.cache.get("bench-reference", _key(spec, fewer, seed, code_digest), require_finite=False)
         if cached is not None and "sums" in cached:
             state = Accumulators(cached["sums"], cached["moments"], cached.get("catcher"), fewer, run_key(spec, seed))
             return state, float(cached["seconds"])
-        fewer //= 2
     return None, 0.0
 
 

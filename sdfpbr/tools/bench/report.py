@@ -10,6 +10,7 @@ import numpy as np
 
 from ...errors import SdfpbrError
 from ...files import atomic_file, atomic_path
+from .accuracy import reference_samples_cap
 from .suite import available_presets
 
 
@@ -74,8 +75,11 @@ def format_table(report: dict) -> str:
                  f"{report['machine']['cpu_count']} CPUs")
     noisy = sorted({r["ref_samples"] for r in report["rows"] if r.get("ref_judges") is False and r.get("ref_samples")})
     if noisy:   # a bigger reference goes on from the cached one (accuracy.get_reference)
-        lines.append(f"a reference too noisy to judge: --ref-samples {2 * noisy[-1]} goes on from the "
-                     f"cached {noisy[-1]}-sample ones")
+        more = min(2 * noisy[-1], reference_samples_cap() or 2 * noisy[-1])
+        lines.append(f"a reference too noisy to judge: --ref-samples {more} goes on from the "
+                     f"cached {noisy[-1]}-sample ones" if more > noisy[-1] else
+                     f"a reference too noisy to judge at the reference's most samples ({noisy[-1]}): "
+                     f"a smaller --size judges sooner")
     return "\n".join(lines)
 
 

@@ -128,6 +128,12 @@ def check_config(cfg: BenchConfig) -> BenchConfig:
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
             raise SpecError(f"--{name.replace('_', '-')} must be a whole number >= {lo}, got {v!r}")
     make_spec(width=cfg.width, height=cfg.height, backend=cfg.backend)   # validates the size
+    if cfg.reference:
+        from .accuracy import reference_samples_cap
+        cap = reference_samples_cap()
+        if cap is not None and cfg.ref_samples > cap:
+            raise SpecError(f"--ref-samples must be at most {cap} (the reference's most samples a pixel), "
+                            f"got {cfg.ref_samples}")
     if cfg.baseline is not None:
         from ..baseline import load_shadertoy
         load_shadertoy(cfg.baseline)      # a bad path or a document without GLSL fails now
