@@ -137,6 +137,8 @@ def _end_to_end(cfg, charts, json_path) -> int:
     from ...gpu.session import default_session
     from ...tools.bench.end_to_end import end_to_end_figures, format_figures
     from ...tools.bench.report import write_json
+    from ...tools.bench.suite import check_config
+    check_config(cfg)   # the size and the backend, before anything is measured
     session = default_session(cfg.backend, 0)
     figures = end_to_end_figures(session, cfg, charts)
     print(format_figures(figures))

@@ -122,7 +122,7 @@ def api_figure(session, cfg: BenchConfig, log) -> Figure:
         out = []
         for _ in range(n):
             start = time.perf_counter()
-            sdfpbr.chart(width=cfg.width, height=cfg.height)
+            sdfpbr.chart(width=cfg.width, height=cfg.height, backend=cfg.backend, session=session)
             out.append(time.perf_counter() - start)
         return out
 
