@@ -28,7 +28,7 @@ vec3 mirror_fresnel(Material m, float x) {
     f *= 1.0 - max3(m.sheen_color_linear) * sheen_albedo(x, m.sheen_perceptual_roughness);
 #endif
 #if CLEARCOAT && !BUG_CLEARCOAT_ADDS
-    f *= 1.0 - m.clearcoat * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * pow5_one_minus(x));
+    f *= 1.0 - m.clearcoat * fresnel_schlick(vec3(DIELECTRIC_F0), x).x;
 #endif
     return f;
 }

@@ -130,20 +130,15 @@ def run(args) -> int:
 
 
 def _end_to_end(cfg, charts, json_path) -> int:
-    import os
-    import sys
-
-    from ... import __version__
     from ...gpu.session import default_session
     from ...tools.bench.end_to_end import end_to_end_figures, format_figures
     from ...tools.bench.report import write_json
+    from ...tools.bench.run import machine_info
     from ...tools.bench.suite import check_config
     check_config(cfg)   # the size and the backend, before anything is measured
     session = default_session(cfg.backend, 0)
     figures = end_to_end_figures(session, cfg, charts)
     print(format_figures(figures))
     if json_path:
-        machine = {"gl_renderer": session.renderer, "cpu_count": os.cpu_count(),
-                   "python": sys.version.split()[0], "sdfpbr": __version__}
-        write_json(json_path, {"machine": machine, "end_to_end": [f.row() for f in figures]})
+        write_json(json_path, {"machine": machine_info(session), "end_to_end": [f.row() for f in figures]})
     return 0

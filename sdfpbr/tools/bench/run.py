@@ -57,10 +57,15 @@ def run_bench(cfg: BenchConfig) -> dict:
     if cfg.ablation:
         rows += ablation_rows(session, cfg, log)
 
-    machine = {"gl_renderer": session.renderer, "cpu_count": os.cpu_count(),
-               "python": sys.version.split()[0], "sdfpbr": __version__}
+    machine = machine_info(session)
     settings = {k: v for k, v in vars(cfg).items() if k != "log"}
     return {"machine": machine, "settings": settings, "rows": rows}
+
+
+def machine_info(session) -> dict:
+    """What a report was measured on."""
+    return {"gl_renderer": session.renderer, "cpu_count": os.cpu_count(),
+            "python": sys.version.split()[0], "sdfpbr": __version__}
 
 
 def baseline_row(session, cfg: BenchConfig) -> dict:
