@@ -8,8 +8,15 @@
 layout(std430, binding = 0) buffer LoopGuard { uint u_loops_cut; };
 uniform int u_guard_turns;
 
-void loop_guard() {
+// Whether this invocation's loops were cut short (and counted so).
+bool loops_cut() {
     int turns = 0;
     for (int i = 0; i < u_guard_turns; ++i) turns++;
-    if (turns != u_guard_turns) atomicAdd(u_loops_cut, 1u);
+    if (turns == u_guard_turns) return false;
+    atomicAdd(u_loops_cut, 1u);
+    return true;
+}
+
+void loop_guard() {
+    loops_cut();
 }

@@ -1,4 +1,5 @@
 #include "common.glsl"
+#include "loop_guard.glsl"
 #include "hit.glsl"
 #include "scene.glsl"
 #include "camera.glsl"
@@ -22,7 +23,11 @@
 #include "catcher_fade.glsl"   // the chart's fade of a cell's catcher at its border
 #endif
 
-// Reference program: adds u_sample_count more paths per pixel to running sums. Pixel samples
+// Reference program: adds up to u_sample_count more paths per pixel to running sums, from the
+// pixel's next sample (u_next) up to u_sample_end. A software rasterizer's loop limit
+// (loop_guard.glsl) can cut a long batch short: such an invocation stores nothing, and the
+// host draws the rest of the batch again with fewer samples a dispatch (integrator.py), so a
+// pixel's sums take its samples in order whatever the dispatches, bit for bit. Pixel samples
 // follow the R2 sequence (Roberts 2018) under a per-pixel random rotation: stratified for
 // any count. Luminance moments are kept about a shift K (the pixel's first sample) so the
 // variance does not cancel away in float32.
@@ -42,8 +47,9 @@ layout(rgba32f, binding = 2) uniform image2D u_catcher;   // over floor-first pa
 #endif
 uniform ivec2 u_tile_origin;   // pixel offset of this dispatch (GL convention, y up)
 uniform ivec2 u_tile_size;
-uniform int u_sample_start;
-uniform int u_sample_count;
+layout(r32ui, binding = 3) uniform uimage2D u_next;     // the pixel's next sample
+uniform int u_sample_end;     // this batch's end
+uniform int u_sample_count;   // the most samples a pixel takes in this dispatch
 uniform uint u_seed;
 
 const uvec2 R2_STEP = uvec2(3242174889u, 2447445413u);   // (0.7548776662, 0.5698402909) * 2^32
@@ -52,6 +58,9 @@ void main() {
     ivec2 local_id = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(local_id, u_tile_size))) return;
     ivec2 pixel = u_tile_origin + local_id;
+    int first = int(imageLoad(u_next, pixel).x);
+    int last = min(first + u_sample_count, u_sample_end);
+    if (first >= last) return;   // this batch's samples are in
     Rng pixel_rng = rng_init(uvec2(pixel), 0xffffffffu, u_seed);
     uvec2 rotation = rng_next_bits(pixel_rng).xy;
     vec4 sum = imageLoad(u_sum, pixel);
@@ -63,8 +72,8 @@ void main() {
 #if STAGE == cells
     base = cell_pixel(base, g_cell);   // the camera then sees this cell's own scene
 #endif
-    for (int k = 0; k < u_sample_count; ++k) {
-        uint s = uint(u_sample_start + k);
+    for (int k = first; k < last; ++k) {
+        uint s = uint(k);
         Rng rng = rng_init(uvec2(pixel), s, u_seed);
         vec2 offset = vec2((rotation + s * R2_STEP) >> 8u) * (1.0 / 16777216.0);
         vec2 ndc = 2.0 * (base + offset) / u_resolution - 1.0;
@@ -93,9 +102,11 @@ void main() {
         sum += c;
         moments.xy += vec2(d, d * d);
     }
+    if (loops_cut()) return;   // counted: the host draws these samples again
     imageStore(u_sum, pixel, sum);
     imageStore(u_moments, pixel, moments);
 #if SHADOW_CATCHER
     imageStore(u_catcher, pixel, catcher);
 #endif
+    imageStore(u_next, pixel, uvec4(uint(last)));
 }

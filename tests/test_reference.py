@@ -14,7 +14,7 @@ import pytest
 from sdfpbr.errors import SpecError
 from sdfpbr.oracle import lobes, mirror
 from sdfpbr.shading.camera import frame_grid, sphere_centers
-from sdfpbr.tools.reference import batch_size, render_reference
+from sdfpbr.tools.reference import batch_size, integrator, render_reference
 from sdfpbr.spec.chart_spec import Light, make_spec
 
 # These tests trace the shared stage's grid camera in float64 (primary_hits); the cells stage
@@ -202,6 +202,30 @@ def test_a_resumed_run_equals_the_straight_run_bit_for_bit(session, scene):
     assert resumed.samples == 10
     for name in ("hdr", "alpha", "stderr", "image"):
         assert np.array_equal(getattr(resumed, name), getattr(straight, name), equal_nan=True), name
+
+
+# A reference whose loops turn the most: every path among 100 mirrors under 16 lights, 64 bounces.
+LONG_PATHS = dict(width=32, height=32, rows=10, cols=10, base_color=(1.0, 1.0, 1.0), metallic=1.0,
+                  roughness=(0.0, 0.3), lights=tuple(Light("directional", direction=(np.cos(0.39 * k), 0.6, np.sin(0.39 * k)),
+                                                           intensity=0.3, angular_radius_deg=3.0) for k in range(16)),
+                  **SHARED)
+
+
+@pytest.mark.parametrize("per_dispatch", [64, 128])
+def test_samples_the_loop_limit_cuts_short_are_drawn_again_to_the_same_bits(session, monkeypatch, per_dispatch):
+    """llvmpipe ends every loop of an invocation, silently, once they have turned 65535 times
+    (gpu/loop_guard.py). Here 64 samples a dispatch (32²'s batch) lost 7 % of the light and 128
+    lost 46 %: a reference silently wrong. Now an invocation cut short stores nothing and its
+    samples are drawn again, fewer a dispatch, so the run equals the run of one sample a
+    dispatch bit for bit (a pixel's sums take its samples in order either way; a GPU has no
+    such limit)."""
+    spec = make_spec(**LONG_PATHS)
+    runs = {}
+    for n in (1, per_dispatch):
+        monkeypatch.setattr(integrator, "batch_size", lambda w, h, n=n: n)
+        runs[n] = render_reference(spec, samples=128, seed=3, session=session, max_bounces=64)
+    for name in ("hdr", "alpha", "stderr"):
+        assert np.array_equal(getattr(runs[per_dispatch], name), getattr(runs[1], name), equal_nan=True), name
 
 
 def test_resume_needs_the_same_run_with_fewer_samples(session):

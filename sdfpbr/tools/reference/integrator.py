@@ -10,6 +10,7 @@ import numpy as np
 
 from ...errors import SpecError
 from ...gpu.frame import AOVBuffers, display_pass, read_rgba, scene_bindings, tiles
+from ...gpu.loop_guard import LoopGuard, cut_error
 from ...gpu.programs import set_uniforms
 from ...gpu.session import Session, default_session
 from ...progress import Progress
@@ -267,6 +268,11 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         owned += [sum_tex, moments_tex]
         sum_tex.bind_to_image(0, read=True, write=True)
         moments_tex.bind_to_image(1, read=True, write=True)
+        first = 0 if resume is None else resume.samples
+        next_tex = ctx.texture((w, h), 1, np.full((h, w), first, np.uint32).tobytes(), dtype="u4")   # each pixel's next sample
+        guard = LoopGuard(ctx)
+        owned += [next_tex, guard]
+        next_tex.bind_to_image(3, read=True, write=True)
         catcher_tex = None
         if plan.options.get("SHADOW_CATCHER"):   # the floor's light with and without the spheres
             catcher_tex = ctx.texture((w, h), 4, start("catcher"), dtype="f4")
@@ -280,8 +286,8 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         ctx.finish()
         timings["compile_s"] += time.perf_counter() - t_warm
         t3 = time.perf_counter()
-        first = 0 if resume is None else resume.samples
-        done = _accumulate(ctx, program, sum_tex, moments_tex, w, h, first, samples, target_error, sphere, progress)
+        batches = Batches(ctx, program, guard, session.renderer, w, h)
+        done = _accumulate(batches, sum_tex, moments_tex, first, samples, target_error, sphere, progress)
         moments = read_rgba(moments_tex, w, h).copy()
         timings["render_s"] = time.perf_counter() - t3
         timings["s_per_spp_per_mpx"] = timings["render_s"] / done / (w * h / 1e6)
@@ -321,11 +327,45 @@ def catcher_coverage(catcher: np.ndarray) -> np.ndarray:
     return catcher[..., 2] * (1.0 - np.clip(kept, 0.0, 1.0))
 
 
-def _accumulate(ctx, program, sum_tex, moments_tex, w, h, first, samples, target_error, sphere, progress) -> int:
+class Batches:
+    """Draws a batch of samples into every pixel's sums. A software rasterizer ends every loop
+    of an invocation, silently, past its limit (gpu/loop_guard.py): a 10 x 10 grid of mirrors,
+    16 lights and 64 bounces at 32² lost 7 % of its light at 64 samples a dispatch. An
+    invocation cut short stores nothing (reference_main.glsl), and the batch is drawn again,
+    from each pixel's next sample, with a quarter as many samples a dispatch, a count the run
+    keeps: the sums take every pixel's samples in order, bit for bit those of one sample a
+    dispatch."""
+
+    def __init__(self, ctx, program, guard: LoopGuard, renderer: str, width: int, height: int):
+        self.ctx, self.program, self.guard, self.renderer = ctx, program, guard, renderer
+        self.width, self.height = width, height
+        self.per_dispatch = batch_size(width, height)
+
+    def draw(self, end: int, count: int) -> None:
+        """Every pixel's samples up to ``end``, ``count`` of them."""
+        while True:
+            self.guard.arm(self.program)
+            per = min(self.per_dispatch, count)
+            for _ in range(-(-count // per)):   # enough for a pixel that has none of them yet
+                for x0, y0, tw, th in tiles(self.width, self.height, TILE):
+                    set_uniforms(self.program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
+                                                "u_sample_end": end, "u_sample_count": per})
+                    self.program.run((tw + LOCAL - 1) // LOCAL, (th + LOCAL - 1) // LOCAL)
+                    self.ctx.memory_barrier()
+            cut = self.guard.cut()
+            if not cut:
+                return
+            if per == 1:
+                raise cut_error(self.renderer, cut, "one sample of this reference")
+            self.per_dispatch = max(1, per // 4)
+
+
+def _accumulate(batches: Batches, sum_tex, moments_tex, first, samples, target_error, sphere, progress) -> int:
     """Run batches from sample ``first`` until ``samples`` per pixel or the target error;
     returns the samples done. The error is checked on a schedule that depends only on the
     sample count (every batch up to 5 % more samples), so where a run stops does not depend
     on timing."""
+    ctx, w, h = batches.ctx, batches.width, batches.height
     per_batch = batch_size(w, h)
     bar = Progress(samples, "sdfpbr reference", unit="spp", enabled=progress)
     if first:
@@ -336,11 +376,7 @@ def _accumulate(ctx, program, sum_tex, moments_tex, w, h, first, samples, target
     with bar:
         while done < samples:
             count = min(per_batch, samples - done)
-            for x0, y0, tw, th in tiles(w, h, TILE):
-                set_uniforms(program, {"u_tile_origin": (x0, y0), "u_tile_size": (tw, th),
-                                       "u_sample_start": done, "u_sample_count": count})
-                program.run((tw + LOCAL - 1) // LOCAL, (th + LOCAL - 1) // LOCAL)
-                ctx.memory_barrier()
+            batches.draw(done + count, count)
             done += count
             check = target_error is not None and done >= next_check
             show = progress and done >= 2 and (time.monotonic() - last_shown >= 2.0 or done >= samples)
