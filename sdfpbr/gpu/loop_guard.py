@@ -35,8 +35,10 @@ class LoopGuard:
         self.buffer.release()
 
 
-def cut_error(renderer: str, cut: int, what: str = "this chart") -> SpecError:
+CHART_ADVICE = "lower the quality, the grid or the lights, or render on a GPU"
+
+
+def cut_error(renderer: str, cut: int, what: str = "this chart", advice: str = CHART_ADVICE) -> SpecError:
     """Raised where one ray a pixel is already past the limit (fewer samples would not help)."""
     return SpecError(f"{what} needs more loop turns per pixel than the {renderer} renderer runs ({cut} pixels "
-                     "would be cut short, silently wrong): lower the quality, the grid or the lights, "
-                     "or render on a GPU")
+                     f"would be cut short, silently wrong): {advice}")

@@ -356,7 +356,8 @@ class Batches:
             if not cut:
                 return
             if per == 1:
-                raise cut_error(self.renderer, cut, "one sample of this reference")
+                raise cut_error(self.renderer, cut, "one sample of this reference",
+                                "lower the bounces (--bounces), the grid or the lights, or render on a GPU")
             self.per_dispatch = max(1, per // 4)
 
 
