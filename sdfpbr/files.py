@@ -20,6 +20,21 @@ from .errors import OutputError
 TEMP_NAME = re.compile(r"^\..+\.(\d+)\.tmp(\.\w+)?$")
 
 
+# What a temporary's name adds to its destination's: ".", ".", 8 random characters, ".", the
+# writer's pid (at most 7 digits on Linux), ".tmp" and the writer's suffix (at most ".tmp.webp").
+TEMP_NAME_EXTRA = 1 + 1 + 8 + 1 + 7 + 4 + 9
+
+
+def longest_name(directory: str | Path) -> int:
+    """The longest file name (bytes) sdfpbr can write in ``directory``: the filesystem's limit
+    less what a temporary's name adds."""
+    try:
+        limit = os.pathconf(directory, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    return max(limit - TEMP_NAME_EXTRA, 1)
+
+
 def _temp_beside(p: Path, suffix: str) -> str:
     """A new empty temporary beside ``p``, named as TEMP_NAME describes; the temporaries a
     killed writer of ``p`` left behind are removed first."""

@@ -42,11 +42,42 @@ def _as_helper() -> None:
     _helper = True
 
 
+@contextmanager
+def sigint_held():
+    """SIGINT blocked in this (the main) thread while it starts processes. They inherit the
+    mask, so a Ctrl-C during their start-up (the interpreter's imports, before ``_init`` can
+    ignore it) waits instead of printing a KeyboardInterrupt traceback there; this process
+    takes it as soon as the block ends."""
+    import signal
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _pool_class():
+    """ProcessPoolExecutor whose submit (where it starts its processes) holds SIGINT."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    class Pool(ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            with sigint_held():
+                return super().submit(fn, *args, **kwargs)
+    return Pool
+
+
 def _init(parent: int, environ: dict, then) -> None:
-    """A worker's start: Ctrl-C ignored, ``environ`` set, a watch that exits when the process
-    that made the pool (``parent``: for a helper, not the server it was forked from) is gone."""
+    """A worker's start: Ctrl-C ignored (then unblocked: it was held while the worker
+    started), ``environ`` set, a watch that exits when the process that made the pool
+    (``parent``: for a helper, not the server it was forked from) is gone."""
     import signal
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     os.environ.update(environ)
     threading.Thread(target=_watch, args=(parent,), daemon=True).start()
     if then is not None:
@@ -81,9 +112,8 @@ def process_pool(workers: int, environ: dict | None = None, initializer=None):
     each worker before anything else runs there (e.g. a thread count a library reads when it
     loads), then ``initializer`` (a module-level function) runs."""
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_init,
-                               initargs=(os.getpid(), dict(environ or {}), initializer))
+    return _pool_class()(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_init,
+                         initargs=(os.getpid(), dict(environ or {}), initializer))
 
 
 # Helpers: worker processes that take CPU work (FLIP, page layout, PNG) off a process that
@@ -122,7 +152,8 @@ def start_helper_server(imports: tuple[str, ...]) -> None:
     if context.get_start_method() == "forkserver":
         from multiprocessing import forkserver
         context.set_forkserver_preload(list(imports))
-        forkserver.ensure_running()
+        with sigint_held():   # the server imports before it ignores SIGINT; its forks inherit the mask
+            forkserver.ensure_running()
 
 
 def _start_helper(imports: tuple[str, ...], environ: dict, cwd: str) -> None:
@@ -151,15 +182,14 @@ def helper_pool(tasks: int, imports: tuple[str, ...]):
     at once with ``imports`` (the modules the tasks need) loaded, so that they are ready while
     the caller draws its first. Closed on leaving; on an error its queued tasks are dropped."""
     import functools
-    from concurrent.futures import ProcessPoolExecutor
     workers = helpers(tasks)
     if not workers:
         yield None
         return
     start_helper_server(imports)
     start = functools.partial(_start_helper, tuple(imports), dict(os.environ), os.getcwd())
-    pool = ProcessPoolExecutor(workers, mp_context=_helper_context(), initializer=_init,
-                               initargs=(os.getpid(), {}, start))
+    pool = _pool_class()(workers, mp_context=_helper_context(), initializer=_init,
+                         initargs=(os.getpid(), {}, start))
     try:
         for _ in range(workers):
             pool.submit(_ready)

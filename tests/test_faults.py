@@ -324,15 +324,30 @@ def test_environments_that_cannot_render_right_are_refused(tmp_path, make, messa
     assert not (tmp_path / "c.png").exists()
 
 
-def test_an_environment_wider_than_gl_allows_is_scaled_to_fit(session, tmp_path):
+def test_fitting_an_environment_keeps_its_mean_and_order():
+    """The area average of a ramp: each output texel the mean of the input it covers (closed
+    form), for a length the limit divides and one it does not."""
+    import numpy as np
+    from sdfpbr.gpu.ibl import fit_texture
+    ramp = np.arange(12, dtype=np.float32).reshape(1, 12, 1)
+    np.testing.assert_allclose(fit_texture(ramp, 4).ravel(), [1, 4, 7, 10])
+    # 12 texels into 5: texel i covers [2.4 i, 2.4 (i + 1)); the ramp's texel k is k there.
+    expect = [np.mean([k for k in range(12) for _ in range(5)][12 * i:12 * (i + 1)]) for i in range(5)]
+    np.testing.assert_allclose(fit_texture(ramp, 5).ravel(), expect, rtol=1e-6)
+    assert fit_texture(ramp, 12) is ramp
+
+
+@pytest.mark.parametrize("rows, extra", [(8, 2), (2, 100000), (4, 100000)])
+def test_an_environment_wider_than_gl_allows_is_scaled_to_fit(session, tmp_path, rows, extra):
     """Issue 12: an equirect wider than GL_MAX_TEXTURE_SIZE rendered all black; it is now
-    box-filtered down to fit, so a uniform one lights the chart as a uniform one that fits."""
+    area-averaged down to fit, so a uniform one lights the chart as a uniform one that fits.
+    Only the long side shrinks: 2 x 100000 was halved to 0 rows, all black again."""
     import numpy as np
     from sdfpbr.gpu.ibl import fit_texture
     limit = int(session.ctx.info["GL_MAX_TEXTURE_SIZE"])
-    assert fit_texture(np.ones((8, limit + 2, 3), np.float32), limit).shape == (4, limit // 2 + 1, 3)
+    assert fit_texture(np.ones((rows, limit + extra, 3), np.float32), limit).shape == (rows, limit, 3)
     wide, narrow = tmp_path / "wide.npy", tmp_path / "narrow.npy"
-    np.save(wide, np.ones((8, limit + 2, 3), np.float32))
+    np.save(wide, np.ones((rows, limit + extra, 3), np.float32))
     np.save(narrow, np.ones((8, 64, 3), np.float32))
     spec = make_spec(width=48, height=48, lights="none", rows=1, cols=2)
     a = session.render(make_spec(spec, env=str(wide))).hdr

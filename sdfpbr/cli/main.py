@@ -291,6 +291,7 @@ def main(argv: list[str] | None = None) -> int:
     stdout = sys.stdout
     sys.stdout = _StandardOutput(stdout)
     try:
+        _interrupts_unwind()
         argv = sys.argv[1:] if argv is None else list(argv)
         args = build_parser(argv[0] if argv else None).parse_args(argv)
         status = args.run(args)
@@ -300,21 +301,55 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sdfpbr: error: {exc}", file=sys.stderr)
         return exc.exit_status
     except KeyboardInterrupt:
-        print("sdfpbr: interrupted", file=sys.stderr)
-        # A -j build's process pool, torn down by the interrupt, can race CPython 3.11's exit hook
-        # (concurrent.futures' _python_exit wakes a manager thread whose pipe just closed: EBADF,
-        # printed as "Exception ignored in: <module 'threading'>" after this line). Nothing is
-        # left to report once interrupted.
-        sys.unraisablehook = lambda unraisable: None
-        return 130
+        return _interrupted()
     except MemoryError:   # what check_memory could not foresee (another process took it first)
         print("sdfpbr: error: out of memory: render a smaller chart", file=sys.stderr)
         return 2
     except BrokenPipeError:   # stdout closed early (`sdfpbr cache -v | head`): stop quietly
         _drop_stdout()
         return 1
+    except Exception:
+        if not _interrupts:
+            raise
+        return _interrupted()   # a library turned the interrupt into an error of its own
     finally:
         sys.stdout = stdout
+
+
+def _interrupted() -> int:
+    print("sdfpbr: interrupted", file=sys.stderr)
+    # A -j build's process pool, torn down by the interrupt, can race CPython 3.11's exit hook
+    # (concurrent.futures' _python_exit wakes a manager thread whose pipe just closed: EBADF,
+    # printed as "Exception ignored in: <module 'threading'>" after this line). Nothing is
+    # left to report once interrupted.
+    sys.unraisablehook = lambda unraisable: None
+    return 130
+
+
+_interrupts: list[int] = []   # the Ctrl-Cs main() was sent
+
+
+def _interrupt(signum, frame) -> None:
+    _interrupts.append(signum)
+    raise KeyboardInterrupt
+
+
+def _interrupts_unwind() -> None:
+    """Ctrl-C raises KeyboardInterrupt from here on (the entry module exits at once until
+    now), so that what is half done is cleaned up on the way out and said in one line. It is
+    also recorded: a library may turn the KeyboardInterrupt into an error of its own (numpy's
+    import into an ImportError), which is then an interrupt all the same."""
+    import signal
+    import threading
+    if threading.current_thread() is threading.main_thread() and \
+            signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _interrupt) or _is_quiet():
+        signal.signal(signal.SIGINT, _interrupt)
+
+
+def _is_quiet() -> bool:
+    import signal
+    from .entry import is_quiet
+    return is_quiet(signal.getsignal(signal.SIGINT))
 
 
 class _StandardOutput:

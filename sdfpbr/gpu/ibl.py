@@ -13,6 +13,7 @@ import numpy as np
 
 from ..cache import ArrayCache, content_key
 from ..errors import SpecError
+from ..inputs import check_input
 from ..shading.compose import ComposedSource
 from ..shading.plan import IBLPlan, RenderPlan, env_option
 from ..spec.chart_spec import ChartSpec
@@ -51,7 +52,7 @@ def load_env_file(path: str | Path) -> np.ndarray:
     """An equirectangular environment as float32 (H, W, 3), row 0 at the zenith. Real numbers
     only (integer or float dtypes), at most MAX_ENV_TEXELS texels and MAX_ENV_RADIANCE; read
     lazily, so a header claiming a huge array is refused before anything is allocated."""
-    path = Path(path)
+    path = check_input(path, "environment", "environment")   # a regular file, not a FIFO or device
     if path.suffix.lower() == ".npy":
         try:
             data = np.load(path, mmap_mode="r")   # allow_pickle stays off: a pickle is refused, not run
@@ -90,12 +91,23 @@ def load_env_file(path: str | Path) -> np.ndarray:
 
 
 def fit_texture(data: np.ndarray, limit: int) -> np.ndarray:
-    """``data`` (H, W, C) halved by 2 x 2 box averages until both sides fit in ``limit``
-    texels (GL leaves a larger texture undefined: an all-black environment)."""
-    while max(data.shape[:2]) > limit:
-        h, w = data.shape[0] // 2 * 2, data.shape[1] // 2 * 2
-        d = data[:h, :w].astype(np.float64)
-        data = (0.25 * (d[0::2, 0::2] + d[1::2, 0::2] + d[0::2, 1::2] + d[1::2, 1::2])).astype(np.float32)
+    """``data`` (H, W, C) with each side longer than ``limit`` texels area-averaged down to
+    ``limit`` (GL leaves a larger texture undefined: an all-black environment). Only a long
+    side shrinks: a 2 x 100000 environment becomes 2 x 16384, never 0 rows (a lat-long map is
+    sampled by its (u, v), whatever its aspect). The mean radiance is kept exactly."""
+    for axis in (0, 1):
+        n = data.shape[axis]
+        if n > limit:
+            d = np.moveaxis(data, axis, 0).astype(np.float64)
+            # Output texel i covers input [i n / limit, (i + 1) n / limit): the integral of
+            # the piecewise-constant input over it, from its running sum, over its width.
+            running = np.concatenate([np.zeros((1, *d.shape[1:])), np.cumsum(d, axis=0)], axis=0)
+            edges = np.arange(limit + 1) * (n / limit)
+            whole = np.minimum(np.floor(edges).astype(np.int64), n - 1)
+            part = (edges - whole).reshape(-1, *([1] * (d.ndim - 1)))
+            integral = running[whole] + part * d[whole]
+            out = (integral[1:] - integral[:-1]) * (limit / n)
+            data = np.ascontiguousarray(np.moveaxis(out, 0, axis).astype(np.float32))
     return data
 
 

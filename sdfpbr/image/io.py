@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError, SpecError
-from ..files import write_group
+from ..files import longest_name, write_group
 from .png_stream import write_png_stream
 
 HDR_SUFFIXES = (".npy", ".exr")
@@ -23,12 +23,21 @@ def check_writable(path: str | Path, suffixes: tuple[str, ...] | None = None, wh
     if suffixes and p.suffix.lower() not in suffixes:
         raise SpecError(f"{what} {p} must end in {' or '.join(suffixes)}")
     parent = p.parent if str(p.parent) else Path(".")
-    if p.is_dir():
-        raise OutputError(f"{what} {p} is a directory")
-    if not parent.is_dir():
-        raise OutputError(f"cannot write {what} {p}: directory {parent} does not exist")
-    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise OutputError(f"cannot write {what} {p}: permission denied")
+    try:
+        longest = longest_name(parent if parent.is_dir() else ".")
+        if len(os.fsencode(p.name)) > longest:
+            raise OutputError(f"cannot write {what}: its name is {len(os.fsencode(p.name))} bytes long; at most "
+                              f"{longest} are written (sdfpbr writes a longer temporary name beside it first)")
+        if p.is_dir():
+            raise OutputError(f"{what} {p} is a directory")
+        if not parent.is_dir():
+            raise OutputError(f"cannot write {what} {p}: directory {parent} does not exist")
+        if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
+            raise OutputError(f"cannot write {what} {p}: permission denied")
+    except OSError as exc:   # a path longer than the system allows, a loop of symlinks, ...
+        raise OutputError(f"cannot write {what}: {exc.strerror or exc}") from None
+    except ValueError:       # a NUL in the name
+        raise OutputError(f"cannot write {what}: its name holds a NUL character") from None
     return p
 
 

@@ -44,8 +44,20 @@ def shader_dir() -> Path:
     package in a source tree, else the installed sdfpbr.shaders data."""
     override = os.environ.get("SDFPBR_SHADER_DIR")
     if override:
-        return Path(override)
+        return _override_shader_dir(override)
     return _installed_shader_dir()
+
+
+@functools.lru_cache(maxsize=4)
+def _override_shader_dir(text: str) -> Path:
+    """$SDFPBR_SHADER_DIR, if it holds sdfpbr's shader modules: one line otherwise, not a
+    missing-module traceback from deep in a compose."""
+    path = Path(text)
+    if not (path / "common.glsl").is_file():
+        from ..errors import SpecError
+        raise SpecError(f"SDFPBR_SHADER_DIR={text!r} holds no sdfpbr shader modules (common.glsl): "
+                        f"point it at a copy of the shaders folder, or unset it")
+    return path
 
 
 @functools.lru_cache(maxsize=1)

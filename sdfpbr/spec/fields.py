@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from ..errors import SpecError, did_you_mean
+from ..inputs import check_input
 from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
@@ -178,16 +179,17 @@ def _env(v) -> str:
         if path.suffix.lower() not in (".exr", ".npy"):
             raise SpecError(f"env {quote(v)} is not a preset{did_you_mean(v, ENV_PRESETS)}; "
                             f"allowed: {', '.join(ENV_PRESETS)} or an .exr/.npy file")
-        if not path.is_file():
-            raise SpecError(f"env file {v} does not exist")
+        check_input(path, "env file", "environment")
     return v
 
 
 def _png(name: str):
     def check(v):
         text(v, f"{name} (a PNG path)")
-        if v and (Path(v).suffix.lower() != ".png" or not Path(v).is_file()):
-            raise SpecError(f"{name} {quote(v)} is not an existing .png file")
+        if v and Path(v).suffix.lower() != ".png":
+            raise SpecError(f"{name} {quote(v)} is not a .png file")
+        if v:
+            check_input(v, name, "image")
         return v
     return check
 
@@ -197,8 +199,9 @@ def _gltf(v) -> str:
     if not v:
         return v
     from .gltf import GLTF_SUFFIXES   # here: a chart without glTF does not import its reader
-    if Path(v).suffix.lower() not in GLTF_SUFFIXES or not Path(v).is_file():
-        raise SpecError(f"gltf {quote(v)} is not an existing .gltf or .glb file")
+    if Path(v).suffix.lower() not in GLTF_SUFFIXES:
+        raise SpecError(f"gltf {quote(v)} is not a .gltf or .glb file")
+    check_input(v, "gltf", "gltf")
     return v
 
 
