@@ -6,6 +6,7 @@ covered: no code of sdfpbr's can run there."""
 from __future__ import annotations
 
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -89,3 +90,16 @@ def test_ctrl_c_while_a_parallel_build_starts_its_workers_is_one_line(tmp_path):
                         "sdfpbr.workers", who="worker", target="group")
     assert p.returncode == 130, p.stderr
     assert "Traceback" not in p.stderr and p.stderr.strip().endswith("sdfpbr: interrupted"), p.stderr
+
+
+# Any module the command loads, drawn with the fuzz's seed (tests/test_hostile_fuzz.py).
+MODULES = ["sdfpbr.errors", "sdfpbr.cli.main", "argparse", "numpy", "moderngl", "PIL", "sdfpbr.spec.fields",
+           "sdfpbr.gpu.session", "sdfpbr.image.io", "imageio", "sdfpbr.shading.plan", "sdfpbr.image.layout"]
+SEED = int(os.environ.get("SDFPBR_FUZZ_SEED", "0"))
+
+
+@pytest.mark.parametrize("case", range(2))
+def test_ctrl_c_while_any_module_loads_is_one_line(tmp_path, case):
+    module = random.Random(f"{SEED}:signals:{case}").choice(MODULES)
+    p = run_interrupted(tmp_path, ["chart", "--size", "32x32", "-o", "c.png"], module)
+    assert p.returncode == 130 and p.stderr.strip() == "sdfpbr: interrupted", (module, SEED, p.stderr)

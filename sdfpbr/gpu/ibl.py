@@ -64,6 +64,7 @@ def load_env_file(path: str | Path) -> np.ndarray:
             import OpenEXR
         except ImportError:
             raise SpecError("reading .exr environments needs OpenEXR: pip install 'sdfpbr[exr]'") from None
+        _check_exr_size(path)
         try:
             with OpenEXR.File(str(path)) as f:
                 channels = f.channels()
@@ -88,6 +89,21 @@ def load_env_file(path: str | Path) -> np.ndarray:
     if not np.all(np.isfinite(data)) or data.min() < 0 or data.max() > MAX_ENV_RADIANCE:
         raise SpecError(f"environment {path} has negative, NaN, Inf or over-1e30 values")
     return np.ascontiguousarray(data)
+
+
+def _check_exr_size(path: Path) -> None:
+    """Refuse an OpenEXR file whose header declares more than MAX_ENV_TEXELS, before its
+    pixels are decoded (a small file may declare a huge image)."""
+    import OpenEXR
+    try:
+        with OpenEXR.File(str(path), header_only=True) as f:
+            low, high = f.header()["dataWindow"]
+        width, height = int(high[0]) - int(low[0]) + 1, int(high[1]) - int(low[1]) + 1
+    except Exception as exc:   # the library raises its own types for a bad file
+        raise SpecError(f"cannot read environment {path} as an OpenEXR image ({exc})") from None
+    if width * height > MAX_ENV_TEXELS:
+        raise SpecError(f"environment {path} is {width}x{height}; at most {MAX_ENV_TEXELS} texels "
+                        f"(16384 x 16384) are read: scale it down")
 
 
 def fit_texture(data: np.ndarray, limit: int) -> np.ndarray:
