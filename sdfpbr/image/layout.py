@@ -31,7 +31,7 @@ import numpy as np
 from ..cache import ArrayCache, content_key
 from ..kept import Kept
 from ..oracle.display import srgb_eotf
-from .text import SYSTEM_FONTS, drawable_text, load_font, wrap_text
+from .text import SYSTEM_FONTS, draw_text, drawable_text, font_files, load_font, text_bbox, wrap_text
 
 if TYPE_CHECKING:   # Pillow is imported where text is set: a chart whose labels are kept on disk needs none
     from PIL import ImageFont
@@ -152,7 +152,7 @@ def _ink(style: _Style, text: str) -> tuple[int, int, int, int]:
 # 0.2 s); fonts come from load_font, one object per size, so the font itself is the key.
 @functools.lru_cache(maxsize=8192)
 def _ink_box(font: ImageFont.FreeTypeFont, stroke: int, text: str) -> tuple[int, int, int, int]:
-    return font.getbbox(text, anchor="ls", stroke_width=stroke)
+    return text_bbox(font, text, anchor="ls", stroke_width=stroke)
 
 
 def _width(style: _Style, text: str) -> int:
@@ -373,7 +373,7 @@ def name_cells(chart: np.ndarray, cells: Sequence[Cell], names: Sequence[str], o
         text = _fitted(style, drawable_text(" ".join(name.split("\n")), style.font), room)
         left, _, right, _ = _ink(style, text)
         baseline = y0 + cell.cy + 1.1 * cell.radius_px + 0.3 * style.size - cap_top
-        draw.text((x0 + cell.cx - (left + right) / 2, baseline), text, font=style.font, fill=colour,
+        draw_text(draw, (x0 + cell.cx - (left + right) / 2, baseline), text, style.font, colour,
                   anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
     return np.array(Image.alpha_composite(Image.fromarray(chart), layer))
 
@@ -395,7 +395,8 @@ def forget_layouts() -> None:
 # A still chart's labels are kept in the disk cache too: a new process charting a layout drawn
 # before reads them (a few hundred kilobytes) instead of importing Pillow and setting the text,
 # 50 ms of a cold `sdfpbr chart`. Keyed by the layout and by all that decides how its text is
-# drawn: the font file, Pillow's version and FreeType module, and this module's and text's source.
+# drawn: the font files (main and fallbacks), Pillow's version and FreeType module, and this
+# module's and text's source.
 LABELS_CACHE_KIND = "labels"
 
 
@@ -405,6 +406,7 @@ def _drawing_identity() -> str | None:
     where the font is not the system file (Pillow's search or its own font: drawn each time)."""
     try:
         font = os.stat(SYSTEM_FONTS[0])
+        fallbacks = [(f, os.stat(f).st_size, os.stat(f).st_mtime_ns) for f in font_files()[1:]]
         pil = importlib.util.find_spec("PIL")
         where = Path(next(iter(pil.submodule_search_locations)))
         freetype = sorted((n, os.stat(where / n).st_size) for n in os.listdir(where) if n.startswith("_imagingft"))
@@ -412,7 +414,7 @@ def _drawing_identity() -> str | None:
         code = [(Path(__file__).parent / name).read_text() for name in ("layout.py", "text.py")]
     except (OSError, AttributeError, StopIteration, ValueError, ImportError):
         return None
-    return content_key(SYSTEM_FONTS[0], font.st_size, font.st_mtime_ns, version, freetype, code)
+    return content_key(SYSTEM_FONTS[0], font.st_size, font.st_mtime_ns, fallbacks, version, freetype, code)
 
 
 def _stored_key(key: tuple) -> str | None:
@@ -592,13 +594,13 @@ def _drawn_text_patch(style: _Style, text: str, stroke: int, size: tuple[int, in
     if size is None:
         left, _, right, _ = _ink(style, text)
         strip = Image.new("RGBA", (right - left, _line_height(style)), _TRANSPARENT)
-        ImageDraw.Draw(strip).text((-left, _baseline(style, 0)), text, font=style.font, fill=style.color,
-                                   anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
+        draw_text(ImageDraw.Draw(strip), (-left, _baseline(style, 0)), text, style.font, style.color,
+                  anchor="ls", stroke_fill=_OUTLINE, stroke_width=stroke)
         patch = np.asarray(strip.transpose(Image.Transpose.ROTATE_90))
     else:
         layer = Image.new("RGBA", size, _TRANSPARENT)
-        ImageDraw.Draw(layer).text(origin, text, font=style.font, fill=style.color,
-                                   anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
+        draw_text(ImageDraw.Draw(layer), origin, text, style.font, style.color,
+                  anchor="ls", stroke_width=stroke, stroke_fill=_OUTLINE)
         patch = np.asarray(layer)
     patch.setflags(write=False)
     return patch

@@ -15,7 +15,7 @@ from PIL import Image, ImageDraw
 
 from .layout import (BACKGROUND, DEFAULT_COLUMN_AXIS_TITLE, DEFAULT_ROW_AXIS_TITLE, Cell, compose_chart,
                      render_area_offset)
-from .text import drawable_text, load_font, wrap_text
+from .text import draw_text, drawable_text, load_font, text_length, wrap_text
 
 TITLE_COLOR = (240, 240, 240, 255)
 TEXT_COLOR = (215, 215, 215, 255)
@@ -112,11 +112,10 @@ def panel(label: str, image: np.ndarray, text_size: int, *, axes: Axes | None = 
     font = load_font(text_size)
     pad = max(4, text_size // 3)
     text = drawable_text(label, font)
-    width = max(w, math.ceil(font.getlength(text)) + 2 * pad)
+    width = max(w, math.ceil(text_length(font, text)) + 2 * pad)
     header = line_height(font) + pad
     out = Image.new("RGBA", (width, header + h), BACKGROUND)
-    ImageDraw.Draw(out).text((width / 2, pad + font.getmetrics()[0]), text, font=font, fill=TITLE_COLOR,
-                             anchor="ms")
+    draw_text(ImageDraw.Draw(out), (width / 2, pad + font.getmetrics()[0]), text, font, TITLE_COLOR, anchor="ms")
     arr = np.array(out)
     x0 = (width - w) // 2
     arr[header:, x0:x0 + w] = image
@@ -227,7 +226,7 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
     for i in range(len(grid)):
         ny, nx = y, x_panels + panels_w + gap * 2
         for font, color, line in note_lines[i]:
-            draw.text((nx, ny + font.getmetrics()[0]), line, font=font, fill=color, anchor="ls")
+            draw_text(draw, (nx, ny + font.getmetrics()[0]), line, font, color, anchor="ls")
             ny += line_height(font)
         y += row_h[i] + gap
     _draw_lines(draw, caption_lines, text_font, pad, pad + title_h + body_h + gap, TEXT_COLOR, "ls")
@@ -238,7 +237,7 @@ def _draw_lines(draw, lines: Sequence[str], font, x: float, y: float, color, anc
     """Lines of text one under the other from ``y`` (their top), at ``x`` by ``anchor`` ("ms":
     centred, "ls": left); returns the y below the last."""
     for line in lines:
-        draw.text((x, y + font.getmetrics()[0]), line, font=font, fill=color, anchor=anchor)
+        draw_text(draw, (x, y + font.getmetrics()[0]), line, font, color, anchor=anchor)
         y += line_height(font)
     return y
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import sys
+import unicodedata
 
 import numpy as np
 
@@ -47,9 +48,38 @@ def boolean(v, what: str) -> bool:
     return bool(v)
 
 
+# Unicode's Bidi_Control characters: drawn, they reorder the text around them (Pillow with
+# libraqm applies the bidi algorithm: a title "\u202eevil" was drawn as "live").
+BIDI_CONTROLS = frozenset("\u061c\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
+
+
+def describe_char(ch: str) -> str:
+    """'U+1F642 SLIGHTLY SMILING FACE (🙂)': a character named so that a message can show it."""
+    o = ord(ch)
+    if 0xDC80 <= o <= 0xDCFF:   # how Python keeps a byte of a command line that is not UTF-8
+        return f"U+{o:04X} (not a character: the byte 0x{o - 0xDC00:02X}, not UTF-8)"
+    category = unicodedata.category(ch)
+    name = unicodedata.name(ch, "") or {"Cc": "(a control character)", "Co": "(a private-use character)",
+                                        "Cn": "(unassigned)"}.get(category, "(unnamed)")
+    shown = f" ({ch})" if ch.isprintable() and category[0] != "M" else ""
+    return f"U+{o:04X} {name}{shown}"
+
+
 def text(v, what: str) -> str:
+    """Text as written: no bidirectional controls and no control characters but a tab or a line
+    break (they would reorder, hide or garble what is drawn or printed of it)."""
     if not isinstance(v, str):
         raise SpecError(f"{what} must be text, got {quote(v)}")
+    if not v.isprintable():   # the few texts with anything but printable characters and spaces
+        bad = [c for c in dict.fromkeys(v)
+               if c in BIDI_CONTROLS or (unicodedata.category(c) == "Cc" and c not in "\t\n\r")]
+        if bad:
+            bidi = sum(c in BIDI_CONTROLS for c in bad)
+            kind = ("bidirectional control" if bidi == len(bad) else "control" if not bidi
+                    else "bidirectional control or control")
+            more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
+            raise SpecError(f"{what} must not contain {kind} characters, which reorder or hide what is shown: "
+                            f"{', '.join(describe_char(c) for c in bad[:6])}{more}; got {quote(v)}")
     return v
 
 
