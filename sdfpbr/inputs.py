@@ -33,6 +33,13 @@ INPUT_LIMITS = {
 MAX_NESTING = 64
 
 
+def printable(text) -> str:
+    """``text`` with its control (unprintable) characters escaped as repr escapes them: a path
+    or a name from an input is shown so, since a terminal would act on an escape sequence and
+    a newline would make a message two lines."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
 def human_size(n: int) -> str:
     for unit, size in (("GiB", 1 << 30), ("MiB", MIB), ("KiB", 1 << 10)):
         if n >= size:
@@ -42,20 +49,20 @@ def human_size(n: int) -> str:
 
 def _check_stat(st: os.stat_result, path: Path, what: str, kind: str) -> None:
     if stat.S_ISDIR(st.st_mode):
-        raise SpecError(f"{what} {path} is a directory, not a file")
+        raise SpecError(f"{what} {printable(path)} is a directory, not a file")
     if not stat.S_ISREG(st.st_mode):
-        raise SpecError(f"{what} {path} is not a regular file (a FIFO, socket or device is not read)")
+        raise SpecError(f"{what} {printable(path)} is not a regular file (a FIFO, socket or device is not read)")
     limit = INPUT_LIMITS[kind]
     if st.st_size > limit:
-        raise SpecError(f"{what} {path} is {human_size(st.st_size)}; at most {human_size(limit)} is read")
+        raise SpecError(f"{what} {printable(path)} is {human_size(st.st_size)}; at most {human_size(limit)} is read")
 
 
 def _os_error(exc: OSError, path: Path, what: str) -> SpecError:
     if isinstance(exc, FileNotFoundError):
-        return SpecError(f"{what} {path} does not exist")
+        return SpecError(f"{what} {printable(path)} does not exist")
     if isinstance(exc, IsADirectoryError):
-        return SpecError(f"{what} {path} is a directory, not a file")
-    return SpecError(f"cannot read {what} {path}: {exc.strerror or exc}")
+        return SpecError(f"{what} {printable(path)} is a directory, not a file")
+    return SpecError(f"cannot read {what} {printable(path)}: {exc.strerror or exc}")
 
 
 def check_input(path: str | Path, what: str, kind: str) -> Path:
@@ -93,7 +100,7 @@ def read_input(path: str | Path, what: str, kind: str) -> bytes:
             chunks.append(chunk)
             total += len(chunk)
             if total > limit:
-                raise SpecError(f"{what} {p} holds more than {human_size(limit)}; at most that is read")
+                raise SpecError(f"{what} {printable(p)} holds more than {human_size(limit)}; at most that is read")
         return b"".join(chunks)
     except OSError as exc:
         raise _os_error(exc, p, what) from None
@@ -106,7 +113,7 @@ def read_input_text(path: str | Path, what: str, kind: str) -> str:
     try:
         return read_input(path, what, kind).decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise SpecError(f"cannot read {what} {path}: not UTF-8 text (byte {exc.start})") from None
+        raise SpecError(f"cannot read {what} {printable(path)}: not UTF-8 text (byte {exc.start})") from None
 
 
 def nesting_depth(value) -> int:
@@ -145,7 +152,7 @@ def parse_json(text: str | bytes, where: str):
 
 def read_json(path: str | Path, what: str, kind: str = "manifest"):
     """A JSON file, read as read_input does and parsed as parse_json does."""
-    return parse_json(read_input(path, what, kind), f"{what} {path}")
+    return parse_json(read_input(path, what, kind), f"{what} {printable(path)}")
 
 
 def confined(base: str | Path, name: str, what: str) -> Path:

@@ -31,7 +31,7 @@ EXTRAS = {
     "matplotlib": "matplotlib (pip install 'sdfpbr[metrics]')",
     "tqdm": "tqdm (pip install 'sdfpbr[progress]')",
     "sphinx": "sphinx (pip install 'sdfpbr[docs]')",
-    "pygltflib": "pygltflib (pip install 'sdfpbr[gltf]')",
+    "pygltflib": "pygltflib, which the tests write glTF assets with (pip install '.[test]')",
 }
 
 # What must import for the extra to work, where that is more than its top module: an image with

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 import sdfpbr
 from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import SpecError
+from sdfpbr.spec.checks import BIDI_CONTROLS
 from sdfpbr.spec import (BUGS, ENTRY_KEYS, FIELD_NAMES, FIELDS, ChartSpec, Light, field_value, field_value_from_text,
                          load_spec, make_spec, read_entry_document, resolve_field, spec_to_flags, spec_to_toml,
                          spec_from_mapping, split_entry, sweep_defaults, sweep_values_from_text)
@@ -47,7 +48,7 @@ SAMPLES = {
     "alpha": ((0.5, 0.5), "0.5"), "alpha_mode": ("mask", "mask"), "alpha_cutoff": (0.25, "0.25"),
     "sheen_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"), "specular_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
     "emissive": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
-    "gltf": (str(Path(__file__).parent / "data" / "materials.glb"),) * 2,
+    "gltf": (str(Path(__file__).parents[1] / "charts" / "materials.glb"),) * 2,
     "gltf_materials": ((), ""),   # needs gltf: tests/test_gltf.py
 }
 
@@ -254,7 +255,9 @@ def test_nonsense_command_is_one_line_with_a_suggestion():
 
 # ---- round trips of the writers -------------------------------------------------------------------
 
-TEXT = st.text(st.characters(blacklist_categories=("Cs",)), max_size=12)
+# Any text the spec takes (checks.text refuses bidi and control characters but tab and breaks).
+TEXT = st.text(st.one_of(st.characters(blacklist_categories=("Cs", "Cc"), blacklist_characters=BIDI_CONTROLS),
+                         st.sampled_from("\t\n\r")), max_size=12)
 
 
 def _value(field, rows):
@@ -415,7 +418,7 @@ def test_a_spec_files_relative_files_are_found_beside_it(tmp_path, monkeypatch):
     """A spec file in another directory names its glTF asset beside it; the same name from the
     working directory, where no such file is, would not load."""
     import shutil
-    glb = Path(__file__).parent / "data" / "materials.glb"
+    glb = Path(__file__).parents[1] / "charts" / "materials.glb"
     pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
     (tmp_path / "sub").mkdir()
     shutil.copy(glb, tmp_path / "sub" / "m.glb")

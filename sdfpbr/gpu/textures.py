@@ -167,7 +167,9 @@ def _rgba8(source, what: str, kind: str = "an image") -> np.ndarray:
         raise SpecError(f"{what}: the image is {size[0]}x{size[1]}; sdfpbr reads images of at most "
                         f"{MAX_IMAGE_SIDE} texels a side and {MAX_IMAGE_TEXELS} in all: scale it down")
     try:
-        img = np.asarray(iio.imread(source))
+        # Pillow's decoders only: an asset's bytes are untrusted, and imageio would otherwise
+        # try every plugin it has on them (tifffile, DICOM, ffmpeg), warning as it goes.
+        img = np.asarray(iio.imread(source, plugin="pillow"))
     except Exception as exc:   # imageio raises many types for unreadable files
         raise SpecError(f"{what}: cannot read it as {kind} ({exc.__class__.__name__})") from None
     if img.dtype != np.uint8:
