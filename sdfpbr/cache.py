@@ -5,13 +5,41 @@ simply write the same bytes.
 The whole cache directory (bakes, bench references, built images) is held under a size cap,
 $SDFPBR_CACHE_MAX (default 2G): a write that takes it past the cap evicts the least recently
 used entries (a read marks an entry used) down to 90 % of the cap. ``sdfpbr cache`` lists and
-clears it."""
+clears it.
+
+The cache owns only its own files. $SDFPBR_CACHE_DIR may name a folder that holds other
+things (a thesis, photos, another tool's ``build`` folder): eviction, the cap, ``sdfpbr cache``
+(its listing, sizes and ``--clear``) and the sweep of dead writers' temporaries count and
+delete only the cache's *entries*, which are recognised by two things together:
+
+* the marker file ``<root>/.sdfpbr-cache`` (MARKER), which sdfpbr writes with its first write
+  into a root; a folder without it holds no entries as far as these operations go (nothing is
+  counted, nothing deleted);
+* sdfpbr's naming (``own_entry``): a regular file (not a symlink) directly in a *kind* folder
+  (a subfolder of the root, itself not a symlink, named like ``ibl``, ``dfg``, ``build``:
+  KIND_NAME) named ``<sha256 hex>.c.npz`` (ArrayCache; ``<sha256 hex>.npz``, the unchecked
+  entries of older versions, likewise), and in ``build/`` also ``<sha256 hex>.png`` (the
+  gallery's image cache) and ``keys.json`` (its key memo), and ``build/stamps/<32 hex>.json``
+  (build stamps). Anything else, anywhere under the root, is never counted or removed; the
+  temporaries swept are those of such names (``.<name>.<random>.<pid>.tmp``) in kind folders.
+
+Foreign files do not count toward the cap: the cap bounds what sdfpbr stores, and counting
+files it may not delete would make a folder whose other files alone pass the cap evict every
+entry with every write (a cache that never keeps anything).
+
+Entries of older versions in a root without the marker (an existing ~/.cache/sdfpbr, or a
+folder $SDFPBR_CACHE_DIR names) are adopted with the first write of this version, which writes
+the marker: by the naming rule above they are sdfpbr's own (a content hash with sdfpbr's
+suffix in a kind folder), and files not so named stay foreign. ``sdfpbr cache`` adopts the
+default location (``$XDG_CACHE_HOME/sdfpbr``: a folder named for sdfpbr) at once; a folder
+$SDFPBR_CACHE_DIR names is adopted only by a write."""
 from __future__ import annotations
 
 import hashlib
 import json
 import os
 import re
+import stat
 import sys
 import threading
 from contextlib import contextmanager
@@ -19,7 +47,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .errors import OutputError, SpecError
-from .files import TEMP_NAME, atomic_file, remove_stale_temps
+from .files import atomic_file, remove_stale_temps
 
 if TYPE_CHECKING:   # numpy loads with the first array entry: a gallery build answered by its
     import numpy as np   # stamp reads no array and needs no numpy
@@ -51,20 +79,121 @@ def cache_max() -> int | None:
     return int(value)
 
 
-def cache_entries(root: Path) -> list[tuple[Path, int, float]]:
-    """(path, bytes, last use) of every cache file under ``root``, temporaries of live writers
-    excluded."""
-    out = []
-    for dirpath, _, names in os.walk(root):
-        for name in names:
-            if TEMP_NAME.match(name):
-                continue
-            path = Path(dirpath) / name
+MARKER = ".sdfpbr-cache"    # in the cache root: sdfpbr has written here (see the module's docstring)
+MARKER_TEXT = ("This folder is an sdfpbr cache ($SDFPBR_CACHE_DIR, else $XDG_CACHE_HOME/sdfpbr).\n"
+               "sdfpbr counts and deletes only its own entries in it (kind folders such as ibl/ and\n"
+               "build/ holding files named by sha256 hashes); any other file here is left alone.\n")
+KIND_NAME = re.compile(r"[a-z][a-z0-9_-]{0,63}")
+HEX_KEY = re.compile(r"[0-9a-f]{64}")
+_ENTRY = re.compile(r"[0-9a-f]{64}(?:\.c)?\.npz")              # ArrayCache's (.npz: older versions')
+_BUILD_ENTRY = re.compile(r"[0-9a-f]{64}\.png|keys\.json")      # the image cache's, its key memo
+_STAMP = re.compile(r"[0-9a-f]{32}\.json")                      # build/stamps/
+STAMPS = "stamps"
+# A temporary of an entry's write (sdfpbr.files: ".<name>.<random>.<pid>.tmp[<suffix>]"): its
+# destination, group 1, is an entry name (tests and killed writers of older keys use short stems).
+_TEMP_OF = re.compile(r"\.([0-9A-Za-z_-]{1,64}\.(?:c\.npz|npz|png|json))\.[^./]+\.\d+\.tmp(?:\.\w+)?")
+
+
+def owned(root: Path) -> bool:
+    """Whether ``root`` carries sdfpbr's marker (sdfpbr has written there)."""
+    return os.path.isfile(Path(root) / MARKER)
+
+
+def claim(root: Path) -> None:
+    """Make ``root`` (and its parents) and mark it as sdfpbr's cache, if not yet; every writer
+    of an entry calls this first. OSError where it cannot (the writer's own handling applies)."""
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    marker = root / MARKER
+    if os.path.lexists(marker):
+        return
+    try:
+        fd = os.open(marker, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o644)
+    except FileExistsError:
+        return          # another process marked it meanwhile
+    try:
+        os.write(fd, MARKER_TEXT.encode())
+    finally:
+        os.close(fd)
+
+
+def own_entry(kind: str, name: str, sub: str | None = None) -> bool:
+    """Whether ``name`` in the kind folder ``kind`` (or in its subfolder ``sub``) is named as
+    sdfpbr names its entries."""
+    if sub is not None:
+        return kind == "build" and sub == STAMPS and bool(_STAMP.fullmatch(name))
+    return bool(_ENTRY.fullmatch(name) or (kind == "build" and _BUILD_ENTRY.fullmatch(name)))
+
+
+def _kind_dirs(root: Path) -> list[str]:
+    """The subfolders of ``root`` named as kinds are (KIND_NAME); symlinks to folders are left
+    out, as os.walk left them out before (bakes shared by linking a kind in are not evicted)."""
+    try:
+        with os.scandir(root) as it:
+            return sorted(e.name for e in it if KIND_NAME.fullmatch(e.name) and e.is_dir(follow_symlinks=False))
+    except OSError:
+        return []
+
+
+def _folders(root: Path, kind: str) -> list[tuple[Path, str | None]]:
+    """(folder, subfolder name or None) where entries of ``kind`` lie."""
+    folders = [(root / kind, None)]
+    if kind == "build":
+        folders.append((root / kind / STAMPS, STAMPS))
+    return folders
+
+
+def _own_files(root: Path, kind: str):
+    """(path, stat) of every entry of ``kind`` under ``root``: own names, regular files only."""
+    for folder, sub in _folders(root, kind):
+        if sub is not None and folder.is_symlink():
+            continue
+        try:
+            with os.scandir(folder) as it:
+                found = [e for e in it if own_entry(kind, e.name, sub)]
+        except OSError:
+            continue
+        for e in found:
             try:
-                st = path.stat()
+                st = e.stat(follow_symlinks=False)
             except OSError:
                 continue     # removed by another process meanwhile
-            out.append((path, st.st_size, st.st_mtime))
+            if stat.S_ISREG(st.st_mode):
+                yield Path(e.path), st
+
+
+def kinds(root: Path) -> list[str]:
+    """The kinds of entry in the cache at ``root``: kind folders that hold an entry, or nothing
+    at all (a kind just cleared). A folder of other files only is not one; a root without the
+    marker has none."""
+    root = Path(root)
+    if not owned(root):
+        return []
+    out = []
+    for kind in _kind_dirs(root):
+        if next(_own_files(root, kind), None) is not None:
+            out.append(kind)
+            continue
+        try:
+            if not os.listdir(root / kind):
+                out.append(kind)
+        except OSError:
+            pass
+    return out
+
+
+def cache_entries(root: Path, kind: str | None = None) -> list[tuple[Path, int, float]]:
+    """(path, bytes, last use) of every entry sdfpbr wrote under ``root`` (of one ``kind``):
+    the module docstring says how they are told from other files, which are never listed.
+    Temporaries of live writers are not entries."""
+    root = Path(root)
+    if not owned(root):
+        return []
+    out = []
+    for k in _kind_dirs(root) if kind is None else [kind]:
+        if not KIND_NAME.fullmatch(k) or (root / k).is_symlink():
+            continue
+        out.extend((path, st.st_size, st.st_mtime) for path, st in _own_files(root, k))
     return out
 
 
@@ -77,15 +206,17 @@ def touch(path: Path) -> None:
 
 
 def enforce_cap(root: Path, limit: int | None = None) -> int:
-    """Delete least recently used entries under ``root`` until it holds at most ``limit`` bytes
-    (default: cache_max()); returns the bytes freed."""
+    """Delete least recently used entries under ``root`` until its entries take at most
+    ``limit`` bytes (default: cache_max()); returns the bytes freed. Only sdfpbr's entries are
+    counted and deleted (cache_entries)."""
     limit = cache_max() if limit is None else limit
     return 0 if limit is None else _evict(root, limit)[0]
 
 
 def _evict(root: Path, limit: int, keep: int | None = None) -> tuple[int, int]:
-    """(bytes freed, bytes left): past ``limit`` bytes under ``root``, the least recently used
-    entries go until ``keep`` (default ``limit``) bytes are left."""
+    """(bytes freed, bytes left): past ``limit`` bytes of entries under ``root``, the least
+    recently used entries go until ``keep`` (default ``limit``) bytes are left. Other files in
+    the folder neither count nor go (module docstring)."""
     entries = cache_entries(root)
     total = sum(size for _, size, _ in entries)
     freed = 0
@@ -124,24 +255,40 @@ def after_write(root: Path, nbytes: int) -> None:
 
 def clear(root: Path, kind: str | None = None) -> tuple[int, int]:
     """Delete every entry (or those of one kind: a subdirectory such as 'ibl' or 'build') and
-    stale temporaries; returns (files, bytes) removed."""
-    where = root / kind if kind else root
+    stale temporaries of entries; returns (files, bytes) removed. Only sdfpbr's entries go
+    (cache_entries): other files in the folder stay, and a root without the marker loses
+    nothing."""
     files = size = 0
-    for path, n, _ in cache_entries(where):
+    for path, n, _ in cache_entries(root, kind):
         try:
             path.unlink()
             files, size = files + 1, size + n
         except OSError:
             pass
-    remove_stale_temporaries(where)
+    remove_stale_temporaries(root, kind)
     return files, size
 
 
-def remove_stale_temporaries(root: Path) -> int:
-    """Delete the temporaries of writers that no longer run in every kind under ``root`` (a
-    worker that exits with its killed parent may leave one mid-write, in a kind the next run
-    does not write to); returns how many."""
-    return sum(remove_stale_temps(Path(dirpath)) for dirpath, _, _ in os.walk(root))
+def remove_stale_temporaries(root: Path, kind: str | None = None) -> int:
+    """Delete the temporaries of writers that no longer run in every kind under ``root`` (or in
+    ``kind``): a worker that exits with its killed parent may leave one mid-write, in a kind the
+    next run does not write to. Only temporaries of entries' names in kind folders of a marked
+    root go; returns how many."""
+    root = Path(root)
+    if not owned(root):
+        return 0
+    removed = 0
+    for k in _kind_dirs(root) if kind is None else [kind]:
+        if not KIND_NAME.fullmatch(k):     # a kind named by its writer may be a linked folder
+            continue
+        for folder, _ in _folders(root, k):
+            try:
+                names = os.listdir(folder)
+            except OSError:
+                continue
+            dests = {m.group(1) for m in map(_TEMP_OF.fullmatch, names) if m}
+            removed += sum(remove_stale_temps(folder, prefix=f".{dest}.") for dest in sorted(dests))
+    return removed
 
 
 def content_key(*parts) -> str:
@@ -184,14 +331,23 @@ class ArrayCache:
         if enabled:
             cache_max()   # a malformed $SDFPBR_CACHE_MAX is refused before any work
 
-    def _path(self, kind: str, key: str) -> Path:
-        return self.root / kind / f"{key}.c.npz"   # .c: checksummed (older entries are not read)
+    def path(self, kind: str, key: str) -> Path:
+        """``<root>/<kind>/<name>.c.npz``, the name being the key where it is a sha256 hex
+        digest (every key sdfpbr makes: content_key) and the sha256 of the key otherwise, so
+        that every entry is named as the cache recognises its own (module docstring). .c:
+        checksummed (older entries are not read)."""
+        if not isinstance(kind, str) or not KIND_NAME.fullmatch(kind):
+            raise ValueError(f"cache kind {kind!r} is not a lower-case word ({KIND_NAME.pattern})")
+        name = key if HEX_KEY.fullmatch(key) else hashlib.sha256(key.encode()).hexdigest()
+        return self.root / kind / f"{name}.c.npz"
+
+    _path = path
 
     def get(self, kind: str, key: str, require_finite: bool = True) -> dict[str, np.ndarray] | None:
         if not self.enabled:
             return None
-        path = self._path(kind, key)
-        if not path.exists():
+        path = self.path(kind, key)
+        if not path.is_file():    # missing, or not a file sdfpbr wrote (a FIFO would hang np.load)
             return None
         import numpy as np
         try:
@@ -236,10 +392,11 @@ class ArrayCache:
         if not self.enabled or every or kind in kinds:
             return
         import numpy as np
-        path = self._path(kind, key)
+        path = self.path(kind, key)
         try:
+            claim(self.root)
             path.parent.mkdir(parents=True, exist_ok=True)
-            remove_stale_temps(path.parent)   # a killed bake's temporaries
+            remove_stale_temporaries(self.root, kind)   # a killed bake's temporaries
             with atomic_file(path, durable=False) as f:   # get() verifies its checksum
                 np.savez(f, **arrays, **{CHECK: checksum(key, arrays)})
             after_write(self.root, path.stat().st_size)

@@ -17,7 +17,15 @@ In ``conf.py``: ``extensions = ["sdfpbr.sphinxext"]``. Then, in reStructuredText
        size = "256x256"
 
 The argument is a gallery entry file (relative to the document, or to the source directory
-when it starts with ``/``); the content is an entry written inline. Either is any entry
+when it starts with ``/``); the content is an entry written inline.
+
+What a directive reads is confined to the docs source tree (Sphinx's ``env.srcdir``): the entry
+file, and every file the entry names (``env``, textures, ``gltf``, ``[compare]`` a/b files and
+what those name), each relative to the file naming it (an inline entry: its document), must lie
+inside it with symlinks resolved (sdfpbr.inputs.confined, through entries.inside). A path that
+leads out (``..``, an absolute path, a URI, a symlink) is the directive's error, in one line and
+the same words whether or not the outside file exists; a FIFO or a device (``/dev/zero``) is
+refused without being read (sdfpbr.inputs). Either is any entry
 ``sdfpbr build`` reads (a chart spec, a ``[compare]`` or a ``[sweep]``) that makes one image.
 Options: ``:caption:`` (default: the entry's caption), ``:alt:``, ``:width:``, ``:align:``,
 ``:name:``, ``:class:``. The image comes from the same content-addressed cache as
@@ -42,39 +50,57 @@ def _align(argument: str) -> str:
 
 def _entry(directive: "SdfpbrChart") -> tuple[dict, Path, str, list[Path]]:
     """The entry document, the directory its paths are relative to, a name for messages, and
-    the files it was read from."""
+    the files it was read from. The file lies inside the source tree (module docstring)."""
     from .errors import SpecError
     from .spec.toml_file import parse_toml_text, read_toml
+    from .tools.gallery.entries import inside
     env = directive.env
     if directive.arguments:
         if directive.content:
             raise SpecError("give a spec file or inline TOML, not both")
-        _, path = env.relfn2path(directive.arguments[0], env.docname)
-        path = Path(path)
+        name = directive.arguments[0]
+        # Sphinx's rule (env.relfn2path): '/x' is srcdir/x, 'x' is beside the document.
+        base, rel = (env.srcdir, name[1:]) if name.startswith("/") else (_doc_dir(env), name)
+        path = inside(env.srcdir, base, rel, "spec file")
         return read_toml(path, "spec file"), path.parent, str(path), [path]
     if not directive.content:
         raise SpecError("needs a spec file argument or inline TOML content")
     where = f"{env.doc2path(env.docname)}:{directive.lineno}"
     data = parse_toml_text("\n".join(directive.content), where)
-    return data, Path(env.doc2path(env.docname)).parent, where, []
+    return data, _doc_dir(env), where, []
 
 
-def _one_item(data: dict, base_dir: Path, where: str):
+def _doc_dir(env) -> Path:
+    return Path(env.doc2path(env.docname)).parent
+
+
+def _one_item(data: dict, base_dir: Path, where: str, srcdir):
+    """The one image of an entry; what it names is confined to the source tree ``srcdir``."""
     from .tools.gallery.entries import parse_entry
     from .errors import SpecError
-    items = parse_entry(data, where, base_dir, "chart")
+    items = parse_entry(data, where, base_dir, "chart", root=srcdir)
     if len(items) != 1:
         raise SpecError(f"{where}: the entry makes {len(items)} images; a directive shows one "
                         f"(use bugs = \"all\" for a contact sheet)")
     return items[0]
 
 
-def _referenced_files(data: dict, base_dir: Path) -> list[Path]:
-    """Files a [compare] a/b entry reads, so that editing them re-reads the document."""
+def _referenced_files(data: dict, base_dir: Path, srcdir) -> list[Path]:
+    """Files a [compare] a/b entry reads, so that editing them re-reads the document (those
+    inside the source tree: one outside is refused when the entry is read)."""
+    from .errors import SpecError
+    from .tools.gallery.entries import inside
     table = data.get("compare")
     if not isinstance(table, dict):
         return []
-    return [base_dir / table[k] for k in ("a", "b") if isinstance(table.get(k), str)]
+    files = []
+    for k in ("a", "b"):
+        if isinstance(table.get(k), str):
+            try:
+                files.append(inside(srcdir, base_dir, table[k], f"[compare] {k}"))
+            except SpecError:
+                pass
+    return files
 
 
 class SdfpbrChart(SphinxDirective):
@@ -97,9 +123,9 @@ class SdfpbrChart(SphinxDirective):
         from .errors import SdfpbrError
         try:
             data, base_dir, where, files = _entry(self)
-            for path in files + _referenced_files(data, base_dir):
+            for path in files + _referenced_files(data, base_dir, self.env.srcdir):
                 self.env.note_dependency(str(path))
-            item = _one_item(data, base_dir, where)
+            item = _one_item(data, base_dir, where, self.env.srcdir)
             renderers = gl_renderers([item])
             key, png, _cached = ensure_image(item, ImageCache(), renderers=renderers)
             target = Path(self.env.app.doctreedir) / "sdfpbr" / f"{key}.png"
@@ -108,6 +134,8 @@ class SdfpbrChart(SphinxDirective):
                 write_bytes(target, png)
         except SdfpbrError as exc:
             raise self.error(f"sdfpbr-chart: {exc}") from None
+        except MemoryError:   # what the reader's limits could not foresee: one line all the same
+            raise self.error("sdfpbr-chart: out of memory reading or rendering the chart") from None
         except OSError as exc:
             raise self.error(f"sdfpbr-chart: cannot write the chart image: {exc}") from None
 
@@ -161,7 +189,7 @@ def _outdated(app, env, added, changed, removed) -> list[str]:
             continue
         for record in records:
             try:
-                item = _one_item(record["document"], Path(record["base_dir"]), record["where"])
+                item = _one_item(record["document"], Path(record["base_dir"]), record["where"], env.srcdir)
                 key = item_key(item, {(b, d): s for b, d, s in record["renderers"]})
             except (SdfpbrError, KeyError):
                 key = None              # re-read: the directive reports the problem

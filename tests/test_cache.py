@@ -17,7 +17,7 @@ from sdfpbr.files import write_bytes
 def entry(cache: ArrayCache, name: str, kib: int, used: float) -> None:
     """An entry of about ``kib`` KiB, last used at ``used`` (seconds since the epoch)."""
     cache.put("ibl", name, {"a": np.zeros(kib * 256, np.float32)})
-    os.utime(cache.root / "ibl" / f"{name}.c.npz", (used, used))
+    os.utime(cache.path("ibl", name), (used, used))   # named by the key's sha256: the cache's own naming
 
 
 def test_the_cap_evicts_least_recently_used_first(tmp_path, monkeypatch):
@@ -28,8 +28,8 @@ def test_the_cap_evicts_least_recently_used_first(tmp_path, monkeypatch):
         entry(cache, name, 100, now - 100 + i)      # a oldest ... d newest
     assert cache.get("ibl", "a") is not None          # a read marks a used now
     enforce_cap(tmp_path, 250 * 1024)                 # room for two of the four
-    left = sorted(p.name.split(".")[0] for p in (tmp_path / "ibl").iterdir())
-    assert left == ["a", "d"]
+    left = sorted(p.name for p in (tmp_path / "ibl").iterdir())
+    assert left == sorted(cache.path("ibl", name).name for name in "ad")
 
 
 def test_a_put_keeps_the_cache_under_its_cap(tmp_path, monkeypatch):

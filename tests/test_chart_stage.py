@@ -71,7 +71,7 @@ EDGE_CASES = [dict(), dict(width=256, height=256, rows=64, cols=64), dict(width=
               # no sphere plate (every cell its own material): the sphere pass too
               dict(y_axis="clearcoat", sheen_color=(0.6, 0.3, 0.4), ior=2.0),
               dict(row_materials=("gold", "copper", "silver"), rows=3, cols=4, transparent=True),
-              dict(gltf=str(DATA / "materials.glb"), width=300, height=200),
+              dict(gltf=str(DATA.parent.parent / "charts" / "materials.glb"), width=300, height=200),
               dict(y_axis="clearcoat", width=256, height=256, rows=20, cols=20),
               # the covered part in four samples (high's): the sphere plate's, the sphere pass's,
               # the shared stage's and a see-through sphere's edges

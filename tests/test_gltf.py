@@ -16,7 +16,7 @@ pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) 
 sys.path.insert(0, str(Path(__file__).parent / "data"))
 from make_materials_glb import MATERIALS, gltf_asset, pbr  # noqa: E402
 
-GLB = Path(__file__).parent / "data" / "materials.glb"
+GLB = Path(__file__).parents[1] / "charts" / "materials.glb"
 
 
 def test_the_shipped_asset_is_what_its_script_writes(tmp_path):
@@ -110,12 +110,12 @@ def test_a_gltf_json_file_with_an_extension_it_does_not_chart_is_charted_and_say
     r = subprocess.run([sys.executable, "-m", "sdfpbr", "chart", "--gltf", str(path), "-o", str(out),
                         "--size", "96x96"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert "leaf: KHR_materials_transmission is not charted" in r.stderr
+    assert "material 'leaf' KHR_materials_transmission is not charted" in r.stderr
     assert out.stat().st_size > 0
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--gltf", "missing.glb"], "is not an existing .gltf or .glb file"),
+    (["--gltf", "missing.glb"], "gltf missing.glb does not exist"),
     (["--material", "gold"], "give gltf too"),
     (["--gltf", str(GLB), "--rows", "4"], "rows x cols must be 6"),
 ])
@@ -513,18 +513,17 @@ def test_an_image_edited_beside_a_gltf_is_read_again_and_rekeys_its_gallery_imag
     covers the images the asset samples, not only the asset's own bytes)."""
     from sdfpbr.tools.gallery.build import build
     monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
-    (tmp_path / "maps").mkdir()
-    image = tmp_path / "maps" / "colour.png"
+    charts = tmp_path / "charts"   # a build reads files inside its entries' folder only
+    (charts / "maps").mkdir(parents=True)
+    image = charts / "maps" / "colour.png"
     image.write_bytes(png_bytes(pattern(4)))
     doc = gltf_asset([textured()])
     doc.images = [pygltflib.Image(uri="maps/colour.png")]
     doc.textures = [pygltflib.Texture(source=0)]
-    doc.save_json(str(tmp_path / "asset.gltf"))
-    spec = make_spec(gltf=str(tmp_path / "asset.gltf"), size="96x96")
+    doc.save_json(str(charts / "asset.gltf"))
+    spec = make_spec(gltf=str(charts / "asset.gltf"), size="96x96")
     first_chart = session.render(spec).image
-    charts = tmp_path / "charts"
-    charts.mkdir()
-    (charts / "asset.toml").write_text('gltf = "../asset.gltf"\nsize = "96x96"\n')
+    (charts / "asset.toml").write_text('gltf = "asset.gltf"\nsize = "96x96"\n')
     first = build(charts, tmp_path / "out")
     image.write_bytes(png_bytes(pattern(5)))
     assert not np.array_equal(session.render(spec).image, first_chart)

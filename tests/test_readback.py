@@ -102,7 +102,7 @@ def test_the_api_draws_the_render_into_its_labelled_chart(session, tmp_path):
     from sdfpbr.image.chart_labels import label
     cases = [dict(SMALL), dict(SMALL, transparent=True), dict(SMALL, labels=False)]
     if importlib.util.find_spec("pygltflib"):   # the gltf extra
-        cases.append(dict(width=96, height=64, gltf=str(Path(__file__).parent / "data" / "materials.glb")))
+        cases.append(dict(width=96, height=64, gltf=str(Path(__file__).parents[1] / "charts" / "materials.glb")))
     for options in cases:
         spec = make_spec(**options)
         chart = sdfpbr.chart(spec, session=session)

@@ -171,7 +171,7 @@ def test_the_catchers_bands_follow_the_cell_and_the_lights_not_the_materials():
     from sdfpbr.shading.catcher import CATCHER_BAND_MAX, catcher_bands
     plain = make_spec(rows=2, cols=3, transparent=True)
     listed = make_spec(plain, base_colors=[(i / 5, 0.5, 0.5) for i in range(6)], x_values=[0, 0.3, 1])
-    asset = make_spec(plain, gltf=str(Path(__file__).parent / "data" / "materials.glb"))
+    asset = make_spec(plain, gltf=str(Path(__file__).parents[1] / "charts" / "materials.glb"))
     assert catcher_bands(listed) == catcher_bands(plain) == catcher_bands(asset)
     assert catcher_bands(make_spec(plain, lights="none")) == (CATCHER_BAND_MAX,) * 4
     assert catcher_bands(make_spec(plain, camera_azimuth=40.0)) != catcher_bands(plain)

@@ -1,4 +1,4 @@
-"""Writes tests/data/materials.glb: six glTF materials, one per lobe the chart renders (run with
+"""Writes charts/materials.glb (the gallery's and the tests' asset): six glTF materials, one per lobe the chart renders (run with
 `python tests/data/make_materials_glb.py`; the tests also build assets with gltf_asset())."""
 from pathlib import Path
 
@@ -33,6 +33,6 @@ MATERIALS = [
 ]
 
 if __name__ == "__main__":
-    out = Path(__file__).with_name("materials.glb")
+    out = Path(__file__).parents[2] / "charts" / "materials.glb"
     gltf_asset(MATERIALS).save_binary(str(out))
     print(out)

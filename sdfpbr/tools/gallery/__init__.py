@@ -27,7 +27,12 @@ scanned, so they can hold specs that entries refer to). ``OUT/<file stem>.png`` 
 * **Sweep**: ``[sweep] field = "tonemap"`` and ``values = [...]`` (any spec key; each value as it
   would be written in a chart entry), with an optional ``[spec]`` base and ``caption``.
 
-A file named in an entry (``env``, a texture, ``gltf``) is found relative to the entry's directory.
+A file named in an entry (``env``, a texture, ``gltf``, an a/b file) is found relative to the entry's
+directory (a file an a/b file names: relative to that file's directory), and must lie inside the
+entries folder, symlinks resolved: an absolute path, a URI or a path that leads out is refused
+in one line, in the same words whether or not the outside file exists (``entries.inside``). So is
+an entry file in the folder that is a symlink out. (``build(..., root=DIR)`` and
+``collect(..., root=DIR)`` widen the tree to a folder holding the entries folder.)
 
 Cache
 -----
@@ -36,15 +41,18 @@ renders (``to_dict``; a file the spec names is hashed by content), the composed 
 GL program those renders run (chart, display, vertex, DFG and IBL bakes; pure Python), the
 sdfpbr version, the Python sources that make images (``image_modules()``: chart, compare and
 every sdfpbr module they import) and the GL renderer string. Images live in
-``<cache>/build/<key>.png`` (``$SDFPBR_CACHE_DIR`` or ~/.cache/sdfpbr) with the key in their
-PNG metadata; a rebuild renders only the images no valid entry exists for, so editing one
+``<cache>/build/<key>.png`` (``$SDFPBR_CACHE_DIR`` or ~/.cache/sdfpbr; the cache counts and
+deletes only its own entries there, ``sdfpbr.cache``) with the key in their PNG metadata; a rebuild renders only the images no valid entry exists for, so editing one
 shader module re-renders exactly the images whose programs include it.
 
 Output
 ------
-``OUT/<name>.png`` per image (byte-identical to its cache entry), ``OUT/manifest.json`` (per
-image: file, entry, kind, caption, parameters, key, cached, size, sha256, timings, specs) and
-``OUT/index.html`` (every image with its caption and parameters). ``-j N`` renders in N spawned
+``OUT/<name>.png`` per image (byte-identical to its cache entry), ``OUT/manifest.json`` (marked
+``"generator": "sdfpbr"``; per image: file, entry, kind, caption, parameters, key, cached, size,
+sha256, timings, specs) and ``OUT/index.html`` (every image with its caption and parameters). A
+rebuild deletes the image of an entry that is gone only if the folder's manifest is one sdfpbr
+wrote and the file still is the image it wrote (its PNG carries the listed key); a manifest
+sdfpbr did not write deletes nothing (``build.py``). ``-j N`` renders in N spawned
 processes, each with its own GL context; the main process alone writes files.
 
 Interruption and concurrency

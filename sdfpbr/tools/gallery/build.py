@@ -5,27 +5,45 @@ directory; the main process alone writes files.
 A large gallery shards across machines: ``build(..., shard=(i, n))`` renders every n-th item
 (from the i-th, in entry order) into its own directory with a partial manifest, and ``merge``
 joins the shards' directories into the gallery (images checked against their manifests'
-hashes, no GL needed) — a CI matrix runs the shards, a last job the merge."""
+hashes, no GL needed) — a CI matrix runs the shards, a last job the merge.
+
+What a build reads and deletes:
+
+* The entries, and every file they name, lie inside the entries folder (or the ``root`` given):
+  entries.py confines them; a path that leads out is refused in one line.
+* Every manifest (the output folder's own, a shard's) is read through sdfpbr.inputs.read_json:
+  a regular file of bounded size and nesting, a one-line error otherwise.
+* The manifests a build writes say ``"generator": "sdfpbr"``. A build deletes an image the
+  last build wrote and no entry makes any more only when the output folder's manifest is
+  one of those, every image it lists is a plain ``<name>.png`` (no '/', '\\', leading '.')
+  directly in the folder with a sha256 key, and the file is a regular one carrying that key in
+  its PNG metadata (an image sdfpbr rendered). A foreign or malformed manifest deletes
+  nothing; the build writes its own over it."""
 from __future__ import annotations
 
 import hashlib
 import json
+import os
+import stat
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 from ... import __version__
-from ...cache import remove_stale_temporaries, touch
+from ...cache import HEX_KEY, claim, remove_stale_temporaries, touch
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
+from ...inputs import parse_json, read_input, read_json
 from ...workers import cores, process_pool
-from .images import ImageCache, Rendered, checkpoint, prepare_helpers, render_items, write_file
+from .images import ImageCache, Rendered, checkpoint, png_key, prepare_helpers, render_items, write_file
 from .page import gallery_html
 from .stamp import InputLog, package_files, record, stamp_path, unchanged
 
 if TYPE_CHECKING:     # the entries, their specs and keys (numpy, the glTF parser, GL) load only
     from .entries import Item    # when a build is not answered by its stamp (stamp.py)
+
+GENERATOR = "sdfpbr"      # the "generator" of every manifest a build or a merge writes
 
 
 def _worker(items: list[Item], keys: list[str]) -> list[Rendered]:
@@ -116,10 +134,11 @@ def _make_out(out: Path) -> None:
 
 def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool = False,
           log: Callable[[str], None] | None = None, verbose: bool = False,
-          shard: tuple[int, int] | None = None) -> dict:
+          shard: tuple[int, int] | None = None, root: str | Path | None = None) -> dict:
     """Build the gallery of ``chart_dir`` into ``out_dir``; returns the manifest. ``log`` gets
     one line per image ("[3/12] name.png  rendered in 0.41 s") and warnings. With ``shard``
-    (i, n): only that shard's images and a partial manifest (no index.html); see merge."""
+    (i, n): only that shard's images and a partial manifest (no index.html); see merge. The
+    entries read only files inside ``root`` (default: ``chart_dir``; entries.collect)."""
     start = time.perf_counter()
     say = log or (lambda line: None)
     shard = check_shard(shard)
@@ -128,27 +147,31 @@ def build(chart_dir: str | Path, out_dir: str | Path, jobs: int = 1, force: bool
     jobs = jobs or cores()
     out = Path(out_dir)
     cache = ImageCache()
-    stamp_file = stamp_path(cache.dir, chart_dir, out, shard)
+    stamp_file = stamp_path(cache.dir, chart_dir, out, shard, root)
     if not force:
         manifest = _replay(stamp_file, cache, chart_dir, out, shard, say, verbose, start)
         if manifest is not None:
             return manifest
     from ...shading.compose import modules_fixed
     with modules_fixed():   # the build's keys and renders read one version of each shader module
-        return _full_build(chart_dir, out, force, jobs, say, verbose, shard, start, cache, stamp_file)
+        return _full_build(chart_dir, out, force, jobs, say, verbose, shard, start, cache, stamp_file, root)
 
 
 def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool, shard, start: float,
-                cache: ImageCache, stamp_file: Path) -> dict:
+                cache: ImageCache, stamp_file: Path, root=None) -> dict:
     from .entries import collect
     from .keys import gl_renderers, item_keys
     packages = package_files()
     with InputLog(cache.root) as inputs:
-        items = shard_items(collect(chart_dir), shard)   # every entry validated before any output
+        items = shard_items(collect(chart_dir, root), shard)   # every entry validated before any output
         _check_out(out)
         if jobs <= 1:
             prepare_helpers(items)
         renderers = gl_renderers(items)
+        try:
+            claim(cache.root)   # the cache's marker before its first write (sdfpbr.cache)
+        except OSError:
+            pass                # an unwritable cache only costs speed
         keys = item_keys(items, renderers, cache.dir / "keys.json")
     remove_stale_temporaries(cache.root)
     _make_out(out)
@@ -217,16 +240,22 @@ def _replay(stamp_file: Path, cache: ImageCache, chart_dir, out: Path, shard, sa
         if verbose:
             say(f"full build: {why}")
         return None
-    images = recorded["images"]
     try:
-        written = json.loads((out / "manifest.json").read_text())["images"]
+        images = recorded["images"]
+        written = read_json(out / "manifest.json", "manifest")
+        if written.get("generator") != GENERATOR:
+            raise ValueError
+        written = written["images"]
         if [(e["image"], e["sha256"]) for e in written] != [(e["image"], e["sha256"]) for e in images]:
             raise ValueError
         for image in images:
-            data = (out / image["image"]).read_bytes()
-            if hashlib.sha256(data).hexdigest() != image["sha256"] or cache.path(image["key"]).read_bytes() != data:
+            if not plain_image(image["image"]):
                 raise ValueError
-    except (OSError, ValueError, KeyError, TypeError):
+            data = read_input(out / image["image"], "image", "image")
+            if hashlib.sha256(data).hexdigest() != image["sha256"] or \
+                    read_input(cache.path(image["key"]), "cache entry", "image") != data:
+                raise ValueError
+    except (SpecError, OSError, ValueError, KeyError, TypeError, AttributeError):
         if verbose:
             say(f"full build: {out} or the cache does not hold the last build's images")
         return None
@@ -237,7 +266,7 @@ def _replay(stamp_file: Path, cache: ImageCache, chart_dir, out: Path, shard, sa
         touch(cache.path(image["key"]))        # used now, as a cache hit marks it
         say(progress_line(i, total, image["image"], "cached", image["key"] if verbose else ""))
     manifest = {**recorded, "charts": str(chart_dir), "elapsed_s": round(time.perf_counter() - start, 3)}
-    _finish(out, manifest, set(), page=shard is None)
+    _finish(out, manifest, {}, page=shard is None)
     return manifest
 
 
@@ -253,59 +282,109 @@ def manifest_text(manifest: dict) -> str:
     return "{\n" + ",\n".join(f"  {line(k)}: {value(k, v)}" for k, v in manifest.items()) + "\n}\n"
 
 
-def _finish(out: Path, manifest: dict, previous: set[str], page: bool) -> None:
-    """The manifest (and the page) last, then the images of entries that no longer exist go."""
+def _finish(out: Path, manifest: dict, previous: dict[str, str], page: bool) -> None:
+    """The manifest (and the page) last, then the images of entries that no longer exist go:
+    those the last build's own manifest listed (``previous``: name -> key, _previous_images),
+    each only if it still is the image sdfpbr wrote (_remove_own_image)."""
     write_file(out / "manifest.json", manifest_text(manifest).encode(), "manifest")
     if page:
         write_file(out / "index.html", gallery_html(manifest).encode(), "index")
-    for name in previous - {entry["image"] for entry in manifest["images"]}:
-        try:
-            (out / name).unlink()     # an image of an entry that no longer exists
-        except OSError:
-            pass
+    for name in sorted(set(previous) - {entry["image"] for entry in manifest["images"]}):
+        _remove_own_image(out / name, previous[name])   # an image of an entry that no longer exists
+
+
+def _remove_own_image(path: Path, key: str) -> bool:
+    """Delete ``path`` if it is a regular file (not a symlink) holding a PNG that carries the
+    build key ``key``: an image sdfpbr rendered, not a file that took its name."""
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return False
+        if png_key(read_input(path, "image", "image")) != key:
+            return False
+        path.unlink()
+        return True
+    except (OSError, SpecError):
+        return False
+
+
+# What each image record of a manifest holds (_manifest), as merge checks a shard's.
+RECORD_FIELDS = {"image": str, "name": str, "entry": str, "kind": str, "caption": str, "params": dict,
+                 "key": str, "cached": bool, "width": int, "height": int, "sha256": str, "timings": dict,
+                 "specs": list}
+
+
+def _shard_manifest(part: Path) -> tuple[list[dict], list[str]]:
+    """(image records, GL renderers) of the manifest a shard build wrote in ``part``, read
+    through sdfpbr.inputs (bounded size and nesting); a one-line SpecError otherwise."""
+    why = None
+    try:
+        manifest = parse_json(read_input(part / "manifest.json", "its manifest", "manifest"), "manifest.json")
+    except SpecError as exc:
+        detail = str(exc)
+        if detail.startswith("manifest.json: "):      # parse_json's: the text is not what JSON reads
+            detail = detail[len("manifest.json: "):]
+            why = "it is not JSON" if detail.startswith("malformed JSON") else f"its {detail}"
+        else:                                         # read_input's: missing, a FIFO, too large
+            why = detail
+    else:
+        entries = manifest.get("images") if isinstance(manifest, dict) else None
+        shard_renderers = manifest.get("gl_renderers", []) if isinstance(manifest, dict) else None
+        if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+            why = "it is not a table with a list of images"
+        elif not isinstance(shard_renderers, list) or not all(isinstance(r, str) for r in shard_renderers):
+            why = "its gl_renderers is not a list of names"
+        elif manifest.get("generator") != GENERATOR:
+            why = f'sdfpbr did not write it (no "generator": "{GENERATOR}")'
+    if why is not None:
+        raise SpecError(f"{part} holds no readable manifest.json of a build shard: {why} "
+                        f"(give the directories `sdfpbr build --shard i/n` wrote)")
+    return entries, shard_renderers
+
+
+def _check_record(part: Path, entry: dict, names: set[str], chart_dir) -> str:
+    """The entry name of a shard's image record, checked: an image of an entry in
+    ``chart_dir``, named <name>.png, every field of its kind (what the page reads)."""
+    name = entry.get("name")
+    if not isinstance(name, str) or name not in names:
+        shown = repr(name) if len(repr(name)) <= 80 else repr(name)[:77] + "..."
+        raise SpecError(f"{part}: its manifest lists {shown}, the image of no entry in {chart_dir}; "
+                        f"build the shards from the same chart directory")
+    for field, kind in RECORD_FIELDS.items():
+        value = entry.get(field)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise SpecError(f"{part}: its manifest's record of {name}.png has no {field} "
+                            f"({kind.__name__}); give the directories `sdfpbr build --shard i/n` wrote")
+    if entry["image"] != f"{name}.png" or not HEX_KEY.fullmatch(entry["key"]):
+        raise SpecError(f"{part}: its manifest's record of {name}.png names another image or no key")
+    return name
 
 
 def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
-          log: Callable[[str], None] | None = None) -> dict:
+          log: Callable[[str], None] | None = None, root: str | Path | None = None) -> dict:
     """Join shard directories (each written by build(..., shard=...)) into the gallery of
     ``chart_dir`` in ``out_dir``: every entry's image must be in exactly one part, with the
     bytes its manifest's sha256 names; the merged manifest and index.html list them in entry
-    order. Nothing renders and no GL is needed."""
+    order. Nothing renders and no GL is needed. A shard's manifest must be one a build wrote
+    ("generator"), its records those of the gallery's entries."""
     from .entries import collect
     start = time.perf_counter()
     say = log or (lambda line: None)
-    items = collect(chart_dir)
+    items = collect(chart_dir, root)
     out = Path(out_dir)
     _check_out(out)
     found: dict[str, tuple[dict, bytes, Path]] = {}
     renderers: set[str] = set()
+    wanted = {item.name for item in items}
     for part in map(Path, parts):
-        why = None
-        try:
-            manifest = json.loads((part / "manifest.json").read_text())
-        except OSError as exc:
-            why = exc.strerror or str(exc)
-        except ValueError:
-            why = "it is not JSON"
-        else:
-            entries = manifest.get("images") if isinstance(manifest, dict) else None
-            shard_renderers = manifest.get("gl_renderers", []) if isinstance(manifest, dict) else None
-            if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
-                why = "it is not a table with a list of images"
-            elif not isinstance(shard_renderers, list) or not all(isinstance(r, str) for r in shard_renderers):
-                why = "its gl_renderers is not a list of names"
-        if why is not None:
-            raise SpecError(f"{part} holds no readable manifest.json of a build shard: {why} "
-                            f"(give the directories `sdfpbr build --shard i/n` wrote)")
+        entries, shard_renderers = _shard_manifest(part)
         renderers.update(shard_renderers)
         for entry in entries:
-            name = entry.get("name")
+            name = _check_record(part, entry, wanted, chart_dir)
             if name in found:
                 raise SpecError(f"{entry.get('image')} is in both {found[name][2]} and {part}")
-            try:
-                data = (part / f"{name}.png").read_bytes()
-            except (OSError, TypeError):
-                raise SpecError(f"{part}: {name}.png, listed in its manifest, is missing") from None
+            if not os.path.lexists(part / f"{name}.png"):
+                raise SpecError(f"{part}: {name}.png, listed in its manifest, is missing")
+            data = read_input(part / f"{name}.png", "shard image", "image")
             if hashlib.sha256(data).hexdigest() != entry.get("sha256"):
                 raise SpecError(f"{part}: {name}.png is not the image its manifest names (sha256 differs)")
             found[name] = (entry, data, part)
@@ -325,6 +404,7 @@ def merge(chart_dir: str | Path, parts: list[str | Path], out_dir: str | Path,
         say(progress_line(i, len(items), f"{item.name}.png", f"from {found[item.name][2]}"))
     images = [found[n][0] for n in names]
     manifest = {
+        "generator": GENERATOR,
         "sdfpbr": __version__,
         "charts": str(chart_dir),
         "gl_renderers": sorted(renderers),
@@ -359,23 +439,43 @@ def _render_parallel(groups: list[list[Item]], keys: dict, workers: int, done) -
 
 def _write_output(out: Path, item: Item, data: bytes) -> None:
     path = out / f"{item.name}.png"
-    try:
-        if path.read_bytes() == data:
+    try:   # a regular file only: a FIFO under the image's name would hang a plain read
+        if read_input(path, "image", "image") == data:
             return                      # already there: keep the file (and its mtime)
-    except OSError:
+    except SpecError:
         pass
     write_file(path, data, "output")
 
 
-def _previous_images(out: Path) -> set[str]:
-    """Images the last build into ``out`` wrote, from its manifest (plain names only)."""
+def plain_image(name) -> bool:
+    """Whether ``name`` is an image name a build writes: ``<name>.png`` directly in the output
+    folder (no '/', '\\', NUL, leading '.', hence no '..')."""
+    return (isinstance(name, str) and name.endswith(".png") and len(name) > len(".png") and not name.startswith(".")
+            and not any(c in name for c in "/\\\0") and len(name.encode(errors="replace")) <= 255)
+
+
+def _previous_images(out: Path) -> dict[str, str]:
+    """Images the last build into ``out`` wrote (name -> build key), from its manifest: only a
+    manifest sdfpbr wrote ("generator") whose every record names a plain image
+    (``plain_image``, ``<name>.png`` of its entry name) with a sha256 key. A manifest that is
+    missing, unreadable (a FIFO, too large, too deep), malformed or foreign gives none, so
+    nothing is deleted."""
     try:
-        manifest = json.loads((out / "manifest.json").read_text())
-        names = {entry["image"] for entry in manifest["images"]}
-    except (OSError, ValueError, KeyError, TypeError):
-        return set()
-    return {n for n in names if isinstance(n, str) and n.endswith(".png") and "/" not in n
-            and "\\" not in n and not n.startswith(".")}
+        manifest = read_json(out / "manifest.json", "manifest")
+    except SpecError:
+        return {}
+    if not isinstance(manifest, dict) or manifest.get("generator") != GENERATOR \
+            or not isinstance(manifest.get("images"), list):
+        return {}
+    previous = {}
+    for entry in manifest["images"]:
+        image = entry.get("image") if isinstance(entry, dict) else None
+        name, key = (entry.get("name"), entry.get("key")) if isinstance(entry, dict) else (None, None)
+        if not (plain_image(image) and isinstance(name, str) and image == f"{name}.png"
+                and isinstance(key, str) and HEX_KEY.fullmatch(key)):
+            return {}          # one record not as a build writes it: the manifest is not trusted
+        previous[image] = key
+    return previous
 
 
 def _png_size(data: bytes) -> tuple[int, int]:
@@ -403,6 +503,7 @@ def _manifest(items, results, renderers, chart_dir, elapsed) -> dict:
             "specs": [s.to_dict() for s in item.specs],
         })
     return {
+        "generator": GENERATOR,
         "sdfpbr": __version__,
         "charts": str(chart_dir),
         "gl_renderers": sorted(set(renderers.values())),

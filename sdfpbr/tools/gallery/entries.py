@@ -1,14 +1,27 @@
 """Gallery entries: a TOML document (a chart spec, a [compare] or a [sweep]) -> the images it
-makes, fully resolved and validated before anything is rendered."""
+makes, fully resolved and validated before anything is rendered.
+
+What an entry may read is confined to a tree (``root``): for ``sdfpbr build ENTRIES`` the
+entries folder (``collect``), for the Sphinx directive the docs source tree (sphinxext). Every
+file an entry names (``env``, a texture, ``gltf``, a ``[compare]`` a/b file, a ``[sweep]`` value
+of such a field, and the files an a/b file names in turn) is a path relative to the file that
+names it (the entry's folder; an a/b file's own folder), which must lie inside the tree with
+symlinks resolved (``inside``: sdfpbr.inputs.confined). An absolute path, a URI, a '..' or a
+symlink that leads out is refused in one line, in the same words whether the outside file
+exists or not; nothing is looked up from the working directory. An entry file in the entries
+folder that is a symlink out is refused the same way."""
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from ...errors import SpecError
-from ...spec.chart_spec import ChartSpec, load_spec, spec_from_mapping
-from ...spec.fields import ENTRY_SECTIONS, field_value, resolve_field, resolve_relative_files, split_entry
+from ...inputs import check_input, confined
+from ...spec.chart_spec import ChartSpec, spec_from_mapping
+from ...spec.fields import ENTRY_SECTIONS, field_value, names_file, read_entry_document, resolve_field, split_entry
 from ...spec.toml_file import read_toml
 
 
@@ -66,23 +79,60 @@ def _text(value, what: str, where: str) -> str:
     return value
 
 
-def parse_entry(data: dict, where: str, base_dir: Path, stem: str) -> list[Item]:
-    """The images one entry document describes. Raises SpecError naming ``where``."""
+def inside(root: str | Path, base_dir: str | Path, name: str, what: str) -> Path:
+    """``base_dir / name`` (``name`` as an entry gives it, relative to ``base_dir``, a folder in
+    the tree ``root``) if it lies inside ``root`` with symlinks resolved; a SpecError otherwise,
+    in the same words whether or not the outside file exists (sdfpbr.inputs.confined). The
+    path is returned as named, not resolved: specs and messages show it as before."""
+    refusal = SpecError(f"{what}: {name!r} is outside the folder {str(root)!r}; only files inside it are read")
+    if not isinstance(name, str) or not name or "\0" in name or os.path.isabs(name) \
+            or name.startswith(("\\", "~")) or urlsplit(name).scheme:
+        raise refusal
+    tree, base = os.path.realpath(root), os.path.realpath(base_dir)
+    rel = os.path.relpath(base, tree)
+    if rel == os.pardir or rel.startswith(os.pardir + os.sep) or os.path.isabs(rel):
+        raise refusal          # the folder itself lies outside (an entries folder outside the tree)
+    try:
+        confined(tree, name if rel == os.curdir else os.path.join(rel, name), what)
+    except SpecError:
+        raise refusal from None
+    return Path(base_dir) / name
+
+
+def named_files(mapping: dict, base_dir: Path, root: Path, where: str) -> dict:
+    """``mapping`` with every file a spec key names (env, a texture, gltf: fields.names_file,
+    under any spelling of the key) replaced by its path beside ``base_dir``, confined to
+    ``root`` (``inside``)."""
+    out = dict(mapping)
+    for key, value in mapping.items():
+        try:
+            field = resolve_field(key).name if isinstance(key, str) else key
+        except SpecError:
+            continue           # an unknown key: spec_from_mapping names it
+        if names_file(field, value):
+            out[key] = str(inside(root, base_dir, value, f"{where}: {key}"))
+    return out
+
+
+def parse_entry(data: dict, where: str, base_dir: Path, stem: str, root: str | Path | None = None) -> list[Item]:
+    """The images one entry document describes. Raises SpecError naming ``where``. Files it
+    names are relative to ``base_dir`` and confined to ``root`` (default: ``base_dir``)."""
+    root = Path(base_dir if root is None else root)
     spec_keys, entry = split_entry(data, where)
     caption = _text(entry.get("caption", ""), "caption", where)
     section = next((k for k in ENTRY_SECTIONS if k in entry), None)
     if section is None:
-        spec = spec_from_mapping(resolve_relative_files(spec_keys, base_dir), where=where)
+        spec = spec_from_mapping(named_files(spec_keys, base_dir, root, where), where=where)
         return [Item(stem, where, "chart", data, (spec,), caption or spec.title,
                      {"spec": _spec_overrides(spec)})]
-    base = spec_from_mapping(resolve_relative_files(spec_keys, base_dir), where=f"{where} [spec]")
+    base = spec_from_mapping(named_files(spec_keys, base_dir, root, f"{where} [spec]"), where=f"{where} [spec]")
     table = _table(entry, section, where)
     if section == "sweep":
-        return [_sweep_item(data, table, base, caption, where, stem)]
-    return _compare_items(data, table, base, caption, where, base_dir, stem)
+        return [_sweep_item(data, table, base, caption, where, stem, base_dir, root)]
+    return _compare_items(data, table, base, caption, where, base_dir, stem, root)
 
 
-def _sweep_item(data, table, base, caption, where, stem) -> Item:
+def _sweep_item(data, table, base, caption, where, stem, base_dir, root) -> Item:
     unknown = sorted(set(table) - {"field", "values"})
     if unknown:
         raise SpecError(f"{where}: unknown [sweep] key {unknown[0]!r}; allowed: field, values")
@@ -98,6 +148,8 @@ def _sweep_item(data, table, base, caption, where, stem) -> Item:
         raise SpecError(f"{where}: sweep width or height, not size")
     specs, parsed = [], []
     for value in values:
+        if names_file(attr, value):   # a file, as any the entry names: beside it, inside the tree
+            value = str(inside(root, base_dir, value, f"{where}: [sweep] values"))
         spec = spec_from_mapping({name: value}, base, where=f"{where} [sweep]")
         specs.append(spec)
         parsed.append(field_value(spec, attr))
@@ -107,7 +159,7 @@ def _sweep_item(data, table, base, caption, where, stem) -> Item:
                 sweep_field=attr, sweep_values=tuple(parsed))
 
 
-def _compare_items(data, table, base, caption, where, base_dir, stem) -> list[Item]:
+def _compare_items(data, table, base, caption, where, base_dir, stem, root) -> list[Item]:
     unknown = sorted(set(table) - {"bug", "bugs", "a", "b", "labels"})
     if unknown:
         raise SpecError(f"{where}: unknown [compare] key {unknown[0]!r}; allowed: bug, bugs, a, b, labels")
@@ -121,7 +173,7 @@ def _compare_items(data, table, base, caption, where, base_dir, stem) -> list[It
         labels = table.get("labels", [Path(p).stem for p in paths])
         if not (isinstance(labels, list) and len(labels) == 2 and all(isinstance(s, str) for s in labels)):
             raise SpecError(f"{where}: [compare] labels must be two strings, got {labels!r}")
-        specs = tuple(load_spec(_resolve_file(p, base_dir, where), base) for p in paths)
+        specs = tuple(_compare_spec(p, k, base_dir, root, where, base) for p, k in zip(paths, "ab"))
         default = caption or f"{labels[0]} vs {labels[1]}."
         return [Item(stem, where, "compare-specs", data, specs, default,
                      {"a": paths[0], "b": paths[1], "spec": overrides}, base, labels=tuple(labels))]
@@ -174,30 +226,45 @@ def _bug_item(name, where, doc, base, bug, caption, overrides) -> Item:
                 {"bug": bug.name, "summary": bug.summary, "spec": overrides}, base, bug=bug.name)
 
 
-def _resolve_file(path: str, base_dir: Path, where: str) -> Path:
-    p = Path(path)
-    p = p if p.is_absolute() else base_dir / p
-    if not p.is_file():
-        raise SpecError(f"{where}: [compare] file {path} does not exist (relative to {base_dir})")
-    return p
+def _compare_spec(name: str, key: str, base_dir: Path, root: Path, where: str, base: ChartSpec) -> ChartSpec:
+    """The spec a [compare] a/b file describes over ``base`` (as chart_spec.load_spec reads it),
+    the file and every file it names confined to ``root``."""
+    path = inside(root, base_dir, name, f"{where}: [compare] {key}")
+    check_input(path, f"{where}: [compare] file", "spec")   # missing, a FIFO, a device: one line
+    spec_mapping, entry = read_entry_document(path)
+    inner = f"{path} [spec]" if "spec" in entry else str(path)
+    return spec_from_mapping(named_files(spec_mapping, path.parent, root, inner), base, where=inner)
 
 
-def load_entry(path: Path) -> list[Item]:
-    return parse_entry(read_toml(path, "entry"), str(path), path.parent, path.stem)
+def load_entry(path: Path, root: str | Path | None = None) -> list[Item]:
+    """The images of the entry file ``path``; the files it names are confined to ``root``
+    (default: its folder)."""
+    return parse_entry(read_toml(path, "entry"), str(path), path.parent, path.stem, root)
 
 
-def collect(chart_dir: str | Path) -> list[Item]:
-    """Every image of the gallery in ``chart_dir``, validated before anything is rendered."""
-    root = Path(chart_dir)
-    if not root.is_dir():
-        raise SpecError(f"chart directory {root} does not exist" if not root.exists()
-                        else f"{root} is not a directory of chart entries")
-    files = sorted(p for p in root.glob("*.toml") if p.is_file())
+def collect(chart_dir: str | Path, root: str | Path | None = None) -> list[Item]:
+    """Every image of the gallery in ``chart_dir``, validated before anything is rendered.
+    What the entries read is confined to ``root`` (default, and what ``sdfpbr build`` uses:
+    ``chart_dir`` itself; module docstring)."""
+    folder = Path(chart_dir)
+    if not folder.is_dir():
+        raise SpecError(f"chart directory {folder} does not exist" if not folder.exists()
+                        else f"{folder} is not a directory of chart entries")
+    tree = folder if root is None else Path(root)
+    real_tree, real_folder = os.path.realpath(tree), os.path.realpath(folder)
+    if real_folder != real_tree and not real_folder.startswith(real_tree.rstrip(os.sep) + os.sep):
+        raise SpecError(f"chart directory {folder} is outside the folder {str(tree)!r}; only files inside it are read")
+    files = []
+    for path in sorted(folder.glob("*.toml")):
+        if path.is_symlink():   # refused if it leads out, whether or not its target exists
+            inside(tree, folder, path.name, f"{folder}: entry")
+        if path.is_file():
+            files.append(path)
     if not files:
-        raise SpecError(f"{root} holds no *.toml chart entries")
+        raise SpecError(f"{folder} holds no *.toml chart entries")
     items, seen = [], {}
     for path in files:
-        for item in load_entry(path):
+        for item in load_entry(path, tree):
             if item.name in seen:
                 raise SpecError(f"{path}: image {item.name}.png is also made by {seen[item.name]}")
             seen[item.name] = path.name

@@ -2,6 +2,7 @@
 key, and the kill-point test hook every build write passes through."""
 from __future__ import annotations
 
+import hashlib
 import os
 import zlib
 import signal
@@ -11,9 +12,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
-from ...cache import after_write, cache_max, default_cache_dir, touch
-from ...errors import OutputError
-from ...files import remove_stale_temps, write_bytes
+from ...cache import HEX_KEY, after_write, cache_max, claim, default_cache_dir, remove_stale_temporaries, touch
+from ...errors import OutputError, SpecError
+from ...files import write_bytes
+from ...inputs import read_input
 
 if TYPE_CHECKING:     # the cache and the writes load without the specs (a build answered by its stamp)
     from ...spec.chart_spec import ChartSpec
@@ -79,7 +81,9 @@ def png_key(data: bytes) -> str | None:
 
 
 class ImageCache:
-    """Rendered images by key in ``<root>/build``; an entry is used only if it verifies."""
+    """Rendered images by key in ``<root>/build``; an entry is used only if it verifies. The
+    root is sdfpbr's cache (sdfpbr.cache: marked, and only entries named as sdfpbr names them
+    are ever counted or deleted)."""
 
     def __init__(self, root: str | Path | None = None):
         self.root = Path(root or default_cache_dir())
@@ -87,12 +91,15 @@ class ImageCache:
         cache_max()   # a malformed $SDFPBR_CACHE_MAX is refused before any work
 
     def path(self, key: str) -> Path:
-        return self.dir / f"{key}.png"
+        """``<root>/build/<key>.png`` (a key that is no sha256 hex digest, which sdfpbr never
+        makes, is named by its sha256: the cache's naming, sdfpbr.cache)."""
+        name = key if HEX_KEY.fullmatch(key) else hashlib.sha256(key.encode()).hexdigest()
+        return self.dir / f"{name}.png"
 
     def get(self, key: str) -> bytes | None:
-        try:
-            data = self.path(key).read_bytes()
-        except OSError:
+        try:   # a regular file within an image's size (a FIFO put there would hang a plain read)
+            data = read_input(self.path(key), "cache entry", "image")
+        except SpecError:
             return None
         if png_key(data) != key:
             return None
@@ -102,6 +109,7 @@ class ImageCache:
     def put(self, key: str, data: bytes) -> bool:
         """Best effort: an unwritable cache only costs speed."""
         try:
+            claim(self.root)
             self.dir.mkdir(parents=True, exist_ok=True)
             write_file(self.path(key), data, "cache", durable=False)   # get() verifies its chunks and key
             after_write(self.root, len(data))
@@ -110,7 +118,7 @@ class ImageCache:
             return False
 
     def remove_stale_temps(self) -> int:
-        return remove_stale_temps(self.dir)
+        return remove_stale_temporaries(self.root, "build")
 
 
 # ---------------------------------------------------------------------------------------------

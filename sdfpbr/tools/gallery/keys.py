@@ -137,11 +137,13 @@ def item_keys(items: Sequence[Item], renderers: dict[tuple[str, int], str], memo
     everything the composition reads instead: the specs and the shader modules' stamps (as
     make does). A touched module recomposes every item, and the key itself stays exact."""
     import json
+    from ...errors import SpecError
+    from ...inputs import read_json
     stamps = shader_stamps()
-    try:
-        memo = json.loads(memo_path.read_text()) if memo_path else {}
+    try:   # bounded, as every JSON sdfpbr reads: the memo lies in a shared cache
+        memo = read_json(memo_path, "key memo") if memo_path and os.path.lexists(memo_path) else {}
         memo = memo if isinstance(memo, dict) else {}
-    except (OSError, ValueError):
+    except SpecError:
         memo = {}
     keys, changed = {}, False
     for item in items:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 import sys
 from pathlib import Path
 
@@ -43,6 +44,8 @@ def fingerprint(path: str, by_content: bool = True) -> list | None:
         if os.path.isdir(path):
             return ["dir", hashlib.sha256("\0".join(sorted(os.listdir(path))).encode()).hexdigest()]
         st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):   # a FIFO, a device: never opened (it could hang or never end)
+            return ["special", stat.S_IFMT(st.st_mode)]
         if st.st_size > HASHED_MAX or not by_content:
             return ["stat", st.st_size, st.st_mtime_ns]
         with open(path, "rb") as f:
@@ -130,8 +133,11 @@ def _environment() -> dict:
             "env": {k: v for k, v in sorted(os.environ.items()) if k.startswith(ENV_PREFIXES)}}
 
 
-def stamp_path(cache_dir: Path, chart_dir, out_dir, shard) -> Path:
-    ident = json.dumps([os.path.abspath(chart_dir), os.path.abspath(out_dir), shard])
+def stamp_path(cache_dir: Path, chart_dir, out_dir, shard, root=None) -> Path:
+    """The stamp of a build of ``chart_dir`` into ``out_dir`` (its ``shard``; with the tree
+    ``root`` its entries are confined to, where one is given)."""
+    where = [os.path.abspath(chart_dir), os.path.abspath(out_dir), shard]
+    ident = json.dumps(where if root is None else [*where, os.path.abspath(root)])
     return cache_dir / "stamps" / (hashlib.sha256(ident.encode()).hexdigest()[:32] + ".json")
 
 
@@ -154,8 +160,10 @@ def record(path: Path, log: InputLog, packages: dict, manifest: dict) -> None:
 def unchanged(path: Path) -> tuple[dict | None, str]:
     """(the manifest the stamp at ``path`` recorded, "") if every input is as it was, else
     (None, what differs first)."""
+    from ...errors import SpecError
+    from ...inputs import read_json
     try:
-        stamp = json.loads(path.read_text())
+        stamp = read_json(path, "build stamp")     # bounded: the stamp lies in a shared cache
         if stamp.get("format") != STAMP_FORMAT:
             return None, "no stamp of this version"
         for key, value in _environment().items():
@@ -165,6 +173,8 @@ def unchanged(path: Path) -> tuple[dict | None, str]:
             if fingerprint(p, print_ is None or print_[0] != "stat") != print_:
                 return None, f"{p} changed"
         return stamp["manifest"], ""
+    except SpecError:
+        return None, "no stamp" if not os.path.lexists(path) else "an unreadable stamp"
     except OSError:
         return None, "no stamp"
     except (ValueError, KeyError, TypeError, AttributeError):
