@@ -182,7 +182,9 @@ def test_confined_paths_never_leave_their_folder(tmp_path):
         name = "/".join(parts)
         prefix = r.choice(["", "", "", "/", "file:", "file://", "C:", "~/", "\\\\host\\"])
         name = unquote(prefix + name)
-        real = os.path.realpath(os.path.join(root, name))
+        # Joined by pathlib, which drops '.' and doubled '/' (no change of meaning): realpath of
+        # 'loop//./' with 'loop' a link to itself gives '/' while 'loop' gives the link.
+        real = os.path.realpath(Path(root) / name)
         inside = (prefix == "" and bool(name) and not name.startswith(("/", "~"))
                   and os.path.commonpath([root, real]) == root)
         try:
@@ -192,3 +194,91 @@ def test_confined_paths_never_leave_their_folder(tmp_path):
             assert one_line(exc) == f"fuzz: {name!r} is outside the folder {str(base)!r}; only files inside it are read"
         else:
             assert inside and str(got) == real, (name, got, real, SEED)
+
+
+def test_gltf_uris_never_read_outside_the_assets_folder(tmp_path):
+    """An asset's image uri drawn like the paths above: it charts only when the uri leads to
+    the image inside the folder; every other uri is one line, the same whether the outside
+    file exists or not (a .gltf written as JSON by hand: no library between)."""
+    import json
+    from urllib.parse import quote as url_quote
+
+    from sdfpbr.spec.gltf import gltf_materials
+    base, outside = tree(tmp_path)
+    png = (Path(__file__).parents[1] / "docs" / "clearcoat.png").read_bytes()   # any real PNG
+    (base / "x.png").write_bytes(png)
+    (base / "a" / "x.png").write_bytes(png)
+    (outside / "x.png").write_bytes(png)
+    root = os.path.realpath(base)
+    r = rng("gltf-paths")
+    charted = 0
+    for i in range(60 * SCALE):
+        parts = [r.choice(SEGMENTS) for _ in range(r.randint(1, 4))] + ["x.png"]
+        prefix = r.choice(["", "", "", "/", "file:", "file://", "FILE:", "C:"])
+        name = prefix + "/".join(parts)
+        uri = url_quote(name, safe="/:%") if r.random() < 0.3 else name   # percent-encoded at times
+        real = os.path.realpath(Path(root) / name.replace("%2e", ".").replace("%2f", "/"))
+        asset = {"asset": {"version": "2.0"}, "materials": [{"name": "m", "pbrMetallicRoughness": {
+                 "baseColorTexture": {"index": 0}}}], "textures": [{"source": 0}], "images": [{"uri": uri}]}
+        path = base / f"fuzz{i}.gltf"
+        path.write_text(json.dumps(asset))
+        inside = prefix == "" and os.path.commonpath([root, real]) == root and os.path.isfile(real)
+        try:
+            got = gltf_materials(str(path))
+        except SpecError as exc:
+            assert not inside, (uri, real, SEED)
+            one_line(exc)
+        else:
+            assert inside, (uri, real, SEED)
+            assert got.textures[0].base_color.data == png
+            charted += 1
+        finally:
+            path.unlink()
+    assert charted, "no uri led inside: the draw reached only refusals"
+
+
+# ---- cache folders holding other files --------------------------------------------------------------
+
+HEX64 = "0123456789abcdef" * 4
+
+
+def foreign_names(r: random.Random) -> list[str]:
+    """Files a user may keep in a folder SDFPBR_CACHE_DIR names, some named almost as sdfpbr
+    names its entries (a hash one short, upper case, an extra suffix, a folder too deep)."""
+    kinds = ["ibl", "build", "textures", "stage", "IBL", "notes", "build/stamps", "ibl/deeper"]
+    stems = [HEX64[:63], HEX64.upper(), HEX64 + "0", "thesis", "photo", HEX64[:32]]
+    suffixes = [".c.npz.bak", ".npz.old", ".pdf", ".jpg", ".png.orig", ".json.txt", ".txt", ""]
+    names = [f"{r.choice(kinds)}/{r.choice(stems)}{r.choice(suffixes)}" for _ in range(12)]
+    return names + [f"{r.choice(stems)}{r.choice(suffixes)}" for _ in range(4)]
+
+
+def test_cache_folders_with_foreign_files_keep_them(tmp_path, monkeypatch):
+    from sdfpbr.cache import ArrayCache, clear, enforce_cap
+    from sdfpbr.tools.gallery.images import ImageCache
+    r = rng("cache")
+    for trial in range(3 * SCALE):
+        root = tmp_path / f"cache{trial}"
+        planted = {}
+        for name in foreign_names(r):
+            path = root / name
+            if path.exists() or any(p in planted for p in path.parents):
+                continue
+            path.parent.mkdir(parents=True, exist_ok=True)
+            planted[path] = os.urandom(r.randint(0, 3 << 20))
+            path.write_bytes(planted[path])
+        # Links named exactly as entries, to a file of the user's: a link is never an entry.
+        (root / "ibl").mkdir(parents=True, exist_ok=True)
+        target = tmp_path / f"precious{trial}.bin"
+        planted[target] = os.urandom(1000)
+        target.write_bytes(planted[target])
+        (root / "ibl" / f"{HEX64}.c.npz").symlink_to(target)
+        monkeypatch.setenv("SDFPBR_CACHE_MAX", r.choice(["1", "64K", "1M", "2M"]))
+        arrays, images = ArrayCache(root), ImageCache(root)
+        for i in range(r.randint(4, 20)):
+            arrays.put(r.choice(["ibl", "textures", "dfg"]), f"key{i}", {"a": np.full(r.randint(1, 50000), i, np.float32)})
+            images.put(f"{i:064x}", os.urandom(r.randint(10, 100000)))
+        enforce_cap(root, r.choice([0, 1, 1 << 20]))
+        if r.random() < 0.5:
+            clear(root, r.choice([None, "ibl", "build"]))
+        for path, data in planted.items():
+            assert path.is_file() and path.read_bytes() == data, (str(path), SEED, trial)
