@@ -5,8 +5,6 @@
 modules load on first use, so ``import sdfpbr`` stays cheap."""
 __version__ = "0.1.0"
 
-from .errors import GLUnavailable, OutputError, SdfpbrError, ShaderCompileError, SpecError  # noqa: E402
-
 
 def chart(spec=None, **options):
     """Render a labeled chart; see sdfpbr.api.chart."""
@@ -16,7 +14,11 @@ def chart(spec=None, **options):
 
 # Public names resolved when first used: the spec needs numpy, the rest GL or the image stack
 # (a command such as a gallery build with nothing to do loads neither).
-_LAZY = {"ChartSpec": "sdfpbr.spec.chart_spec", "Light": "sdfpbr.spec.chart_spec",
+# The errors too: the ``sdfpbr`` command's first line (sdfpbr.cli.entry) runs after this
+# package's, and a Ctrl-C before it would be a traceback.
+_LAZY = {**{name: "sdfpbr.errors" for name in ("SdfpbrError", "SpecError", "OutputError", "GLUnavailable",
+                                              "ShaderCompileError")},
+         "ChartSpec": "sdfpbr.spec.chart_spec", "Light": "sdfpbr.spec.chart_spec",
          "load_spec": "sdfpbr.spec.chart_spec", "make_spec": "sdfpbr.spec.chart_spec",
          "Chart": "sdfpbr.api", "Session": "sdfpbr.gpu.session", "default_session": "sdfpbr.gpu.session",
          "render_reference": "sdfpbr.tools.reference"}

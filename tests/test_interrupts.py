@@ -58,6 +58,7 @@ def run_interrupted(tmp_path, args, module, who="main", target="self", convert=F
 
 
 @pytest.mark.parametrize("module", [
+    "sdfpbr.errors",     # the first module the package loads (lazily, after the entry's line)
     "sdfpbr.cli.main",   # while the command's own modules load, before main() runs
     "argparse",
     "numpy",
@@ -93,8 +94,9 @@ def test_ctrl_c_while_a_parallel_build_starts_its_workers_is_one_line(tmp_path):
 
 
 # Any module the command loads, drawn with the fuzz's seed (tests/test_hostile_fuzz.py).
-MODULES = ["sdfpbr.errors", "sdfpbr.cli.main", "argparse", "numpy", "moderngl", "PIL", "sdfpbr.spec.fields",
-           "sdfpbr.gpu.session", "sdfpbr.image.io", "imageio", "sdfpbr.shading.plan", "sdfpbr.image.layout"]
+MODULES = ["sdfpbr.errors", "sdfpbr.cli.main", "argparse", "numpy", "moderngl", "glcontext", "PIL",
+           "sdfpbr.spec.fields", "sdfpbr.gpu.session", "sdfpbr.gpu.render", "sdfpbr.image.io",
+           "sdfpbr.image.png_stream", "sdfpbr.shading.plan", "sdfpbr.image.layout"]
 SEED = int(os.environ.get("SDFPBR_FUZZ_SEED", "0"))
 
 
