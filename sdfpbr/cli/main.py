@@ -136,9 +136,10 @@ def add_chart_options(p: Parser) -> None:
             on = [o for o in f.option_strings if o not in taken]
             off = [o for o in ("--no-" + o[2:] for o in f.option_strings) if o not in taken]
             for opts, value in ((on, True), (off, False)):
-                if opts:   # the help goes on the flag that changes the default
+                if opts:   # the help goes on the flag that changes the default, saying what it does
                     p.add_argument(*opts, dest=dest, action="store_const", const=value, default=None,
-                                   help=f"{f.help} ({'on' if f.default else 'off'} by default)"
+                                   help=f"{'turn on' if value else 'turn off'}: {f.help} "
+                                        f"({'on' if f.default else 'off'} by default)"
                                    if value != f.default else argparse.SUPPRESS)
         else:
             opts = [o for o in f.option_strings if o not in taken]
@@ -270,7 +271,7 @@ def add_chart_command(sub) -> None:
     p.add_argument("-o", "--output", default="chart.png", help="PNG path (default chart.png)")
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
     p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv, coverage")
-    p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true", help="print the image's size, render and set-up times")
     add_animation_options(p, "render an N-frame orbit animation instead (-o .gif, .webp or .mp4)")
     add_chart_options(p)
     p.set_defaults(run=cmd_chart)
