@@ -17,21 +17,20 @@ import os
 
 import pytest
 
+import sdfpbr.extras
 from sdfpbr.cache import ArrayCache
 from sdfpbr.errors import GLUnavailable
+from sdfpbr.extras import install_command
 from sdfpbr.gpu.gl import create_context
 from sdfpbr.gpu.session import Session
 
 # The optional extras of pyproject.toml, by the module a test imports (directly or through the
 # code or subprocess it runs), with what to install.
 EXTRAS = {
-    "imageio_ffmpeg": "imageio-ffmpeg (pip install 'sdfpbr[video]')",
-    "OpenEXR": "OpenEXR (pip install 'sdfpbr[exr]')",
-    "flip_evaluator": "flip-evaluator (pip install 'sdfpbr[test]')",
-    "matplotlib": "matplotlib (pip install 'sdfpbr[metrics]')",
-    "tqdm": "tqdm (pip install 'sdfpbr[progress]')",
-    "sphinx": "sphinx (pip install 'sdfpbr[docs]')",
-    "pygltflib": "pygltflib, which the tests write glTF assets with (pip install '.[test]')",
+    **{module: f"{package} (the {extra!r} extra: {install_command(extra)})"
+       for extra, (module, package) in sdfpbr.extras.EXTRAS.items()},
+    "flip_evaluator": f"flip-evaluator (the 'test' extra: {install_command('test')})",
+    "pygltflib": f"pygltflib, which the tests write glTF assets with (the 'test' extra: {install_command('test')})",
 }
 
 # What must import for the extra to work, where that is more than its top module: an image with

@@ -102,7 +102,8 @@ def hdr_writer(path: str | Path, hdr: np.ndarray):
     try:
         import OpenEXR
     except ImportError:
-        raise SpecError("writing .exr needs OpenEXR: pip install 'sdfpbr[exr]' (or use .npy)") from None
+        from ..extras import missing_extra
+        raise missing_extra("exr", "writing .exr", "or use .npy") from None
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     def write(tmp: str) -> None:
         with OpenEXR.File(header, {"RGB": hdr}) as f:

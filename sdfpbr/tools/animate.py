@@ -80,8 +80,8 @@ def check_animation_output(path: str | Path, fps: float = DEFAULT_FPS, lossless:
         try:
             import imageio_ffmpeg  # noqa: F401
         except ImportError:
-            raise SpecError("writing .mp4 needs imageio-ffmpeg: pip install 'sdfpbr[video]' "
-                            "(or write .gif or .webp)") from None
+            from ..extras import missing_extra
+            raise missing_extra("video", "writing .mp4", "or write .gif or .webp") from None
     return p
 
 

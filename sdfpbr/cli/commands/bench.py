@@ -79,7 +79,7 @@ def run(args) -> int:
     from ...tools.bench.report import format_table, write_json, write_plot
     from ...tools.bench.run import run_bench
     from ...tools.bench.suite import BenchConfig
-    from ...errors import SdfpbrError, SpecError
+    from ...errors import SpecError
     from ...image.io import check_writable
     from ...spec.chart_spec import parse_size
 
@@ -116,7 +116,8 @@ def run(args) -> int:
         try:
             import matplotlib  # noqa: F401
         except ImportError:
-            raise SdfpbrError("--plot needs matplotlib: pip install 'sdfpbr[metrics]' (or --no-plot)") from None
+            from ...extras import missing_extra
+            raise missing_extra("metrics", "--plot", "or --no-plot") from None
 
     report = run_bench(cfg)
     print(format_table(report))

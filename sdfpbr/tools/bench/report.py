@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SdfpbrError
 from ...files import atomic_file, atomic_path
 from .accuracy import reference_samples_cap
 from .suite import available_presets
@@ -106,7 +105,8 @@ def write_plot(path: str | Path, report: dict) -> None:
     try:
         import matplotlib
     except ImportError:
-        raise SdfpbrError("--plot needs matplotlib: pip install 'sdfpbr[metrics]'") from None
+        from ...extras import missing_extra
+        raise missing_extra("metrics", "--plot", "or --no-plot") from None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
