@@ -103,6 +103,12 @@ def _referenced_files(data: dict, base_dir: Path, srcdir) -> list[Path]:
     return files
 
 
+def _log(line: str) -> None:
+    """A line of progress through Sphinx's own logger (shown at its default verbosity)."""
+    from sphinx.util import logging
+    logging.getLogger(__name__).info(f"sdfpbr-chart: {line}")
+
+
 class SdfpbrChart(SphinxDirective):
     optional_arguments = 1
     final_argument_whitespace = True
@@ -127,7 +133,7 @@ class SdfpbrChart(SphinxDirective):
                 self.env.note_dependency(str(path))
             item = _one_item(data, base_dir, where, self.env.srcdir)
             renderers = gl_renderers([item])
-            key, png, _cached = ensure_image(item, ImageCache(), renderers=renderers)
+            key, png, _cached = ensure_image(item, ImageCache(), renderers=renderers, log=_log)
             target = Path(self.env.app.doctreedir) / "sdfpbr" / f"{key}.png"
             if not (target.is_file() and target.read_bytes() == png):
                 target.parent.mkdir(parents=True, exist_ok=True)

@@ -66,10 +66,10 @@ def make_project(root: Path, index: str = INDEX) -> Path:
     return src
 
 
-def sphinx_build(src: Path, out: Path, **env_extra):
+def sphinx_build(src: Path, out: Path, quiet: bool = True, **env_extra):
     env = {**os.environ, **env_extra}
-    return subprocess.run([sys.executable, "-m", "sphinx", "-b", "html", "-W", "-q", str(src), str(out)],
-                          capture_output=True, text=True, env=env, timeout=300)
+    return subprocess.run([sys.executable, "-m", "sphinx", "-b", "html", "-W", *(["-q"] if quiet else []),
+                           str(src), str(out)], capture_output=True, text=True, env=env, timeout=300)
 
 
 def figures(out: Path) -> list:
@@ -82,8 +82,10 @@ def test_sphinx_build_renders_file_and_inline_charts(tmp_path, monkeypatch):
     monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
     src = make_project(tmp_path)
     out = tmp_path / "html"
-    r = sphinx_build(src, out)
+    r = sphinx_build(src, out, quiet=False)
     assert r.returncode == 0, r.stderr
+    # Each render is said through Sphinx's logger as it starts and ends (a docs build drew silently).
+    assert r.stdout.count("sdfpbr-chart: drawing ") == 2 and r.stdout.count("sdfpbr-chart: drew ") == 2, r.stdout
 
     (file_img, file_caption), (inline_img, inline_caption) = figures(out)
     assert file_caption == "From the <file> & its caption"           # the entry's caption

@@ -279,15 +279,23 @@ def _compose_in_workers(measuring: list[Item], others: list[Item], keys: dict[st
 
 
 def ensure_image(item: Item, cache: ImageCache | None = None, force: bool = False,
-                 renderers: dict | None = None) -> tuple[str, bytes, bool]:
+                 renderers: dict | None = None, log=None) -> tuple[str, bytes, bool]:
     """One item through the cache in this process: (key, PNG bytes, whether it was cached).
-    The Sphinx extension uses this."""
+    The Sphinx extension uses this; ``log(line)`` hears when a render starts and how long it
+    took (a docs build is not silent while it draws)."""
+    import time
+
     from .keys import gl_renderers, item_key
     cache = cache or ImageCache()
     key = item_key(item, renderers or gl_renderers([item]))
     data = None if force else cache.get(key)
     if data is not None:
         return key, data, True
+    start = time.perf_counter()
+    if log is not None:
+        log(f"drawing {item.entry} ({item.name}.png) ...")
     rendered = render_item(item, key)
+    if log is not None:
+        log(f"drew {item.entry} in {time.perf_counter() - start:.1f} s")
     cache.put(key, rendered.png)
     return key, rendered.png, False
