@@ -199,9 +199,15 @@ def test_the_issues_python_commands(cache_dir):
 
 @pytest.mark.parametrize("path", CHARTS, ids=lambda p: p.name)
 def test_every_chart_file_loads_as_a_spec(path):
-    """(The files a chart names, e.g. gltf-materials.toml's asset, are found beside it.)"""
+    """(The files a chart names, e.g. gltf-materials.toml's asset, are found beside it.) A
+    [compare] or [sweep] entry is no chart spec: load_spec refuses it, naming `sdfpbr build`."""
     spec_mapping, entry = read_entry_document(path)
     assert set(entry) <= set(ENTRY_KEYS) and not set(spec_mapping) & set(ENTRY_KEYS)
+    section = next((k for k in ("compare", "sweep") if k in entry), None)
+    if section:
+        with pytest.raises(SpecError, match=rf"\[{section}\] gallery entry, not a chart spec: `sdfpbr build "):
+            load_spec(path)
+        return
     assert load_spec(path) == spec_from_mapping(resolve_relative_files(spec_mapping, path.parent))
 
 

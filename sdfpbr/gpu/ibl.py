@@ -13,7 +13,7 @@ import numpy as np
 
 from ..cache import ArrayCache, content_key
 from ..errors import SpecError
-from ..inputs import check_input
+from ..inputs import check_input, read_input
 from ..shading.compose import ComposedSource
 from ..shading.plan import IBLPlan, RenderPlan, env_option
 from ..spec.chart_spec import ChartSpec
@@ -49,11 +49,16 @@ MAX_ENV_RADIANCE = 1e30        # finite but larger values overflow the bakes' fl
 
 
 def load_env_file(path: str | Path) -> np.ndarray:
-    """An equirectangular environment as float32 (H, W, 3), row 0 at the zenith. Real numbers
-    only (integer or float dtypes), at most MAX_ENV_TEXELS texels and MAX_ENV_RADIANCE; read
-    lazily, so a header claiming a huge array is refused before anything is allocated."""
+    """An equirectangular environment (.npy, .exr or Radiance .hdr) as float32 (H, W, 3), row 0
+    at the zenith. Real numbers only (integer or float dtypes), at most MAX_ENV_TEXELS texels
+    and MAX_ENV_RADIANCE; read lazily, so a header claiming a huge array is refused before
+    anything is allocated."""
     path = check_input(path, "environment", "environment")   # a regular file, not a FIFO or device
-    if path.suffix.lower() == ".npy":
+    suffix = path.suffix.lower()
+    if suffix == ".hdr":   # RGBE, decoded here (image.rgbe): its header is checked before its pixels
+        from ..image.rgbe import read_rgbe
+        data = read_rgbe(read_input(path, "environment", "environment"), path, MAX_ENV_TEXELS)
+    elif suffix == ".npy":
         try:
             data = np.load(path, mmap_mode="r")   # allow_pickle stays off: a pickle is refused, not run
         except (OSError, ValueError, EOFError) as exc:
@@ -63,7 +68,8 @@ def load_env_file(path: str | Path) -> np.ndarray:
         try:
             import OpenEXR
         except ImportError:
-            raise SpecError("reading .exr environments needs OpenEXR: pip install 'sdfpbr[exr]'") from None
+            from ..extras import missing_extra
+            raise missing_extra("exr", "reading .exr environments", "or give a .hdr or .npy file") from None
         _check_exr_size(path)
         try:
             with OpenEXR.File(str(path)) as f:

@@ -15,7 +15,8 @@ from typing import Any, Mapping
 from ..errors import SpecError
 from .bugs import get_bug
 from .checks import parse_color, parse_range, parse_size  # noqa: F401  (re-exported)
-from .fields import FIELDS, STORED_FIELDS, attr_values, read_entry_document, resolve_relative_files
+from .fields import (ENTRY_SECTIONS, FIELDS, STORED_FIELDS, attr_values, read_entry_document,
+                     resolve_relative_files)
 from .material import GLTF_OWNS, axis_values, cell_materials, check_axes, displaced_defaults, material_array
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, FILL_LIGHT,  # noqa: F401
                       HDR_PRECISIONS, INTERSECT_METHODS, KEY_LIGHT, LIGHT_KINDS, MATERIAL_PRESETS, MAX_GRID, MAX_SIZE,
@@ -159,13 +160,30 @@ def spec_from_mapping(data: Mapping[str, Any], base: ChartSpec | None = None, wh
         raise SpecError(f"{where}: {exc}") from None
 
 
+def entry_refusal(path: str | Path, entry: dict) -> SpecError | None:
+    """Why a [compare] or [sweep] entry is no chart spec, naming the commands that read it
+    (read as a spec, its [spec] base would be drawn as a plain chart and the rest dropped)."""
+    from ..inputs import printable
+    section = next((k for k in ENTRY_SECTIONS if k in entry), None)
+    if section is None:
+        return None
+    name, folder = printable(path), printable(Path(path).parent)
+    other = ("`sdfpbr sweep FIELD --values V,... --spec FILE` sweeps a spec file of its [spec] keys"
+             if section == "sweep" else "`sdfpbr compare A.toml B.toml` compares two spec files (`--bug NAME` a bug)")
+    return SpecError(f"{name} is a [{section}] gallery entry, not a chart spec: `sdfpbr build {folder} -o OUT` "
+                     f"renders it (with the other entries in its folder); {other}")
+
+
 def load_spec(path: str | Path, base: ChartSpec | None = None) -> ChartSpec:
-    """The chart spec a TOML file describes: a spec file, a chart entry (``caption`` and the spec
-    keys), or a [compare]/[sweep] entry (its [spec] base). Files it names are found beside it
-    first."""
+    """The chart spec a TOML file describes: a spec file or a chart entry (``caption`` and the
+    spec keys). A [compare] or [sweep] entry is refused in one line that names the commands
+    which read it (``sdfpbr build``; the gallery reads its [spec] base itself). Files it names
+    are found beside it first."""
     spec_mapping, entry = read_entry_document(path)
-    where = f"{path} [spec]" if "spec" in entry else str(path)
-    return spec_from_mapping(resolve_relative_files(spec_mapping, Path(path).parent), base, where=where)
+    refusal = entry_refusal(path, entry)
+    if refusal is not None:
+        raise refusal
+    return spec_from_mapping(resolve_relative_files(spec_mapping, Path(path).parent), base, where=str(path))
 
 
 def as_spec(spec: "ChartSpec | str | Path | None", what: str = "spec") -> ChartSpec:

@@ -171,14 +171,17 @@ def _lights(v) -> tuple:
     return tuple(light_from_mapping(m) for m in given)
 
 
+ENV_FILE_SUFFIXES = (".exr", ".hdr", ".npy")   # what gpu.ibl.load_env_file reads
+
+
 def _env(v) -> str:
     if not isinstance(v, str) or not v:
-        raise SpecError(f"env must be a preset ({', '.join(ENV_PRESETS)}) or an .exr/.npy file, got {quote(v)}")
+        raise SpecError(f"env must be a preset ({', '.join(ENV_PRESETS)}) or an .exr/.hdr/.npy file, got {quote(v)}")
     if v not in ENV_PRESETS:
         path = Path(v)
-        if path.suffix.lower() not in (".exr", ".npy"):
+        if path.suffix.lower() not in ENV_FILE_SUFFIXES:
             raise SpecError(f"env {quote(v)} is not a preset{did_you_mean(v, ENV_PRESETS)}; "
-                            f"allowed: {', '.join(ENV_PRESETS)} or an .exr/.npy file")
+                            f"allowed: {', '.join(ENV_PRESETS)} or an .exr/.hdr/.npy file")
         check_input(path, "env file", "environment")
     return v
 
@@ -269,7 +272,7 @@ FIELDS: tuple[Field, ...] = (
            f"a measured preset per row, overriding base_color (sets rows unless given): {', '.join(MATERIAL_PRESETS)}",
            "NAME,...", aliases=("row_materials",), attrs=("row_materials",), choices=tuple(MATERIAL_PRESETS),
            many="material lists (names joined by '+')", annotation=tuple[str, ...]),
-    _other("env", "env", "studio", _env, f"{', '.join(ENV_PRESETS)}, or an .exr/.npy equirect map", "NAME|FILE",
+    _other("env", "env", "studio", _env, f"{', '.join(ENV_PRESETS)}, or an .exr/.hdr/.npy equirect map", "NAME|FILE",
            sweep=ENV_PRESETS, annotation=str),
     _float("env_intensity", 1.0, 0.0, 1e6, "environment radiance scale"),
     _other("lights", "lights", DEFAULT_LIGHTS, _lights,

@@ -35,7 +35,7 @@ from ..shading.cells import cell_border_mask
 from ..shading.plan import has_alpha
 
 __all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
-           "bug_pair", "spec_differences", "at_panel_size",
+           "bug_pair", "spec_differences", "at_panel_size", "check_comparable",
            "render_chart", "chart_axes", "chart_panel"]
 
 
@@ -300,10 +300,33 @@ def _comparison(reference: RenderedChart, test: RenderedChart, labels: tuple[str
                  [_digests(r.spec, r.result) for r in (reference, test)], _sheet_renderer([reference, test]))
 
 
-def _check_comparable(a: ChartSpec, b: ChartSpec) -> None:
+# How far (px) a sphere of B may lie from A's for the per-sphere FLIP to be measured on it.
+SPHERE_TOLERANCE_PX = 0.5
+
+
+def check_comparable(a: ChartSpec, b: ChartSpec) -> None:
+    """Refuse, before anything is rendered, two specs whose renders cannot be compared pixel by
+    pixel and sphere by sphere: the FLIP map is per pixel (the same size), and each sphere's
+    mean is taken over A's sphere (its row / col AOV) at (row, col) of A's grid (the same rows
+    and cols, each sphere of B where A's is: camera, spacing, sphere radius and stage place
+    them)."""
     if (a.width, a.height) != (b.width, b.height):
         raise SpecError(f"cannot compare a {a.width}x{a.height} render with a {b.width}x{b.height} one; "
                         f"give both specs the same size")
+    if (a.rows, a.cols) != (b.rows, b.cols):
+        raise SpecError(f"cannot compare a {a.rows}x{a.cols} grid of spheres (rows x cols) with a {b.rows}x{b.cols} "
+                        f"one: each sphere is measured against the sphere at the same row and column; "
+                        f"give both specs the same rows and cols")
+    cells = [chart_cells(s, frame(s)) for s in (a, b)]
+    for ca, cb in zip(*cells):
+        if max(abs(ca.cx - cb.cx), abs(ca.cy - cb.cy), abs(ca.radius_px - cb.radius_px)) > SPHERE_TOLERANCE_PX:
+            moved = [f for f in ("camera", "camera_azimuth", "camera_elevation", "camera_distance_scale",
+                                 "sphere_radius", "spacing", "stage") if getattr(a, f) != getattr(b, f)]
+            why = f" ({', '.join(moved)} {'differs' if len(moved) == 1 else 'differ'})" if moved else ""
+            raise SpecError(f"cannot compare the two charts sphere by sphere: the sphere at row {ca.row + 1}, "
+                            f"column {ca.col + 1} lies at ({ca.cx:.0f}, {ca.cy:.0f}) px, radius {ca.radius_px:.0f} "
+                            f"in A and ({cb.cx:.0f}, {cb.cy:.0f}), radius {cb.radius_px:.0f} in B{why}; "
+                            f"give both specs the same framing")
 
 
 def spec_differences(a: ChartSpec, b: ChartSpec) -> list[str]:
@@ -337,7 +360,7 @@ def compare_specs(a: ChartSpec | str | Path, b: ChartSpec | str | Path, labels: 
     a, b = as_spec(a, "spec A"), as_spec(b, "spec B")
     if len(labels) != 2 or not all(isinstance(s, str) for s in labels):
         raise SpecError(f"labels must be two strings, got {labels!r}")
-    _check_comparable(a, b)
+    check_comparable(a, b)
     if not caption:
         diffs = spec_differences(a, b)
         caption = (f"{labels[1]} differs from {labels[0]} in: {'; '.join(diffs)}." if diffs

@@ -20,7 +20,7 @@ from urllib.parse import urlsplit
 
 from ...errors import SpecError
 from ...inputs import check_input, confined
-from ...spec.chart_spec import ChartSpec, spec_from_mapping
+from ...spec.chart_spec import ChartSpec, entry_refusal, spec_from_mapping
 from ...spec.fields import ENTRY_SECTIONS, field_value, names_file, read_entry_document, resolve_field, split_entry
 from ...spec.toml_file import read_toml
 
@@ -174,6 +174,11 @@ def _compare_items(data, table, base, caption, where, base_dir, stem, root) -> l
         if not (isinstance(labels, list) and len(labels) == 2 and all(isinstance(s, str) for s in labels)):
             raise SpecError(f"{where}: [compare] labels must be two strings, got {labels!r}")
         specs = tuple(_compare_spec(p, k, base_dir, root, where, base) for p, k in zip(paths, "ab"))
+        from ..compare import check_comparable   # here: its renders need not load to collect charts
+        try:
+            check_comparable(*specs)             # at collection, before anything renders
+        except SpecError as exc:
+            raise SpecError(f"{where}: {exc}") from None
         default = caption or f"{labels[0]} vs {labels[1]}."
         return [Item(stem, where, "compare-specs", data, specs, default,
                      {"a": paths[0], "b": paths[1], "spec": overrides}, base, labels=tuple(labels))]
@@ -232,6 +237,9 @@ def _compare_spec(name: str, key: str, base_dir: Path, root: Path, where: str, b
     path = inside(root, base_dir, name, f"{where}: [compare] {key}")
     check_input(path, f"{where}: [compare] file", "spec")   # missing, a FIFO, a device: one line
     spec_mapping, entry = read_entry_document(path)
+    refusal = entry_refusal(path, entry)   # a [compare] or [sweep] entry is no spec to compare
+    if refusal is not None:
+        raise SpecError(f"{where}: [compare] {key}: {refusal}")
     inner = f"{path} [spec]" if "spec" in entry else str(path)
     return spec_from_mapping(named_files(spec_mapping, path.parent, root, inner), base, where=inner)
 
