@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 import json
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -350,7 +350,8 @@ FIELDS: tuple[Field, ...] = (
              bounds=(0.0, 1.0), annotation=tuple[float, float, float])
       for name, (default, _lobe, help) in COLOR_PARAMS.items()),
     _choice("alpha_mode", "auto", ALPHA_MODES, "glTF alphaMode of the spheres (auto: blend where alpha < 1); "
-            "alpha shows the backdrop, floor or sky behind a sphere, the light still sees it solid"),
+            "alpha shows the backdrop, floor or sky behind a sphere and lets that share of the light through "
+            "(its shadow and its occlusion of the floor fade with it)"),
     _float("alpha_cutoff", 0.5, 0.0, 1.0, "alpha_mode mask: alpha below this is cut out"),
     _other("path", "gltf", "", _gltf, "chart a glTF 2.0 asset's materials, one labelled cell each (needs the gltf "
            "extra); sets rows and cols unless given", "FILE", annotation=str),
