@@ -375,3 +375,17 @@ def test_a_differences_mean_leaves_the_cells_borders_out():
     # Borders on one side only: they are a difference, counted.
     plain = compare_specs(spec, make_spec(spec, cell_borders=False)).differences[0]
     assert plain.mean == pytest.approx(plain.error_map.mean(dtype=np.float64), rel=1e-12) and plain.mean > 0
+
+
+@pytest.mark.parametrize("args, line", [
+    (["sweep", "tonemap", "--values", "aces,none", "--size", "48x48", "-o", "s.png"], "tonemap sweep: 2/2 charts drawn"),
+    (["compare", "--bugs", "double-gamma,unsquared-roughness", "--size", "48x48", "-o", "b.png"],
+     "bug catalog: 2/2 bugs drawn"),
+])
+def test_long_sheets_say_how_far_they_are(tmp_path, args, line):
+    """`compare --bugs all` ran five minutes printing nothing, `sweep env` one: on a pipe they
+    now print a line every few seconds and at the end (a bar on a terminal)."""
+    r = subprocess.run([sys.executable, "-m", "sdfpbr", *args], capture_output=True, text=True, cwd=tmp_path,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert line in r.stderr.splitlines()[-1]

@@ -21,6 +21,7 @@ import numpy as np
 from .. import __version__
 from ..errors import SpecError
 from ..kept import Kept
+from ..progress import Progress
 from ..workers import helper_pool
 from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import FOOTER_SEPARATOR, Cell
@@ -168,22 +169,30 @@ def _keep(rendered: RenderedChart, aovs: bool) -> None:
     _kept.put((rendered.spec, aovs), rendered)
 
 
-def render_charts(specs: Sequence[ChartSpec]) -> list[RenderedChart]:
+def render_charts(specs: Sequence[ChartSpec], progress: Progress | None = None) -> list[RenderedChart]:
     """Each spec's render (as render_chart's); the specs that differ from the first in display
     fields or display bugs alone (a tone-map or exposure sweep) take its radiance through their
-    own display pass, with the same pixels as drawing each (gpu.render.redisplay)."""
+    own display pass, with the same pixels as drawing each (gpu.render.redisplay). ``progress``
+    hears of each chart drawn."""
     from ..gpu.session import default_session
     from ..spec.fields import same_radiance
+    progress = progress or Progress(len(specs), "", enabled=False)
     first = specs[0]
     from_first = [i > 0 and same_radiance(first, s) for i, s in enumerate(specs)]
     if not any(from_first):
-        return [render_chart(s) for s in specs]
+        out = []
+        for s in specs:
+            out.append(render_chart(s))
+            progress.update()
+        return out
     session = default_session(first.backend, first.device_index)
     source = session.render(first, aovs=False, hdr=True)
     out = [RenderedChart(first, source, session.renderer)]
+    progress.update()
     for s, shared in zip(specs[1:], from_first[1:]):
         result = session.redisplay(s, source) if shared else session.render(s, aovs=False, hdr=False)
         out.append(RenderedChart(s, result, session.renderer))
+        progress.update()
     return out
 
 
@@ -473,11 +482,13 @@ def _helped(future):
 
 
 def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
-                      panel_size: int = 256, per_row: int = 2, measure_size: int | None = BUG_MEASURE_SIZE) -> Sheet:
+                      panel_size: int = 256, per_row: int = 2, measure_size: int | None = BUG_MEASURE_SIZE,
+                      progress: bool = False) -> Sheet:
     """The bug catalog (or ``names`` from it) as one sheet: a grid of cards, ``per_row`` across,
     each a bug's correct | buggy | FLIP difference with axes at ``panel_size`` px, its name,
     summary and caption. The figures are measured on renders at ``measure_size`` (the size
-    ``compare --bug`` uses, so both quote the same figure; None: the spec's own size)."""
+    ``compare --bug`` uses, so both quote the same figure; None: the spec's own size).
+    ``progress``: say on stderr how many bugs are drawn (sdfpbr.progress)."""
     from concurrent.futures.process import BrokenProcessPool
     from ..image.metrics import FlipBatch
     from ..spec.bugs import BUGS, get_bug
@@ -499,7 +510,8 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
             specs.append(s)
         return rendered[s], specs.index(s)
 
-    with helper_pool(len(pairs), HELPER_IMPORTS) as pool:
+    with helper_pool(len(pairs), HELPER_IMPORTS) as pool, \
+            Progress(len(pairs), "bug catalog", "bugs drawn", enabled=progress) as bar:
         if pool is not None:   # each card made by a helper process as soon as its pair is drawn
             futures = []
             for bug, correct, buggy in pairs:
@@ -509,6 +521,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
                     futures.append(pool.submit(_helper_card, bug.name, rc, rb, panel_size, text_size))
                 except BrokenProcessPool:
                     futures.append(None)
+                bar.update(note=bug.name)
             made = [_helped(future) or _whole_card(bug, render(correct, True)[0], render(buggy, False)[0],
                                                    panel_size, text_size)
                     for (bug, correct, buggy), future in zip(pairs, futures)]
@@ -519,6 +532,7 @@ def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequenc
                 submit_bug_pairs(spec, names, batch)
                 for bug, correct, buggy in pairs:   # the sheet's specs in this order
                     render(buggy, False), render(correct, True)
+                    bar.update(note=bug.name)
                 chart_panels = [_bug_panels(bug, render(correct, True)[0], render(buggy, False)[0], panel_size,
                                             text_size) for bug, correct, buggy in pairs]
             made = [_bug_card(bug, render(correct, True)[0], render(buggy, False)[0], drawn, panel_size, text_size)
@@ -566,10 +580,11 @@ def _sweep_label(field_name: str, value) -> str:
 
 def sweep(spec: ChartSpec | str | Path | None, name: str, values: Sequence | None = None, *,
           columns: int | None = None, panel_size: int | None = None, title: str | None = None,
-          axes: bool | None = None) -> Sheet:
+          axes: bool | None = None, progress: bool = False) -> Sheet:
     """The same chart once per value of one spec field (tonemap, exposure, env, or any other),
     as a grid of panels, each labeled with its value. ``values`` default to sweep_defaults(name);
-    ``columns`` default to at most four per row; ``panel_size`` as in compare_bug."""
+    ``columns`` default to at most four per row; ``panel_size`` as in compare_bug; ``progress``:
+    say on stderr how many charts are drawn."""
     base = at_panel_size(as_spec(spec, "spec"), panel_size)
     field_name = resolve_field(name).name
     values = list(sweep_defaults(field_name) if values is None else values)
@@ -582,7 +597,8 @@ def sweep(spec: ChartSpec | str | Path | None, name: str, values: Sequence | Non
         raise SpecError(f"columns must be a positive whole number, got {columns!r}")
     axes = base.labels if axes is None else axes
     text_size = sheet_text_size(max(s.height for s in specs))
-    rendered = render_charts(specs)
+    with Progress(len(specs), f"{field_name} sweep", "charts drawn", enabled=progress) as bar:
+        rendered = render_charts(specs, bar)
     panels = [chart_panel(_sweep_label(field_name, v), r, axes, text_size, spec_index=i)
               for i, (v, r) in enumerate(zip(values, rendered))]
     grid = [panels[i:i + columns] for i in range(0, len(panels), columns)]

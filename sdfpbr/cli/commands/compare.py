@@ -141,7 +141,7 @@ def _contact_sheet(args):
     check_writable(output, (".png",), "output")
     # Measured where --bug measures: at the size --size/--spec chose, else at the bug figures' size.
     return bug_contact_sheet(spec, names, panel_size=args.panel_size or DEFAULT_CONTACT_PANEL,
-                             measure_size=None if (args.size or args.spec) else DEFAULT_PANEL), output
+                             measure_size=None if (args.size or args.spec) else DEFAULT_PANEL, progress=True), output
 
 
 def _animate_bug(args, start: float) -> int:

@@ -54,7 +54,7 @@ def run(args) -> int:
         make_spec(base, **{field: v})
     output = args.output or f"sweep-{field}.png"
     check_writable(output, (".png",), "output")
-    sheet = sweep(base, field, values, columns=args.columns)
+    sheet = sweep(base, field, values, columns=args.columns, progress=True)
     sheet.save(output)
     if args.verbose:
         h, w = sheet.image.shape[:2]
