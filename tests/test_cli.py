@@ -149,3 +149,24 @@ def test_doctor_reports_both_backends():
     assert r.returncode == 0
     assert "egl     ok" in r.stdout and "osmesa  ok" in r.stdout
     assert "chart: fragment shader" in r.stdout or "chart: compute shader" in r.stdout
+
+
+def test_chart_help_is_grouped_by_concern_with_every_option_once():
+    """`chart --help` was 196 lines in one flat group: the options now sit under headings
+    (fields.HELP_GROUPS), each field in exactly one, with examples at the end."""
+    from sdfpbr.spec.fields import FIELDS, HELP_GROUPS
+    grouped = [name for _, names in HELP_GROUPS for name in names]
+    assert sorted(grouped) == sorted(f.name for f in FIELDS) and len(grouped) == len(set(grouped))
+    text = _chart_help()
+    for title, names in HELP_GROUPS:
+        assert f"chart: {title}:" in text
+    assert text.rstrip().splitlines()[-1].lstrip().startswith("sdfpbr chart") and "examples:" in text
+
+
+def _chart_help() -> str:
+    import contextlib
+    import io
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
+        main(["chart", "--help"])
+    return out.getvalue()

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import sys
 import time
@@ -36,6 +37,12 @@ class Parser(argparse.ArgumentParser):
             self.subcommands[name] = parser
             return parser
         action.add_parser = record
+        return action
+
+    def add_to_group(self, group, *args, **kwargs) -> argparse.Action:
+        """add_argument into an argument group (a heading in --help), recorded as the parser's own."""
+        action = group.add_argument(*args, **kwargs)
+        self.arguments.append(action)
         return action
 
     def option_strings(self) -> set[str]:
@@ -125,19 +132,23 @@ def add_chart_options(p: Parser) -> None:
     """The spec flags every rendering command shares (chart, shader, reference, compare, ...):
     one per field of the spec table, named as the field, plus its aliases. A flag the command
     already defines for itself (compare's --bugs and --labels) is left to the command."""
-    from ..spec.fields import FIELDS
+    from ..spec.fields import FIELDS, HELP_GROUPS
     p.add_argument("--spec", metavar="FILE.toml", help="a TOML spec; flags given here override it")
     taken = p.option_strings()
     used_dests = {a.dest for a in p.arguments}
     dests = {}
-    for f in FIELDS:
+    headings = {title: p.add_argument_group(f"chart: {title}") for title, _ in HELP_GROUPS}
+    groups = {name: headings[title] for title, names in HELP_GROUPS for name in names}
+    by_name = {f.name: f for f in FIELDS}
+    for f in (by_name[name] for _, names in HELP_GROUPS for name in names):
+        add = functools.partial(p.add_to_group, groups[f.name])
         dest = f.name if f.name not in used_dests else f"spec_{f.name}"
         if f.kind == "bool":
             on = [o for o in f.option_strings if o not in taken]
             off = [o for o in ("--no-" + o[2:] for o in f.option_strings) if o not in taken]
             for opts, value in ((on, True), (off, False)):
                 if opts:   # the help goes on the flag that changes the default, saying what it does
-                    p.add_argument(*opts, dest=dest, action="store_const", const=value, default=None,
+                    add(*opts, dest=dest, action="store_const", const=value, default=None,
                                    help=f"{'turn on' if value else 'turn off'}: {f.help} "
                                         f"({'on' if f.default else 'off'} by default)"
                                    if value != f.default else argparse.SUPPRESS)
@@ -146,7 +157,7 @@ def add_chart_options(p: Parser) -> None:
             if not opts:
                 continue
             default = "" if f.default in (None, "", ()) or f.kind == "lights" else f" (default {f.to_text(f.default)})"
-            p.add_argument(*opts, dest=dest, metavar=f.metavar, default=None,
+            add(*opts, dest=dest, metavar=f.metavar, default=None,
                            action="append" if f.kind == "bugs" else "store",
                            help=f.help + default + ("; repeatable" if f.kind == "bugs" else ""))
             if f.numeric:   # `--x-values -1,0,1`, `--exposure -2`: values, not options
@@ -266,8 +277,19 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+CHART_EXAMPLES = """examples:
+  sdfpbr chart -o chart.png                                    the default 5x5 chart
+  sdfpbr chart --y-axis clearcoat --base-color 0.6,0.05,0.05 -o coat.png
+  sdfpbr chart --materials gold,copper,silver,iron -o metals.png
+  sdfpbr chart --env sky.hdr --lights none --size 768x768 -o sky.png
+  sdfpbr chart --bugs unsquared-roughness -o bug.png           a PBR mistake switched on
+  sdfpbr chart --gltf charts/materials.glb -o m.png            a glTF asset's materials
+  sdfpbr chart --spec charts/default.toml --title "My chart" -o mine.png"""
+
+
 def add_chart_command(sub) -> None:
-    p = sub.add_parser("chart", help="render a labeled roughness x metallic chart")
+    p = sub.add_parser("chart", help="render a labeled roughness x metallic chart",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=CHART_EXAMPLES)
     p.add_argument("-o", "--output", default="chart.png", help="PNG path (default chart.png)")
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
     p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv, coverage")

@@ -353,11 +353,30 @@ FIELDS: tuple[Field, ...] = (
             "alpha shows the backdrop, floor or sky behind a sphere and lets that share of the light through "
             "(its shadow and its occlusion of the floor fade with it)"),
     _float("alpha_cutoff", 0.5, 0.0, 1.0, "alpha_mode mask: alpha below this is cut out"),
-    _other("path", "gltf", "", _gltf, "chart a glTF 2.0 asset's materials, one labelled cell each (needs the gltf "
-           "extra); sets rows and cols unless given", "FILE", annotation=str),
+    _other("path", "gltf", "", _gltf, "chart a glTF 2.0 asset's materials, one labelled cell each (its files must lie "
+           "inside its folder); sets rows and cols unless given", "FILE", annotation=str),
     _other("names", "gltf_materials", (), _gltf_names, "the glTF materials to chart, in this order (default: all)",
            "NAME,...", aliases=("material",), many="material lists (names joined by '+')",
            annotation=tuple[str, ...]),
+)
+
+# The chart options by concern, in the order `--help` shows them: every field in one group.
+HELP_GROUPS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("grid and axes", ("rows", "cols", "size", "width", "height", "roughness", "metallic", "x_axis", "y_axis",
+                       "x_values", "y_values")),
+    ("materials", ("base_color", "base_colors", "materials", "base_color_hue", "clearcoat", "clearcoat_roughness",
+                   "sheen_color", "sheen_roughness", "specular", "specular_color", "ior", "emissive",
+                   "emissive_strength", "alpha", "alpha_mode", "alpha_cutoff")),
+    ("environment and lights", ("env", "env_intensity", "lights", "shadows", "ao", "ibl")),
+    ("stage, floor and camera", ("stage", "ground", "ground_color", "ground_roughness", "cell_borders", "camera",
+                                 "camera_azimuth", "camera_elevation", "camera_distance_scale", "sphere_radius",
+                                 "spacing", "intersect")),
+    ("picture and page", ("tonemap", "exposure", "reinhard_white", "title", "labels", "transparent", "backdrop")),
+    ("quality and GL", ("quality", "spp", "antialias", "multiscatter", "brdf", "hdr_precision", "backend",
+                        "device_index")),
+    ("PBR bugs", ("bugs",)),
+    ("textures and glTF", ("textures", "base_color_texture", "orm_texture", "normal_texture", "gltf",
+                           "gltf_materials")),
 )
 
 def names_file(key: str, value) -> bool:
