@@ -276,13 +276,13 @@ def test_rejects_non_rgba():
 
 
 def test_default_title_says_what_the_chart_shows():
-    assert chart_labels.default_title(make_spec()) == "Roughness × metallic — 5×5"
-    assert chart_labels.default_title(make_spec(materials=["gold", "copper"])) == "Roughness × measured metals — 2×5"
-    assert chart_labels.default_title(make_spec(metallic=(1, 1), rows=1)) == "Roughness, metallic 1 — 1×5"
-    assert chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0))) == "Roughness 0.3, metallic 0 — 5×5"
+    assert chart_labels.default_title(make_spec()) == "Roughness × metallic — 5 rows × 5 columns"
+    assert chart_labels.default_title(make_spec(materials=["gold", "copper"])) == "Roughness × measured metals — 2 rows × 5 columns"
+    assert chart_labels.default_title(make_spec(metallic=(1, 1), rows=1)) == "Roughness, metallic 1 — 1 row × 5 columns"
+    assert chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0))) == "Roughness 0.3, metallic 0 — 5 rows × 5 columns"
     # Parameters by their own names in running text, as on their axes.
-    assert chart_labels.default_title(make_spec(x_axis="ior", y_axis="specular")) == "IOR × specular — 5×5"
-    assert chart_labels.default_title(make_spec(x_axis="base_color_hue", rows=1)) == "Base colour hue, metallic 0 — 1×5"
+    assert chart_labels.default_title(make_spec(x_axis="ior", y_axis="specular")) == "IOR × specular — 5 rows × 5 columns"
+    assert chart_labels.default_title(make_spec(x_axis="base_color_hue", rows=1)) == "Base colour hue, metallic 0 — 1 row × 5 columns"
 
 
 def test_a_kept_layout_labels_every_render_alike_and_is_not_changed_by_its_charts():
@@ -509,3 +509,17 @@ def test_labels_are_kept_on_disk_only_for_the_font_file_they_were_drawn_in(tmp_p
         for cached in (layout._drawing_identity, text.load_font):
             cached.cache_clear()
         forget_layouts()
+
+
+def test_measured_metal_rows_are_named_without_their_shared_value():
+    """A metals chart labelled each row '1 · gold': the metallic value all rows share is said
+    once, in the row axis's title; rows with values of their own keep them."""
+    from sdfpbr.image import chart_labels
+    from sdfpbr.image.layout import row_label_texts
+    assert row_label_texts([1.0, 1.0], ["gold", "copper"]) == ["gold", "copper"]
+    assert row_label_texts([0.0, 1.0], ["gold", "copper"]) == ["0 · gold", "1 · copper"]
+    metals = make_spec(materials=["gold", "copper"])
+    assert chart_labels.row_names(metals) == ["gold", "copper"]
+    assert chart_labels.row_axis_title(metals) == "measured metals, metallic 1"
+    assert chart_labels.row_axis_title(make_spec(metals, metallic=(0.0, 1.0))) == "metallic"
+    assert chart_labels.row_axis_title(make_spec()) == "metallic"

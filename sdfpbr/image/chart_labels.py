@@ -68,7 +68,12 @@ def default_title(spec: ChartSpec) -> str:
         axes.append(axis("y"))
     varying = " × ".join(a for a, v in axes if v)
     text = ", ".join([varying] * bool(varying) + [a for a, v in axes if not v])
-    return f"{text[0].upper()}{text[1:]} — {spec.rows}×{spec.cols}"
+    return f"{text[0].upper()}{text[1:]} — {grid_words(spec.rows, spec.cols)}"
+
+
+def grid_words(rows: int, cols: int) -> str:
+    """'5 rows × 4 columns': a bare 5×4 read as width × height beside --size W×H."""
+    return f"{rows} row{'s' * (rows != 1)} × {cols} column{'s' * (cols != 1)}"
 
 
 def label(spec: ChartSpec, result, title: str | None = None, footer: str | None = None) -> np.ndarray:
@@ -105,9 +110,10 @@ def _layout(spec: ChartSpec, camera, title: str | None, footer: str | None) -> d
         return dict(cells=cells, column_values=[], row_values=[], title=title, footer=footer,
                     transparent=spec.transparent, column_axis_title="", row_axis_title="",
                     page_srgb=spec.backdrop or None)
+    names, row_title = row_names(spec), row_axis_title(spec)
     return dict(cells=cells, column_values=spec.axis_values("x"), row_values=spec.axis_values("y"), title=title,
-                footer=footer, row_names=row_names(spec), transparent=spec.transparent,
-                column_axis_title=axis_title(spec, "x"), row_axis_title=axis_title(spec, "y"),
+                footer=footer, row_names=names, transparent=spec.transparent,
+                column_axis_title=axis_title(spec, "x"), row_axis_title=row_title,
                 page_srgb=spec.backdrop or None)
 
 
@@ -118,6 +124,15 @@ def axis_title(spec: ChartSpec, axis: str) -> str:
     param = axis_param(spec, axis)
     titles = [get_bug(b).axis_titles.get(param.name) for b in spec.bugs]
     return next((t for t in titles if t), param.title)
+
+
+def row_axis_title(spec: ChartSpec) -> str:
+    """The rows' title: the y axis's, or for measured metals at one value of it (their labels
+    then name the metal alone: layout.row_labels) the value they share."""
+    values = spec.axis_values("y")
+    if row_names(spec) and len(set(values)) == 1:
+        return f"measured metals, {axis_param(spec, 'y').label} {_number(values[0])}"
+    return axis_title(spec, "y")
 
 
 def cell_names(spec: ChartSpec) -> list[str] | None:

@@ -257,9 +257,11 @@ def _wrapped(style: _Style, text: str, room: float) -> tuple[str, ...]:
     return tuple(lines)
 
 
-def _row_labels(row_values: Sequence[float], row_names: Sequence[str] | None) -> list[str]:
+def row_label_texts(row_values: Sequence[float], row_names: Sequence[str] | None) -> list[str]:
     if row_names is not None and len(row_names) != len(row_values):
         raise ValueError(f"{len(row_names)} row names for {len(row_values)} rows")
+    if row_names is not None and len(set(row_values)) == 1:   # one value for every row: said once, by the
+        return list(row_names)                                   # axis title ('1 · gold' on each row before)
     names = row_names if row_names is not None else [""] * len(row_values)
     return [f"{label_text(v)} · {n}" if n else label_text(v) for v, n in zip(row_values, names)]
 
@@ -275,7 +277,7 @@ def render_area_offset(render_shape: Sequence[int], n_rows: int, n_cols: int, ti
     ``row_names`` (or unusually wide values) pass the same ``row_values``/``row_names`` here,
     and likewise any non-default axis titles.  ``n_rows``/``n_cols`` are accepted for symmetry.
     """
-    labels = _row_labels(row_values, row_names) if row_values is not None else []
+    labels = row_label_texts(row_values, row_names) if row_values is not None else []
     layout = _layout(render_shape, title, footer, labels, column_axis_title, row_axis_title)
     return layout.x0, layout.y0
 
@@ -564,7 +566,7 @@ def label_boxes(render_shape: Sequence[int], cells: Sequence[Cell], column_value
                 column_axis_title: str = DEFAULT_COLUMN_AXIS_TITLE,
                 row_axis_title: str = DEFAULT_ROW_AXIS_TITLE) -> list[tuple[str, tuple[float, float, float, float]]]:
     """(text, ink box in chart pixels) of every piece of text compose_chart draws for this layout."""
-    row_labels = _row_labels(row_values, row_names)
+    row_labels = row_label_texts(row_values, row_names)
     lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
     return [(t.text, t.box) for t in _placements(lay, render_shape, cells, column_values, row_labels)]
 
@@ -611,7 +613,7 @@ def _draw_labels(render_shape, cells, column_values, row_values, title, footer, 
     """Every label of the layout drawn on its own patch, at the same sub-pixel position as on
     the whole chart (a patch's corner is a whole pixel: the fraction of the text's origin is kept)."""
     from PIL import Image
-    row_labels = _row_labels(row_values, row_names)
+    row_labels = row_label_texts(row_values, row_names)
     lay = _layout(render_shape, title, footer, row_labels, column_axis_title, row_axis_title)
     width, height = lay.width, lay.height
     background = page or (_TRANSPARENT if transparent else BACKGROUND)
