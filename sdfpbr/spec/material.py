@@ -62,8 +62,9 @@ PARAMS: tuple[Param, ...] = (
           "specular"),
     Param("emissive_strength", 0.0, 1e4, 1.0, "emissive strength", "KHR_materials_emissive_strength",
           "emission", axis_range=(0.0, 4.0)),
-    Param("alpha", 0.0, 1.0, 1.0, "alpha", "base-colour alpha: the sphere's share of its pixels over what lies "
-          "behind it (alpha_mode: blend, or cut out below alpha_cutoff)"),
+    # Titled as opacity: α on a chart is GGX alpha (the roughness axis's α = r²).
+    Param("alpha", 0.0, 1.0, 1.0, "opacity (base-colour alpha)", "base-colour alpha: the sphere's share of its "
+          "pixels over what lies behind it (alpha_mode: blend, or cut out below alpha_cutoff)", short="opacity"),
     Param("base_color_hue", 0.0, 360.0, 0.0, "base colour hue (°)",
           "hue of the base colour in degrees, on an axis only (saturation and value kept; 0.8 for a grey)",
           axis_only=True, axis_range=(0.0, 300.0), short="base colour hue"),
