@@ -523,3 +523,19 @@ def test_measured_metal_rows_are_named_without_their_shared_value():
     assert chart_labels.row_axis_title(metals) == "measured metals, metallic 1"
     assert chart_labels.row_axis_title(make_spec(metals, metallic=(0.0, 1.0))) == "metallic"
     assert chart_labels.row_axis_title(make_spec()) == "metallic"
+
+
+def test_a_chart_without_axes_sits_centred_on_its_page():
+    """A glTF chart names its cells and has no axes: its grid sat 87 px from the left and 27 from
+    the right (room kept for row labels it has not). Now the margins match."""
+    from pathlib import Path
+
+    from sdfpbr.image import chart_labels
+    from sdfpbr.shading.camera import frame
+    spec = make_spec(gltf=str(Path(__file__).parents[1] / "charts" / "materials.glb"), size="768x512")
+    canvas, (x, y) = chart_labels.labelled_canvas(spec, frame(spec))
+    left, right = x, canvas.shape[1] - x - spec.width
+    assert left == right, (left, right)
+    plain = make_spec(size="768x512")
+    canvas, (x, _) = chart_labels.labelled_canvas(plain, frame(plain))
+    assert x > canvas.shape[1] - x - plain.width       # a chart with row labels keeps their room

@@ -200,10 +200,12 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     label, axis = styles["label"], styles["axis"]
     pad, gap = label.size, max(4, label.size // 2)
 
-    # Left margin: rotated row axis title, right-aligned row labels.
+    # Left margin: rotated row axis title, right-aligned row labels; none for a chart without
+    # rows to label (a glTF chart's named cells: its grid sat 87 px from the left, 27 from the right).
     labels = [drawable_text(t, label.font) for t in row_labels]
-    label_w = max(_width(label, t) for t in [_ROW_LABEL_RESERVE, *labels])
-    left = pad + (_line_height(axis) + gap if text["row"] else 0) + label_w + gap
+    rows_labelled = bool(labels or text["row"])
+    label_w = max(_width(label, t) for t in [_ROW_LABEL_RESERVE, *labels]) if rows_labelled else 0
+    left = pad + (_line_height(axis) + gap if text["row"] else 0) + (label_w + gap if rows_labelled else 0)
     right = pad
 
     # Grow the margins so that centred text (on the render area) never clips; the title and the
@@ -230,7 +232,7 @@ def _layout(render_shape: Sequence[int], title: str, footer: str, row_labels: Se
     if text["col"]:
         y += _line_height(axis) + max(2, gap // 3)
     labels_top = y
-    top = y + _line_height(label) + max(2, gap // 2)
+    top = y + (_line_height(label) + max(2, gap // 2) if text["col"] else 0)   # no column labels: no line
 
     bottom = (gap + len(footer) * _line_height(styles["footer"]) if footer else 0) + pad
     half = _width(axis, text["row"]) / 2 + pad - rh / 2
