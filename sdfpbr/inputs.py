@@ -28,6 +28,10 @@ INPUT_LIMITS = {
     "image": 512 * MIB,
     "gltf": 1024 * MIB,       # a .gltf, a .glb or a buffer it names
 }
+# The longest JSON text parsed (a .gltf, a GLB's JSON chunk, a manifest): parsed, a few bytes of
+# small values become a 50-100-byte Python object each ('[[],[],...]': 2.4 GB for 128 MiB), so
+# the text is held tighter than the files that carry images.
+MAX_JSON_BYTES = 128 * MIB
 # The deepest nesting of JSON or TOML read: a spec's arrays are 2 deep inside 2 tables, a
 # glTF's extensions a few more; 64 leaves room and stays far from Python's recursion limit.
 MAX_NESTING = 64
@@ -141,6 +145,8 @@ def check_nesting(value, where: str):
 def parse_json(text: str | bytes, where: str):
     """JSON text as Python values, nesting bounded; a SpecError (one line) when malformed."""
     import json
+    if len(text) > MAX_JSON_BYTES:
+        raise SpecError(f"{where}: its JSON is {human_size(len(text))}; at most {human_size(MAX_JSON_BYTES)} is parsed")
     try:
         value = json.loads(text)
     except RecursionError:

@@ -104,6 +104,35 @@ def test_special_files_are_refused_by_every_reader(tmp_path):
         one_line(caught.value)
 
 
+def test_special_files_are_never_replaced_as_outputs(tmp_path):
+    """An output name that is a FIFO, socket or device (or a link to one) is refused before
+    rendering: the atomic rename would have put a regular file in its place."""
+    from sdfpbr.errors import OutputError
+    from sdfpbr.image.io import check_writable
+    specials = special_files(tmp_path)
+    for kind in ("fifo", "socket", "symlink to a device"):
+        link = tmp_path / f"out-{kind.replace(' ', '-')}.png"
+        link.symlink_to(specials[kind])
+        with no_hang(f"an output that is a {kind}"), pytest.raises(OutputError, match="not a regular file"):
+            check_writable(link, (".png",), "output")
+    named = tmp_path / "named.png"     # the special file itself, named as an output
+    os.mkfifo(named)
+    with no_hang("an output that is a FIFO"), pytest.raises(OutputError, match="not a regular file"):
+        check_writable(named, (".png",), "output")
+
+
+def test_json_longer_than_its_limit_is_refused_before_parsing():
+    """JSON parsed becomes Python objects several times its size ('[[],[],...]' of 1 GiB: about
+    19 GB): a .gltf or a manifest is parsed only up to inputs.MAX_JSON_BYTES of text."""
+    from sdfpbr.inputs import MAX_JSON_BYTES, parse_json
+    r = rng("json-size")
+    for _ in range(SCALE):
+        extra = r.randint(1, 1 << 20)
+        with pytest.raises(SpecError, match="at most 128 MiB is parsed") as caught:
+            parse_json(b"[" + b"[]," * ((MAX_JSON_BYTES + extra) // 3) + b"[]]", "fuzz")
+        one_line(caught.value)
+
+
 # ---- nesting: JSON and TOML of any depth are read or refused in one line --------------------------
 
 def test_deep_nesting_is_refused_in_one_line(tmp_path):

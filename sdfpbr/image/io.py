@@ -30,6 +30,8 @@ def check_writable(path: str | Path, suffixes: tuple[str, ...] | None = None, wh
                               f"{longest} are written (sdfpbr writes a longer temporary name beside it first)")
         if p.is_dir():
             raise OutputError(f"{what} {p} is a directory")
+        if p.exists() and not p.is_file():   # a FIFO, socket or device: the rename would replace it
+            raise OutputError(f"{what} {p} is not a regular file (a FIFO, socket or device); give a file name")
         if not parent.is_dir():
             raise OutputError(f"cannot write {what} {p}: directory {parent} does not exist")
         if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
