@@ -311,3 +311,26 @@ def test_cache_folders_with_foreign_files_keep_them(tmp_path, monkeypatch):
             clear(root, r.choice([None, "ibl", "build"]))
         for path, data in planted.items():
             assert path.is_file() and path.read_bytes() == data, (str(path), SEED, trial)
+
+
+# ---- sizes of text: a title or caption is a few lines, not a page ----------------------------------
+
+def test_titles_and_captions_past_their_length_are_refused(tmp_path):
+    """A 500 000-character title was set as a 163 x 950196 chart (exit 0). Titles are bounded
+    by presets.MAX_TITLE, captions by MAX_CAPTION, on every surface that takes them."""
+    from sdfpbr.spec.chart_spec import make_spec
+    from sdfpbr.spec.presets import MAX_CAPTION, MAX_TITLE
+    from sdfpbr.tools.compare import compare_specs
+    from sdfpbr.tools.gallery.entries import collect
+    r = rng("text-size")
+    for _ in range(2 * SCALE):
+        over = r.randint(1, 10 ** r.randint(0, 6))
+        make_spec(title="x" * MAX_TITLE)
+        with pytest.raises(SpecError, match=f"title is {MAX_TITLE + over} characters long") as caught:
+            make_spec(title="x" * (MAX_TITLE + over))
+        one_line(caught.value)
+        with pytest.raises(SpecError, match="caption is"):
+            compare_specs(make_spec(), make_spec(), caption="y" * (MAX_CAPTION + over))
+        (tmp_path / "c.toml").write_text(f'caption = "{"z" * (MAX_CAPTION + over)}"\n')
+        with pytest.raises(SpecError, match="caption is"):
+            collect(tmp_path)

@@ -65,11 +65,14 @@ def describe_char(ch: str) -> str:
     return f"U+{o:04X} {name}{shown}"
 
 
-def text(v, what: str) -> str:
+def text(v, what: str, longest: int | None = None) -> str:
     """Text as written: no bidirectional controls and no control characters but a tab or a line
-    break (they would reorder, hide or garble what is drawn or printed of it)."""
+    break (they would reorder, hide or garble what is drawn or printed of it); at most
+    ``longest`` characters where given."""
     if not isinstance(v, str):
         raise SpecError(f"{what} must be text, got {quote(v)}")
+    if longest is not None and len(v) > longest:
+        raise SpecError(f"{what} is {len(v)} characters long; at most {longest}: {quote(v)}")
     if not v.isprintable():   # the few texts with anything but printable characters and spaces
         bad = [c for c in dict.fromkeys(v)
                if c in BIDI_CONTROLS or (unicodedata.category(c) == "Cc" and c not in "\t\n\r")]

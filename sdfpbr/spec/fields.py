@@ -22,7 +22,7 @@ from .checks import (bool_text, boolean, choice, is_number, number, number_text,
                      parse_size, quote, sequence, text, vec3)
 from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
-                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
+                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, MAX_TITLE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
                       light_from_mapping)
 from .toml_file import read_toml
 
@@ -311,7 +311,7 @@ FIELDS: tuple[Field, ...] = (
            "spheres and their caught shadows: the transparent render laid onto it, labels and all, in "
            "text that reads on it (default: none)", "R,G,B",
            annotation=tuple),
-    _other("text", "title", "", lambda v: text(v, "title"), "chart title (default: rows x cols)", "TEXT",
+    _other("text", "title", "", lambda v: text(v, "title", MAX_TITLE), "chart title (default: rows x cols)", "TEXT",
            annotation=str),
     _choice("quality", "default", tuple(QUALITY_PRESETS), "quality preset (seed002: shared seed 002's approach)",
             sweep=tuple(QUALITY_PRESETS)),

@@ -44,6 +44,10 @@ DEFAULT_FPS = 15.0
 WEBP_QUALITY = 88
 WEBP_METHOD = 4
 MAX_SIZE = 16384 * 4
+# A title's characters: a few wrapped lines over the chart. A 500 000-character one was set as
+# a 163 x 950196 image.
+MAX_TITLE = 400
+MAX_CAPTION = 4000   # a sheet's or a gallery image's caption (the bug catalog's longest: ~500)
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,8 @@ from ..image.sheet import (Axes, Box, CellValue, Panel, assemble, flatten, numbe
 from ..image.chart_labels import axis_title, chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.bugs import BUG_MEASURE_SIZE
+from ..spec.checks import text as check_text
+from ..spec.presets import MAX_CAPTION, MAX_TITLE
 from ..spec.fields import resolve_field, sweep_defaults
 from ..shading.camera import frame
 from ..shading.cells import cell_border_mask
@@ -369,6 +371,9 @@ def compare_specs(a: ChartSpec | str | Path, b: ChartSpec | str | Path, labels: 
     a, b = as_spec(a, "spec A"), as_spec(b, "spec B")
     if len(labels) != 2 or not all(isinstance(s, str) for s in labels):
         raise SpecError(f"labels must be two strings, got {labels!r}")
+    for value, what, longest in ((labels[0], "label A", MAX_TITLE), (labels[1], "label B", MAX_TITLE),
+                                 (caption, "caption", MAX_CAPTION), (title or "", "title", MAX_TITLE)):
+        check_text(value, what, longest)
     check_comparable(a, b)
     if not caption:
         diffs = spec_differences(a, b)

@@ -21,6 +21,8 @@ from urllib.parse import urlsplit
 from ...errors import SpecError
 from ...inputs import check_input, confined
 from ...spec.chart_spec import ChartSpec, entry_refusal, spec_from_mapping
+from ...spec.checks import text
+from ...spec.presets import MAX_CAPTION
 from ...spec.fields import ENTRY_SECTIONS, field_value, names_file, read_entry_document, resolve_field, split_entry
 from ...spec.toml_file import read_toml
 
@@ -74,9 +76,11 @@ def _table(data: dict, key: str, where: str) -> dict:
 
 
 def _text(value, what: str, where: str) -> str:
-    if not isinstance(value, str):
-        raise SpecError(f"{where}: {what} must be text, got {value!r}")
-    return value
+    """An entry's text (a caption): spec.checks.text's rules, at most MAX_CAPTION characters."""
+    try:
+        return text(value, what, MAX_CAPTION)
+    except SpecError as exc:
+        raise SpecError(f"{where}: {exc}") from None
 
 
 def inside(root: str | Path, base_dir: str | Path, name: str, what: str) -> Path:
