@@ -38,16 +38,22 @@ HOOK = textwrap.dedent("""
                     raise
             return None
     sys.meta_path.insert(0, Hook())
+    if os.environ.get("HOOK_AT_EXIT") and not worker:   # registered first, so it runs last at exit
+        import atexit
+        def at_exit():
+            os.close(os.open(ONCE, os.O_CREAT))
+            os.kill(os.getpid(), signal.SIGINT)
+        atexit.register(at_exit)
 """)
 
 
-def run_interrupted(tmp_path, args, module, who="main", target="self", convert=False):
+def run_interrupted(tmp_path, args, module, who="main", target="self", convert=False, at_exit=False):
     site = tmp_path / "site"
     site.mkdir(exist_ok=True)
     (site / "sitecustomize.py").write_text(HOOK)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]),
            "HOOK_MODULE": module, "HOOK_TARGET": target, "HOOK_WHO": who, "HOOK_ONCE": str(tmp_path / "once"),
-           "SDFPBR_CACHE_DIR": str(tmp_path / "cache"), **({"HOOK_CONVERT": "1"} if convert else {})}
+           "SDFPBR_CACHE_DIR": str(tmp_path / "cache"), **({"HOOK_CONVERT": "1"} if convert else {}), **({"HOOK_AT_EXIT": "1"} if at_exit else {})}
     # A test run started in the background inherits SIGINT ignored: give the command the
     # default a terminal's foreground job has, in a process group of its own.
     p = subprocess.run([sys.executable, "-m", "sdfpbr", *args], env=env, capture_output=True, text=True,
@@ -77,6 +83,13 @@ def test_an_interrupt_a_library_turns_into_its_own_error_is_still_an_interrupt(t
     printed an ImportError traceback ("a bad install") for a Ctrl-C."""
     p = run_interrupted(tmp_path, ["chart", "--size", "32x32", "-o", "c.png"], "numpy", convert=True)
     assert p.returncode == 130 and p.stderr.strip() == "sdfpbr: interrupted", p.stderr
+
+
+def test_ctrl_c_while_the_interpreter_exits_is_one_line(tmp_path):
+    """After the work (the chart written), during the interpreter's exit hooks: one line."""
+    p = run_interrupted(tmp_path, ["chart", "--size", "32x32", "-o", "c.png"], "no module", at_exit=True)
+    assert p.returncode == 130 and p.stderr.strip() == "sdfpbr: interrupted", p.stderr
+    assert (tmp_path / "c.png").exists()        # what was done stays done
 
 
 def test_ctrl_c_while_a_parallel_build_starts_its_workers_is_one_line(tmp_path):

@@ -28,6 +28,6 @@ if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not where 
 def run() -> None:
     from .main import main
     status = main()
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+    if signal.getsignal(signal.SIGINT) not in (signal.SIG_IGN, None):
         quiet_interrupts()     # the work is done: an interrupt during the exit hooks is one line
     sys.exit(status)
