@@ -78,6 +78,7 @@ def readers():
     from sdfpbr.gpu.ibl import load_env_file
     from sdfpbr.inputs import read_json
     from sdfpbr.spec.chart_spec import load_spec, make_spec
+    from sdfpbr.tools.baseline import load_shadertoy
     return [
         ("spec", ".toml", lambda p: load_spec(p)),
         ("environment (.npy)", ".npy", lambda p: load_env_file(p)),
@@ -85,6 +86,7 @@ def readers():
         ("texture (spec field)", ".png", lambda p: make_spec(base_color_texture=str(p))),
         ("gltf (spec field)", ".glb", lambda p: make_spec(gltf=str(p))),
         ("manifest", ".json", lambda p: read_json(p, "manifest")),
+        ("bench baseline", ".glsl", lambda p: load_shadertoy(p)),
     ]
 
 

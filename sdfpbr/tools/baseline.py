@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ShaderCompileError, SpecError
+from ..inputs import read_input
 from ..shading.compose import ComposedSource, compile_error
 
 # Shadertoy's uniforms and their types; a shader that declares one itself keeps its own type.
@@ -150,12 +151,7 @@ def load_shadertoy(path: str | Path) -> ShadertoySource:
     p = Path(path)
     if p.is_dir():
         raise SpecError(f"--baseline {p} is a directory; give a .glsl file or a document with GLSL")
-    try:
-        text = p.read_text(encoding="utf-8", errors="replace")
-    except FileNotFoundError:
-        raise SpecError(f"--baseline file {p} does not exist") from None
-    except OSError as exc:
-        raise SpecError(f"cannot read --baseline file {p}: {exc.strerror or exc}") from None
+    text = read_input(p, "--baseline file", "spec").decode("utf-8", errors="replace")   # a regular file, bounded
     code, entry, start = extract_glsl(text, str(p))
     return ShadertoySource(code, wrap_shadertoy(code, entry, start), entry, str(p), start)
 
