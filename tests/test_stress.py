@@ -17,7 +17,7 @@ from sdfpbr.oracle import mirror
 from sdfpbr.oracle import furnace
 from sdfpbr.tools.stress import cases as stress_cases, checks, runner
 from sdfpbr.tools.stress import report as stress_report
-from sdfpbr.shading.camera import frame_grid
+from sdfpbr.shading.camera import frame, frame_grid
 from sdfpbr.cli.main import main
 from sdfpbr.spec.chart_spec import Light, load_spec, make_spec
 
@@ -70,6 +70,41 @@ def test_firefly_check_flags_a_planted_spike_but_not_highlights(clean, session):
     r = session.render(shiny)
     assert r.hdr.max() > 20 * np.median(r.hdr[r.aov["row"] >= 0])   # a real, narrow highlight
     assert checks.isolated_outliers(r.hdr, r.aov, shiny, frame_grid(shiny))[1] == 0
+
+
+def test_firefly_check_skips_a_smooth_spheres_reflection_of_the_lit_floor(session):
+    """Quick sweep (seed 0) configuration #73: 1000-unit mirror-like spheres (roughness 0,
+    0.001) on a floor lit by a 1e6, 0.001-degree sun, 4 spp. Near the horizon a bottom
+    sphere mirrors the sunlit far floor between the spheres' shadows and the sky: a line
+    about a pixel wide, which the 4 samples of a pixel hit or miss -- pixel (147, 93) reads
+    23.5x its brightest neighbour. The line is real: sampled 256 times a pixel (4x the size,
+    16 spp, box-averaged) the pixel holds 5303 beside neighbours of 6015 and 5060 along the
+    line (the path-traced reference, 4096 spp: 4850 +- 92, neighbours 5749, 4750). The floor
+    a sphere reflects has edges of no width under the lights (shadows, horizon), so the
+    check tests a sphere's reflection of it only where the lobe resolves it."""
+    import dataclasses
+    case = stress_cases.generate_cases(seed=0, count=300, quick=True)[73]
+    spec = case.spec
+    assert (spec.ground, spec.shadows, spec.ibl, spec.spp, spec.ground_roughness) == (True, True, True, 4, 0.045)
+    assert spec.lights[0].intensity == 1e6 and spec.lights[0].angular_radius_deg == 1e-3
+    res = session.render(spec, aovs=True)
+    camera = frame(spec)
+    lum = res.hdr.astype(np.float64).max(-1)
+    y, x = 147, 93
+    assert res.aov["row"][y, x] == 2 and res.aov["col"][y, x] == 2
+    around = lum[y - 1:y + 2, x - 1:x + 2].copy()
+    around[1, 1] = 0.0
+    assert lum[y, x] > 20 * around.max()            # the 4-spp spike the check used to flag
+    worst, flagged, tested = checks.isolated_outliers(res.hdr, res.aov, spec, camera)
+    assert flagged == 0 and worst < checks.FIREFLY_RATIO and tested > 1500, (worst, flagged, tested)
+    assert not checks.smooth_region(res.aov, spec, camera)[y, x]
+    # The same scene sampled 256 times a pixel: a continuous line through the pixel.
+    k = 4
+    fine = session.render(dataclasses.replace(spec, width=spec.width * k, height=spec.height * k, spp=16))
+    down = fine.hdr.astype(np.float64).reshape(spec.height, k, spec.width, k, 3).mean((1, 3)).max(-1)
+    near = down[y - 1:y + 2, x - 1:x + 2].copy()
+    near[1, 1] = 0.0
+    assert down[y, x] > 1000 and down[y, x] < 1.5 * near.max()
 
 
 def test_furnace_check_passes_the_renderer_and_catches_a_pixel_just_over_its_tolerance(session):

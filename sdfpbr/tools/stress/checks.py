@@ -114,8 +114,9 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
     """Pixels where the continuous image must be smooth at the pixel scale (see
     isolated_outliers): all 9 pixels one surface, away from every highlight centre, from
     point lights closer than a few pixels and (with several samples a pixel) from spheres too
-    small for the centre samples to see; where the environment has sharp features, only
-    where the reflection moves across them slowly; ground excluded when it receives shadows."""
+    small for the centre samples to see; where the environment has sharp features (the lit
+    floor a sphere mirrors is one), only where the reflection moves across them slowly;
+    ground excluded when it receives shadows."""
     ids = surface_ids(aov, spec.cols)
     H, W = ids.shape
     test = interior_mask(ids)
@@ -132,15 +133,17 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
     for nb in _neighbours(n):
         dn[c] = np.maximum(dn[c], np.arccos(np.clip((nb * n[c]).sum(-1), -1.0, 1.0)))
     dv = 0.0 if camera.orthographic else 2 * camera.half_height / H   # view direction, per pixel
+    alpha_px = np.maximum(np.where(ids >= 0, np.nan_to_num(aov["roughness"]), spec.ground_roughness),
+                          mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
     if spec.ibl and spec.env != "uniform" and spec.env != "black":
         # The reflected direction moves by up to 2 dn + dv a pixel; the prefiltered environment
         # varies on its own feature scale widened by the lobe. Sampled at least twice across
         # that scale a feature spreads over neighbours (which then hold >= ~half its peak);
         # crossed faster, it is a legitimately sharp, even one-pixel, reflection.
-        alpha_px = np.maximum(np.where(ids >= 0, np.nan_to_num(aov["roughness"]), spec.ground_roughness),
-                              mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
         test &= 2 * (2 * dn + dv) <= ENV_FEATURE_RAD.get(spec.env, 0.0) + 2 * alpha_px
     ro, rd = camera.pixel_rays()   # the shared stage's camera: the whole image
+    if spec.ibl and spec.ground and spec.lights:
+        test &= ~_reflects_lit_floor_unresolved(n, -rd, ids, dn, dv, alpha_px)
     depth = np.where(test, aov["depth"], 0.0)[..., None]
     p = ro + rd * depth
     v = -rd
@@ -169,6 +172,25 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
         dn_h = dn + dv / 2
         test &= (dn_h <= 0.44 * a) | (delta >= np.maximum(4 * dn_h, 3 * a))
     return test
+
+
+def _reflects_lit_floor_unresolved(n, v, ids, dn, dv, alpha_px) -> np.ndarray:
+    """Sphere pixels whose reflection can reach the lit floor, with a lobe too narrow to blur
+    it at the pixel scale. With IBL and a ground the spheres' IBL is the stage probe: the
+    environment above the horizon, the floor below it as the chart shades it. Under lights
+    that floor has features of no width -- its shadows' edges (why ground pixels are not
+    tested with shadows on), the spheres' mirror images of the lights ending at their
+    tangent planes (sphere_mirror.glsl), its own glints of the lights (as narrow as its lobe,
+    narrower for a near point light), and the horizon they end at -- so a sliver of them (the
+    sunlit far floor between the shadows and the horizon) is a legitimate one-pixel
+    reflection wherever a sphere's reflected direction crosses it in under two samples: the
+    environment rule above with a feature scale of 0, 2 (2 dn + dv) > 2 alpha. The
+    neighbourhood's reflected directions lie within 2 dn + dv of the pixel's, and the lobe
+    reaches a few alpha beyond: the floor is in reach where r.y < sin(2 dn + dv + 3 alpha)."""
+    r = 2 * (np.nan_to_num(n) * v).sum(-1)[..., None] * np.nan_to_num(n) - v
+    move = 2 * dn + dv
+    reach = np.sin(np.minimum(move + 3 * alpha_px, 0.5 * np.pi))
+    return (ids >= 0) & (r[..., 1] < reach) & (move > alpha_px)
 
 
 def _near_small_spheres(spec: ChartSpec, camera, H: int, W: int) -> np.ndarray:
@@ -200,7 +222,10 @@ def isolated_outliers(hdr, aov, spec: ChartSpec, camera, ratio: float = FIREFLY_
     dn_h > 0.44 alpha a pixel, pixels within max(4 dn_h, 3 alpha) of the highlight centre
     normalize(v + l) are skipped (dn_h: normal change to a neighbour plus half the view
     change; alpha includes the light's disc); (3) reflections of sharp environment features
-    crossed in under two samples; (4) a point light closer than 8 pixel footprints; (5) with
+    crossed in under two samples, the lit floor's among them (with IBL and a ground the
+    spheres mirror the stage: under lights its shadows' edges and the horizon are features
+    of no width, so a sphere's reflection of the floor is tested only where its lobe
+    resolves it); (4) a point light closer than 8 pixel footprints; (5) with
     several samples a pixel, spheres under 2 pixels across that the centre samples (the AOVs)
     miss. Everywhere else GGX changes by at most ~2.4x between neighbours and the other
     factors (visibility, Fresnel, cosine, split-sum IBL, analytic AO) far less, so 4x is a
