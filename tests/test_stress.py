@@ -78,8 +78,8 @@ def test_firefly_check_skips_a_smooth_spheres_reflection_of_the_lit_floor(sessio
     sphere mirrors the sunlit far floor between the spheres' shadows and the sky: a line
     about a pixel wide, which the 4 samples of a pixel hit or miss -- pixel (147, 93) reads
     23.5x its brightest neighbour. The line is real: sampled 256 times a pixel (4x the size,
-    16 spp, box-averaged) the pixel holds 5303 beside neighbours of 6015 and 5060 along the
-    line (the path-traced reference, 4096 spp: 4850 +- 92, neighbours 5749, 4750). The floor
+    16 spp, box-averaged) the pixel holds 5303 beside neighbours of 5060 and 4991 along the
+    line (the path-traced reference, 4096 spp: 4850 +- 92, neighbours 4750 and 4536). The floor
     a sphere reflects has edges of no width under the lights (shadows, horizon), so the
     check tests a sphere's reflection of it only where the lobe resolves it."""
     import dataclasses
