@@ -452,6 +452,10 @@ MEMORY_LIMITS = {"65536x65536": 8 << 30, "20000x20000": 4 << 30}
     (("chart", "--backend", "egl", "--device-index", "7", "--size", "32x32"), None, 3,
      "(--device-index counts EGL devices from 0)"),
     (("chart", "--size", "2x2048"), None, 2, "fewer pixels than its 5x5 cells"),   # was a GL traceback
+    # An output name too long for the temporary written beside it: an OSError traceback.
+    (("chart", "--size", "32x32", "-o", "a" * 300 + ".png"), None, 2, "bytes long; at most"),
+    # A shader folder without sdfpbr's modules: a ValueError traceback from deep in a compose.
+    (("chart", "--size", "32x32"), {"SDFPBR_SHADER_DIR": "/nowhere"}, 2, "holds no sdfpbr shader modules"),
     # Options that would have been ignored, and messages that say what is allowed.
     (("chart", "--lossless", "-o", "s.png"), None, 2, "--lossless applies to animations"),
     (("chart", "--frames", "2", "--lossless", "-o", "s.gif"), None, 2, ".gif has no lossless choice"),
