@@ -349,10 +349,10 @@ def _check_record(part: Path, entry: dict, names: set[str], chart_dir) -> str:
         shown = repr(name) if len(repr(name)) <= 80 else repr(name)[:77] + "..."
         raise SpecError(f"{part}: its manifest lists {shown}, the image of no entry in {chart_dir}; "
                         f"build the shards from the same chart directory")
-    for field, kind in RECORD_FIELDS.items():
-        value = entry.get(field)
+    for key, kind in RECORD_FIELDS.items():
+        value = entry.get(key)
         if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            raise SpecError(f"{part}: its manifest's record of {name}.png has no {field} "
+            raise SpecError(f"{part}: its manifest's record of {name}.png has no {key} "
                             f"({kind.__name__}); give the directories `sdfpbr build --shard i/n` wrote")
     if entry["image"] != f"{name}.png" or not HEX_KEY.fullmatch(entry["key"]):
         raise SpecError(f"{part}: its manifest's record of {name}.png names another image or no key")
