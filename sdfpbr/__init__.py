@@ -21,7 +21,7 @@ _LAZY = {**{name: "sdfpbr.errors" for name in ("SdfpbrError", "SpecError", "Outp
          "ChartSpec": "sdfpbr.spec.chart_spec", "Light": "sdfpbr.spec.chart_spec",
          "load_spec": "sdfpbr.spec.chart_spec", "make_spec": "sdfpbr.spec.chart_spec",
          "Chart": "sdfpbr.api", "Session": "sdfpbr.gpu.session", "default_session": "sdfpbr.gpu.session",
-         "render_reference": "sdfpbr.tools.reference"}
+         "render_reference": "sdfpbr.features.reference"}
 
 
 def __getattr__(name):

@@ -53,7 +53,7 @@ def _entry(directive: "SdfpbrChart") -> tuple[dict, Path, str, list[Path]]:
     the files it was read from. The file lies inside the source tree (module docstring)."""
     from .errors import SpecError
     from .spec.toml_file import parse_toml_text, read_toml
-    from .tools.gallery.entries import inside
+    from .features.gallery.entries import inside
     env = directive.env
     if directive.arguments:
         if directive.content:
@@ -76,7 +76,7 @@ def _doc_dir(env) -> Path:
 
 def _one_item(data: dict, base_dir: Path, where: str, srcdir):
     """The one image of an entry; what it names is confined to the source tree ``srcdir``."""
-    from .tools.gallery.entries import parse_entry
+    from .features.gallery.entries import parse_entry
     from .errors import SpecError
     items = parse_entry(data, where, base_dir, "chart", root=srcdir)
     if len(items) != 1:
@@ -89,7 +89,7 @@ def _referenced_files(data: dict, base_dir: Path, srcdir) -> list[Path]:
     """Files a [compare] a/b entry reads, so that editing them re-reads the document (those
     inside the source tree: one outside is refused when the entry is read)."""
     from .errors import SpecError
-    from .tools.gallery.entries import inside
+    from .features.gallery.entries import inside
     table = data.get("compare")
     if not isinstance(table, dict):
         return []
@@ -124,8 +124,8 @@ class SdfpbrChart(SphinxDirective):
 
     def run(self) -> list[nodes.Node]:
         from .files import write_bytes
-        from .tools.gallery.images import ImageCache, ensure_image
-        from .tools.gallery.keys import gl_renderers
+        from .features.gallery.images import ImageCache, ensure_image
+        from .features.gallery.keys import gl_renderers
         from .errors import SdfpbrError
         try:
             data, base_dir, where, files = _entry(self)
@@ -187,7 +187,7 @@ def _outdated(app, env, added, changed, removed) -> list[str]:
     changed) are read again, so their images are re-rendered. The GL renderer string is the one
     recorded at reading: making a context here, in the process Sphinx forks its parallel
     readers from, would hand them GL state across a fork."""
-    from .tools.gallery.keys import item_key
+    from .features.gallery.keys import item_key
     from .errors import SdfpbrError
     stale = []
     for docname, records in getattr(env, "sdfpbr_charts", {}).items():

@@ -77,7 +77,7 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
     if renderer == "chart":
         image = session.render(spec).image
     else:
-        from sdfpbr.tools.reference import render_reference
+        from sdfpbr.features.reference import render_reference
         image = render_reference(spec, samples=16, max_bounces=1, seed=4, session=session).image
     r = spec.sphere_radius
     sun = np.asarray(SUN["direction"], float) / np.linalg.norm(SUN["direction"])

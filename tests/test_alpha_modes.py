@@ -97,7 +97,7 @@ def test_the_reference_blends_by_the_same_alpha(session):
     the blend sphere is alpha E over black. The reference sees past it with probability
     1 - alpha per camera path: over n samples of p pixels its mean is within 4 standard errors,
     E sqrt(alpha (1 - alpha) / (n p)), of alpha E."""
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     alpha, emission, samples = 0.35, np.array([1.0, 0.5, 0.25]), 64
     spec = make_spec(**BASE, alpha=(alpha, alpha), emissive=tuple(emission), base_color=(0.0, 0.0, 0.0),
                      env="black", ibl=False, ground=False, lights=())

@@ -10,8 +10,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from sdfpbr.tools import animate as animate_mod
-from sdfpbr.tools.animate import animate, animate_compare, orbit_specs, write_animation
+from sdfpbr.features import animate as animate_mod
+from sdfpbr.features.animate import animate, animate_compare, orbit_specs, write_animation
 from sdfpbr.api import chart
 from sdfpbr.errors import SpecError
 from sdfpbr.spec.chart_spec import Light, make_spec

@@ -10,8 +10,8 @@ import moderngl
 import numpy as np
 import pytest
 
-from sdfpbr.tools.bench import ablation, accuracy, cold, end_to_end, report, suite, timing
-from sdfpbr.tools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
+from sdfpbr.devtools.bench import ablation, accuracy, cold, end_to_end, report, suite, timing
+from sdfpbr.devtools.baseline import build_program, extract_glsl, load_shadertoy, set_shadertoy_uniforms
 from sdfpbr.cli.main import build_parser, main, spec_from_args
 from sdfpbr.errors import ShaderCompileError, SpecError
 from sdfpbr.shading.plan import render_plan
@@ -309,7 +309,7 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     # Its Python: the integrator and its tables are keyed, its labels are not; as code.
     names = {p.name for p in accuracy.reference_code_files()}
     assert {"integrator.py", "tables.py", "__init__.py"} <= names and not {"labels.py", "mirror.py", "lobes.py"} & names
-    from sdfpbr.tools import reference
+    from sdfpbr.features import reference
     table = reference.compensation_table(spec.brdf)
     for values, kept in ((table.copy(), True), (np.nextafter(table, np.float32(2.0)), False)):
         monkeypatch.setattr(reference, "compensation_table", lambda model, cache=None, sheen=False, t=values: t)
@@ -336,7 +336,7 @@ def test_a_bigger_reference_goes_on_from_a_cached_smaller_one(session, tmp_path)
     seed starts from zero."""
     from sdfpbr.cache import ArrayCache
     from sdfpbr.gpu.session import Session
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     fresh = Session(session.ctx, ArrayCache(tmp_path / "cache"))
     spec = suite.scene_spec("cells", suite.BenchConfig(width=24, height=24))
     lines = []

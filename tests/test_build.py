@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sdfpbr.tools.gallery.entries import collect
-from sdfpbr.tools.gallery.build import build
-from sdfpbr.tools.gallery.images import KEY_FIELD, ImageCache, png_key
-from sdfpbr.tools.gallery.keys import program_sources
+from sdfpbr.features.gallery.entries import collect
+from sdfpbr.features.gallery.build import build
+from sdfpbr.features.gallery.images import KEY_FIELD, ImageCache, png_key
+from sdfpbr.features.gallery.keys import program_sources
 from sdfpbr.cache import ArrayCache
 from sdfpbr.errors import SpecError
 from sdfpbr.shading.plan import render_plan
@@ -216,8 +216,8 @@ def test_comparisons_measured_beside_other_entries_are_the_images_each_makes_alo
     import io
 
     from sdfpbr.image import metrics
-    from sdfpbr.tools import compare
-    from sdfpbr.tools.gallery.images import render_item
+    from sdfpbr.features import compare
+    from sdfpbr.features.gallery.images import render_item
     charts = make_charts(env, {**ENTRIES, "sheet.toml": '[compare]\nbugs = ["metal-diffuse", "double-gamma", '
                                                         '"unsquared-roughness", "gamma-2.2"]\n[spec]\n' + SMALL})
     out = env / "out"
@@ -333,7 +333,7 @@ def test_cli_build_reports_progress_and_counts(tmp_path):
 
 
 def test_the_key_follows_the_python_that_makes_images_only():
-    from sdfpbr.tools.gallery.keys import image_modules
+    from sdfpbr.features.gallery.keys import image_modules
     names = {p.stem for p in image_modules()}
     assert {"render", "api", "compare", "layout", "ibl", "compose", "bugs", "textures"} <= names
     assert not names & {"cli", "mirror", "build", "sphinxext"}
@@ -369,8 +369,8 @@ def test_comparisons_composed_in_workers_are_the_images_each_makes_alone(env):
     import io
 
     from sdfpbr.image import metrics
-    from sdfpbr.tools import compare
-    from sdfpbr.tools.gallery.images import render_item
+    from sdfpbr.features import compare
+    from sdfpbr.features.gallery.images import render_item
     from sdfpbr.workers import HELPERS_FROM, helpers
     bugs = ["metal-diffuse", "double-gamma", "unsquared-roughness", "gamma-2.2"]
     if not helpers(len(bugs) + 1):
@@ -399,7 +399,7 @@ def test_items_that_share_a_chart_go_to_one_worker_together():
     and FLIP maps it keeps serve them all: the bug catalog with the bug comparisons (the same
     correct and buggy charts), the exposure and tone-mapper sweeps (the same ACES, 0 EV chart)."""
     from sdfpbr.spec.bugs import BUGS
-    from sdfpbr.tools.gallery.build import work_groups
+    from sdfpbr.features.gallery.build import work_groups
     items = collect(Path(__file__).resolve().parent.parent / "charts")
     groups = work_groups(items)
     names = [[item.name for item in group] for group in groups]
@@ -416,14 +416,14 @@ def test_items_that_share_a_chart_go_to_one_worker_together():
 
 
 def test_the_gallery_page_leads_with_the_default_chart():
-    from sdfpbr.tools.gallery.page import page_order
+    from sdfpbr.features.gallery.page import page_order
     images = [{"name": n, "kind": k} for n, k in (("bug-catalog", "bug-sheet"), ("bugs-x", "compare"),
                                                   ("exposure", "sweep"), ("default", "chart"), ("furnace", "chart"))]
     assert [i["name"] for i in page_order(images)] == ["default", "furnace", "exposure", "bugs-x", "bug-catalog"]
 
 
 def test_gallery_summaries_print_clean_values():
-    from sdfpbr.tools.gallery.page import param_text
+    from sdfpbr.features.gallery.page import param_text
     assert param_text({"lights": (), "metallic": (1.0, 1.0), "roughness": (0.0, 1.0)}) == \
         "lights = none; metallic = 1.0; roughness = 0.0, 1.0"
 
@@ -440,7 +440,7 @@ def test_a_flipped_byte_anywhere_in_a_cached_image_is_caught(env):
 
 
 def test_remembered_keys_are_the_exact_keys_and_a_bad_memo_is_rebuilt(env):
-    from sdfpbr.tools.gallery.keys import gl_renderers, item_key, item_keys
+    from sdfpbr.features.gallery.keys import gl_renderers, item_key, item_keys
     charts = make_charts(env, {k: ENTRIES[k] for k in ("plain.toml", "sweep.toml")})
     items = collect(charts)
     renderers = gl_renderers(items)
@@ -461,7 +461,7 @@ STAMPED = {"plain.toml": SMALL, "sweep.toml": ENTRIES["sweep.toml"], "lit.toml":
 
 # Run in a fresh process: the manifest, and whether the build loaded the entries' modules.
 STAMP_PROBE = """import json, sys
-from sdfpbr.tools.gallery.build import build
+from sdfpbr.features.gallery.build import build
 manifest = build(sys.argv[1], sys.argv[2])
 print(json.dumps([manifest, sorted(m for m in ("numpy", "sdfpbr.spec", "sdfpbr.gpu.session") if m in sys.modules)]))
 """
@@ -482,7 +482,7 @@ def same_build(a: dict, b: dict) -> bool:
 def test_a_rebuild_with_nothing_changed_is_answered_by_its_stamp(env):
     """The second build reads no entry (no numpy, no spec, no GL) and writes what a full build
     with nothing to render writes; every kind of input change takes the full build again."""
-    from sdfpbr.tools.gallery.stamp import stamp_path
+    from sdfpbr.features.gallery.stamp import stamp_path
     charts = make_charts(env, STAMPED)
     np.save(charts / "env.npy", np.full((8, 16, 3), 0.5, np.float32))
     out = env / "out"
@@ -534,7 +534,7 @@ def test_a_rebuild_with_nothing_changed_is_answered_by_its_stamp(env):
 
 
 def test_an_input_log_records_what_is_read_by_content(tmp_path):
-    from sdfpbr.tools.gallery.stamp import InputLog, fingerprint
+    from sdfpbr.features.gallery.stamp import InputLog, fingerprint
     (tmp_path / "d").mkdir()
     read, written, cached = tmp_path / "d" / "in.txt", tmp_path / "out.txt", tmp_path / "cache" / "c.txt"
     read.write_text("abc")
@@ -568,7 +568,7 @@ def test_shards_merge_into_the_gallery_a_single_build_makes(env):
     names = [e["name"] for e in whole["images"]]
     assert [[e["name"] for e in m["images"]] for m in shards] == [names[0::3], names[1::3], names[2::3]]
     assert not (parts[0] / "index.html").exists()               # a shard is not a page
-    from sdfpbr.tools.gallery.build import merge
+    from sdfpbr.features.gallery.build import merge
     merged = merge(charts, parts, env / "site")
     assert [e["name"] for e in merged["images"]] == names
     assert images(env / "site") == images(env / "whole")

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.tools.gallery.entries import collect
+from sdfpbr.features.gallery.entries import collect
 
 TINY = 'size = "32x32"\nrows = 1\ncols = 1\nlabels = false\n'
 

@@ -217,7 +217,7 @@ def test_outputs_are_fsynced_and_cache_entries_which_their_readers_verify_are_no
     a cache entry is not (a torn one fails its check on read and is made again: the build's
     74 fsyncs were a quarter of a second of its critical path)."""
     from sdfpbr.files import write_group
-    from sdfpbr.tools.gallery.images import ImageCache
+    from sdfpbr.features.gallery.images import ImageCache
     synced = []
     real = os.fsync
     monkeypatch.setattr(os, "fsync", lambda fd: (synced.append(fd), real(fd))[1])

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.cache import MARKER, ArrayCache, cache_entries, enforce_cap, remove_stale_temporaries
-from sdfpbr.tools.gallery.images import ImageCache
+from sdfpbr.features.gallery.images import ImageCache
 
 HEX = "0123456789abcdef" * 4       # a sha256-shaped name
 
@@ -142,7 +142,7 @@ TINY = 'size = "32x32"\nrows = 1\ncols = 1\nlabels = false\n'
 
 
 def test_a_manifest_sdfpbr_did_not_write_deletes_nothing(tmp_path, monkeypatch):
-    from sdfpbr.tools.gallery.build import build
+    from sdfpbr.features.gallery.build import build
     monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
     charts, out = tmp_path / "charts", tmp_path / "out"
     charts.mkdir()

@@ -16,7 +16,7 @@ from PIL import Image
 from sdfpbr.spec.bugs import BUGS
 from sdfpbr.shading.camera import sphere_centers
 from sdfpbr.api import chart
-from sdfpbr.tools.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs,
+from sdfpbr.features.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs,
                                   sweep)
 from sdfpbr.image.sheet import flatten
 from sdfpbr.errors import SpecError
@@ -295,7 +295,7 @@ def test_sheets_keep_their_renders_read_only_and_frames_are_not_kept():
     per-bug pages): a kept render is the same object, its arrays read-only; a render with AOVs
     serves one without; an animation frame (keep=False) is rendered and not kept."""
     from sdfpbr.spec.chart_spec import make_spec
-    from sdfpbr.tools import compare
+    from sdfpbr.features import compare
     spec = make_spec(width=48, height=48, quality="draft", rows=2, cols=2)
     compare._kept.clear()
     with_aov = compare.render_chart(spec, aovs=True, keep=True)
@@ -314,7 +314,7 @@ def test_display_bugs_are_their_correct_charts_radiance_through_their_own_displa
     drawn again, and is the very image (and sphere AOVs) a render of its own gives."""
     from sdfpbr.gpu.session import Session, default_session
     from sdfpbr.spec.fields import same_radiance
-    from sdfpbr.tools import compare
+    from sdfpbr.features import compare
     spec = make_spec(width=64, height=48, quality="draft", rows=2, cols=3)
     drawn = []
     real = Session.render

@@ -7,7 +7,7 @@ import pytest
 
 from sdfpbr.errors import ShaderCompileError
 from sdfpbr.shading.compose import ComposedSource, compile_error
-from sdfpbr.tools.baseline import build_program, load_shadertoy
+from sdfpbr.devtools.baseline import build_program, load_shadertoy
 
 # What compose() emits for main.glsl including broken.glsl including util.glsl: a header in
 # source string 0, then each module's lines under `#line LINE INDEX` (INDEX = position in

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sdfpbr.tools.gallery.images import KEY_FIELD, png_key
+from sdfpbr.features.gallery.images import KEY_FIELD, png_key
 
 SMALL = 'size = "48x48"\nrows = 2\ncols = 2\n'
 ENTRIES = {
@@ -259,7 +259,7 @@ HELD_HELPERS = """
 import os, time
 from sdfpbr.workers import HELPERS_FROM, helper_pool
 if __name__ == "__main__":
-    with helper_pool(HELPERS_FROM, ("sdfpbr.tools.compare",)) as pool:
+    with helper_pool(HELPERS_FROM, ("sdfpbr.features.compare",)) as pool:
         pids = {pool.submit(os.getpid).result(timeout=120) for _ in range(20)}
         print(" ".join(map(str, sorted(pids))), flush=True)
         time.sleep(120)

@@ -9,7 +9,7 @@ import numpy as np
 
 from sdfpbr.api import chart
 from sdfpbr.spec.chart_spec import Light, make_spec
-from sdfpbr.tools.stress.cases import generate_cases
+from sdfpbr.devtools.stress.cases import generate_cases
 from sdfpbr.spec.fields import spec_to_toml
 
 # Supersampled (a lattice of 3 points a pixel), both light kinds, IBL, AO, shadows, a tone map with a knee.
@@ -59,7 +59,7 @@ def test_stress_configurations_are_a_function_of_the_seed():
 
 
 def test_reference_is_reproducible_from_its_seed(session):
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     spec = make_spec(width=32, height=24, rows=1, cols=2, quality="draft")
     a = render_reference(spec, samples=4, seed=7, session=session)
     b = render_reference(spec, samples=4, seed=7, session=session)

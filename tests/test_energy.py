@@ -11,7 +11,7 @@ import pytest
 from sdfpbr.oracle import mirror
 from test_chart import FurnaceBudget
 from sdfpbr.cli.main import main
-from sdfpbr.tools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
+from sdfpbr.devtools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
 from sdfpbr.spec.chart_spec import make_spec
 from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
 

@@ -283,7 +283,7 @@ def test_chart_spec_refuses_a_gallery_entry(tmp_path, kind):
 
 
 def test_build_still_reads_the_entries(tmp_path):
-    from sdfpbr.tools.gallery.entries import collect
+    from sdfpbr.features.gallery.entries import collect
     for kind, text in ENTRIES.items():
         (tmp_path / f"{kind}.toml").write_text(text)
     (tmp_path / "plain.toml").write_text('caption = "A chart"\nsize = "32x32"\n')
@@ -313,7 +313,7 @@ def test_compare_refuses_charts_whose_cells_do_not_line_up(tmp_path, b_text, wor
 def test_compare_refuses_spheres_in_other_places():
     """The same grid seen from elsewhere: each sphere's mean would be taken over pixels where
     B shows another part of the chart."""
-    from sdfpbr.tools.compare import compare_specs
+    from sdfpbr.features.compare import compare_specs
     a = make_spec(rows=3, cols=3, size="96x96", stage="shared", quality="draft")
     with pytest.raises(SpecError, match=r"sphere by sphere: the sphere at row 1, column 1 .*camera_elevation differs"):
         compare_specs(a, make_spec(a, camera_elevation=60.0))
@@ -327,7 +327,7 @@ def test_a_builds_compare_pair_is_checked_when_collected(tmp_path, b_text, words
     """A [compare] entry's a/b files: mismatched grids (measured cell by cell at render time
     before) and an entry that is no spec (its [spec] base was compared) are refused when the
     build collects its entries, before anything renders."""
-    from sdfpbr.tools.gallery.entries import collect
+    from sdfpbr.features.gallery.entries import collect
     charts = tmp_path / "charts"
     charts.mkdir()
     (charts / "a.spec").write_text('rows = 5\ncols = 5\nsize = "64x64"\n')

@@ -61,7 +61,7 @@ def test_a_bug_or_a_furnace_on_an_asset_leaves_its_materials_to_it():
     """A bug's visibility settings (clearcoat-adds: a coat down the rows) and the white furnace's
     white base would set what the asset's materials decide: on an asset they leave them to it."""
     from sdfpbr.spec.chart_spec import with_bug
-    from sdfpbr.tools.energy import furnace_spec
+    from sdfpbr.devtools.energy import furnace_spec
     spec = make_spec(gltf=str(GLB))
     coated = with_bug(spec, "clearcoat-adds")
     assert coated.bugs == ("clearcoat-adds",) and coated.cell_materials() == spec.cell_materials()
@@ -373,7 +373,7 @@ def test_an_emissive_texture_scales_the_emissive_factor(session, tmp_path):
         assert np.abs(srgb_code(got) - texel).max() <= 0.5
     # The reference reads the same texels (at level 0, through its own fetch and decode): its
     # sphere is held to the same half code of each texel.
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     ref = render_reference(spec, samples=4, seed=3, session=session).hdr[..., :3]
     for side, texel in ((normal_x < -0.2, img[0, 0]), (normal_x > 0.2, img[0, 15])):
         assert np.abs(srgb_code(ref[inside & side] / (2.0 * np.array([1.0, 0.5, 1.0]))) - texel).max() <= 0.5
@@ -511,7 +511,7 @@ def test_an_image_edited_beside_a_gltf_is_read_again_and_rekeys_its_gallery_imag
     """A .gltf's image may be a file beside it: editing that file alone (the .gltf untouched)
     gives the new image in the same process, and the gallery renders the entry again (its key
     covers the images the asset samples, not only the asset's own bytes)."""
-    from sdfpbr.tools.gallery.build import build
+    from sdfpbr.features.gallery.build import build
     monkeypatch.setenv("SDFPBR_CACHE_DIR", str(tmp_path / "cache"))
     charts = tmp_path / "charts"   # a build reads files inside its entries' folder only
     (charts / "maps").mkdir(parents=True)

@@ -78,7 +78,7 @@ def readers():
     from sdfpbr.gpu.ibl import load_env_file
     from sdfpbr.inputs import read_json
     from sdfpbr.spec.chart_spec import load_spec, make_spec
-    from sdfpbr.tools.baseline import load_shadertoy
+    from sdfpbr.devtools.baseline import load_shadertoy
     return [
         ("spec", ".toml", lambda p: load_spec(p)),
         ("environment (.npy)", ".npy", lambda p: load_env_file(p)),
@@ -285,7 +285,7 @@ def foreign_names(r: random.Random) -> list[str]:
 
 def test_cache_folders_with_foreign_files_keep_them(tmp_path, monkeypatch):
     from sdfpbr.cache import ArrayCache, clear, enforce_cap
-    from sdfpbr.tools.gallery.images import ImageCache
+    from sdfpbr.features.gallery.images import ImageCache
     r = rng("cache")
     for trial in range(3 * SCALE):
         root = tmp_path / f"cache{trial}"
@@ -322,8 +322,8 @@ def test_titles_and_captions_past_their_length_are_refused(tmp_path):
     by presets.MAX_TITLE, captions by MAX_CAPTION, on every surface that takes them."""
     from sdfpbr.spec.chart_spec import make_spec
     from sdfpbr.spec.presets import MAX_CAPTION, MAX_TITLE
-    from sdfpbr.tools.compare import compare_specs
-    from sdfpbr.tools.gallery.entries import collect
+    from sdfpbr.features.compare import compare_specs
+    from sdfpbr.features.gallery.entries import collect
     r = rng("text-size")
     for _ in range(2 * SCALE):
         over = r.randint(1, 10 ** r.randint(0, 6))

@@ -10,7 +10,7 @@ import pytest
 from sdfpbr.oracle import mirror
 from sdfpbr.shading.camera import frame
 from sdfpbr.spec.chart_spec import make_spec
-from sdfpbr.tools.reference import render_reference
+from sdfpbr.features.reference import render_reference
 
 SIZE = 400
 

@@ -19,8 +19,8 @@ from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program, render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
 from sdfpbr.spec.material import Material
-from sdfpbr.tools.energy import furnace_spec
-from sdfpbr.tools.reference import compensation_table, render_reference
+from sdfpbr.devtools.energy import furnace_spec
+from sdfpbr.features.reference import compensation_table, render_reference
 
 # One material per lobe, each with the core material under it (a rough dielectric base, so
 # the lobes' effect on the base is visible), and the spec keys that give it to a chart.
@@ -419,7 +419,7 @@ def test_the_lobes_scene_renders_finite_under_its_environment(session, preset):
     """Every lobe at once under the environment (the bench's lobes scene): no pixel is NaN or
     infinite, the sphere centres included, where N.V rounds to just over 1 (the specular's
     sheen scaling builds V's tangent part from 1 - N.V^2 there)."""
-    from sdfpbr.tools.bench import suite
+    from sdfpbr.devtools.bench import suite
     spec = suite.scene_spec("lobes", suite.BenchConfig(width=96, height=96), preset)
     res = session.render(spec)
     assert np.isfinite(res.hdr).all() and res.hdr.min() >= 0.0

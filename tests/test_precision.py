@@ -195,7 +195,7 @@ def test_half_targets_stay_finite_and_saturate_at_half_max(session):
 
 
 def test_half_target_display_is_the_tone_mapped_half_values(session):
-    from sdfpbr.tools.stress.checks import display_error
+    from sdfpbr.devtools.stress.checks import display_error
     spec = make_spec(**BLINDING, hdr_precision="float16", exposure=-18.0, tonemap="reinhard")
     res = session.render(spec)
     assert display_error(res.hdr, res.alpha, res.image, spec) [1] == 0

@@ -14,7 +14,7 @@ import pytest
 from sdfpbr.errors import SpecError
 from sdfpbr.oracle import lobes, mirror
 from sdfpbr.shading.camera import frame_grid, sphere_centers
-from sdfpbr.tools.reference import batch_size, integrator, render_reference
+from sdfpbr.features.reference import batch_size, integrator, render_reference
 from sdfpbr.spec.chart_spec import Light, make_spec
 
 # These tests trace the shared stage's grid camera in float64 (primary_hits); the cells stage
@@ -87,7 +87,7 @@ def table_bias(session, spec, hits, want, model="gltf", sheen=False):
     radiance up to 1 by c times the read error at N.V plus the worst at any N.L; plus BIAS for
     float32."""
     from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
-    from sdfpbr.tools.reference.tables import compensation_table
+    from sdfpbr.features.reference.tables import compensation_table
     from test_chart import dfg_read_error
     table = compensation_table(model, session.cache, sheen).astype(np.float64)
     hit, row, col, normal, view = hits

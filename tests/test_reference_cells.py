@@ -17,7 +17,7 @@ from sdfpbr.oracle import mirror
 from sdfpbr.shading.camera import frame_cell
 from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import Light, make_spec
-from sdfpbr.tools.reference import render_reference
+from sdfpbr.features.reference import render_reference
 
 from test_reference import BIAS, check_converged, luminance, mean_and_se
 
@@ -489,7 +489,7 @@ def test_spacing_does_not_limit_the_cells_stage():
     """The cells stage has one sphere per scene: the shared stage's overlap limit on spacing
     (the grid traversal's reach) does not apply."""
     from sdfpbr.errors import SpecError
-    from sdfpbr.tools.reference import cell_reach, validate_arguments
+    from sdfpbr.features.reference import cell_reach, validate_arguments
     tight = dict(spacing=0.1, sphere_radius=1.0)
     assert cell_reach(make_spec(stage="cells", **tight)) == 0
     validate_arguments(make_spec(stage="cells", **tight))

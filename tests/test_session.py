@@ -60,7 +60,7 @@ def test_a_program_is_the_same_text_whatever_the_options_it_never_reads():
     bakes' cache keys) alone: the stage probe shades the floor, which has no normal or ORM map,
     so a bug in reading those maps leaves the probe as it is (it was a bake of its own per
     bug). An option it reads stays in its header."""
-    from sdfpbr.tools.compare import bug_pair
+    from sdfpbr.features.compare import bug_pair
     for name in ("normal-map-srgb", "orm-srgb"):
         bug, correct, buggy = bug_pair(make_spec(), name)
         plan, buggy_plan = render_plan(correct), render_plan(buggy)

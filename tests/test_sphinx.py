@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from sdfpbr.tools.gallery.entries import parse_entry
-from sdfpbr.tools.gallery.images import KEY_FIELD, ImageCache, ensure_image
+from sdfpbr.features.gallery.entries import parse_entry
+from sdfpbr.features.gallery.images import KEY_FIELD, ImageCache, ensure_image
 
 pytestmark = pytest.mark.requires_extra("sphinx")   # every test runs `python -m sphinx`
 

@@ -587,7 +587,7 @@ def lower_half_gaps(session, monkeypatch, knob: str, metallic: float, **extra) -
     the standard error of that mean of the path tracer's, relative to it."""
     import dataclasses
     from sdfpbr.spec.presets import QUALITY_PRESETS
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     spec = make_spec(rows=1, cols=1, size="96x96", labels=False, base_color=(0.9, 0.9, 0.9),
                      roughness=(0.5, 0.5), metallic=(metallic, metallic), **extra)
     ref = render_reference(spec, samples=512, seed=0, session=session)
@@ -739,7 +739,7 @@ def test_a_polished_spheres_mirror_image_of_the_stage_lights_its_floor(session, 
     (stage_bounce.glsl sphere_reflected_sky; the floor it mirrors stays with the rays)."""
     import dataclasses
     from sdfpbr.spec.presets import QUALITY_PRESETS
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     spec = make_spec(rows=1, cols=1, size="128x128", labels=False, roughness=(0.0, 0.0), metallic=(1.0, 1.0),
                      lights=(), base_color=(0.9, 0.9, 0.9))
     ref = render_reference(spec, samples=1024, seed=0, session=session)

@@ -15,8 +15,8 @@ from test_chart import FurnaceBudget
 from sdfpbr.oracle import mirror
 
 from sdfpbr.oracle import furnace
-from sdfpbr.tools.stress import cases as stress_cases, checks, runner
-from sdfpbr.tools.stress import report as stress_report
+from sdfpbr.devtools.stress import cases as stress_cases, checks, runner
+from sdfpbr.devtools.stress import report as stress_report
 from sdfpbr.shading.camera import frame, frame_grid
 from sdfpbr.cli.main import main
 from sdfpbr.spec.chart_spec import Light, load_spec, make_spec

@@ -220,7 +220,7 @@ def test_mapped_normals_lose_the_sky_their_reflection_turns_below_the_sphere(ses
     ((1 + r . n_geo)^2, between nothing and the reference's step), so the sphere's mean lies
     between the reference's and L: strictly below L (it was exactly L without the fade), and
     not below the reference (beyond 4 of its standard errors)."""
-    from sdfpbr.tools.reference import render_reference
+    from sdfpbr.features.reference import render_reference
     spec = make_spec(rows=1, cols=1, width=96, height=96, labels=False, textures="hammered", roughness=0.0,
                      metallic=1.0, base_color=(1.0, 1.0, 1.0), env="uniform", lights="none", ground=False)
     sky = spec.env_intensity

@@ -190,7 +190,7 @@ def spec_from_args(args: argparse.Namespace):
 def cmd_chart(args) -> int:
     check_still_options(args)
     if args.frames is not None:
-        from ..tools.animate import cmd_chart_animation
+        from ..features.animate import cmd_chart_animation
         return cmd_chart_animation(spec_from_args(args), args)
     from ..api import chart
     from ..image.io import check_outputs

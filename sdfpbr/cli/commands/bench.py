@@ -35,7 +35,7 @@ def _list(text: str) -> list[str]:
 
 def register(subparsers) -> None:
     from ..main import SEED
-    from ...tools.bench.suite import SCENE_NOTES, available_presets   # the suite's own lists
+    from ...devtools.bench.suite import SCENE_NOTES, available_presets   # the suite's own lists
     scenes = "\n".join(f"  {name:10s}  {note}" for name, note in SCENE_NOTES.items())
     p = subparsers.add_parser("bench", help="time and error of each quality preset over a scene suite",
                               description="Benchmark render time, compile time, cold start and error "
@@ -76,9 +76,9 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from ...tools.bench.report import format_table, write_json, write_plot
-    from ...tools.bench.run import run_bench
-    from ...tools.bench.suite import BenchConfig
+    from ...devtools.bench.report import format_table, write_json, write_plot
+    from ...devtools.bench.run import run_bench
+    from ...devtools.bench.suite import BenchConfig
     from ...errors import SpecError
     from ...image.io import check_writable
     from ...spec.chart_spec import parse_size
@@ -132,10 +132,10 @@ def run(args) -> int:
 
 def _end_to_end(cfg, charts, json_path) -> int:
     from ...gpu.session import default_session
-    from ...tools.bench.end_to_end import end_to_end_figures, format_figures
-    from ...tools.bench.report import write_json
-    from ...tools.bench.run import machine_info
-    from ...tools.bench.suite import check_config
+    from ...devtools.bench.end_to_end import end_to_end_figures, format_figures
+    from ...devtools.bench.report import write_json
+    from ...devtools.bench.run import machine_info
+    from ...devtools.bench.suite import check_config
     check_config(cfg)   # the size and the backend, before anything is measured
     session = default_session(cfg.backend, 0)
     figures = end_to_end_figures(session, cfg, charts)

@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ...errors import SpecError
-    from ...tools.gallery.build import build, merge
+    from ...features.gallery.build import build, merge
     log = None if args.quiet else functools.partial(print, file=sys.stderr, flush=True)
     if args.merge:
         if args.shard or args.force or args.jobs != 1:

@@ -90,7 +90,7 @@ def _files(args):
     from pathlib import Path
 
     from ..main import spec_from_args
-    from ...tools.compare import at_panel_size, compare_specs
+    from ...features.compare import at_panel_size, compare_specs
     from ...errors import SpecError
     from ...image.io import check_writable
     labels = (Path(args.specs[0]).stem, Path(args.specs[1]).stem)
@@ -111,14 +111,14 @@ def _bug_spec(args):
     """(bug name, base spec): the chart flags without the --bug, which names the comparison."""
     from ...spec.bugs import get_bug
     from ..main import spec_from_args
-    from ...tools.compare import at_panel_size
+    from ...features.compare import at_panel_size
     name = get_bug(args.bugs[0]).name
     args.bugs = None
     return name, at_panel_size(spec_from_args(args), _panel_size(args, DEFAULT_PANEL))
 
 
 def _bug(args):
-    from ...tools.compare import compare_bug
+    from ...features.compare import compare_bug
     from ...image.io import check_writable
     name, spec = _bug_spec(args)
     output = args.output or f"compare-{name}.png"
@@ -129,7 +129,7 @@ def _bug(args):
 def _contact_sheet(args):
     from ...spec.bugs import BUGS, get_bug
     from ..main import spec_from_args
-    from ...tools.compare import bug_contact_sheet
+    from ...features.compare import bug_contact_sheet
     from ...errors import SpecError
     from ...image.io import check_writable
     names = None if args.bugs_sheet.strip() == "all" else \
@@ -147,7 +147,7 @@ def _contact_sheet(args):
 def _animate_bug(args, start: float) -> int:
     import time
 
-    from ...tools.animate import animate_compare, check_animation_output, orbit_specs
+    from ...features.animate import animate_compare, check_animation_output, orbit_specs
     name, spec = _bug_spec(args)
     output = args.output or f"compare-{name}.gif"
     orbit_specs(spec, args.frames, args.orbit)

@@ -18,7 +18,7 @@ def run(args) -> int:
 
     from ...gpu.session import default_session
     from ..main import spec_from_args
-    from ...tools.energy import (cell_energy, format_table, furnace_is_white, furnace_spec, model_summary,
+    from ...devtools.energy import (cell_energy, format_table, furnace_is_white, furnace_spec, model_summary,
                                  replaced_settings, to_json)
     from ...files import atomic_file
     from ...image.io import check_writable

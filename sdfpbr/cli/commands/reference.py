@@ -39,7 +39,7 @@ def run(args) -> int:
 
     from ..main import spec_from_args
     from ...image.io import check_outputs
-    from ...tools.reference import DEFAULT_MAX_BOUNCES, validate_arguments
+    from ...features.reference import DEFAULT_MAX_BOUNCES, validate_arguments
 
     start = time.perf_counter()
     spec = spec_from_args(args)
@@ -54,7 +54,7 @@ def run(args) -> int:
     from ...gpu.session import default_session
     from ...files import write_group
     from ...image.io import hdr_writer, npz_writer, png_writer
-    from ...tools.reference import label, render_reference
+    from ...features.reference import label, render_reference
 
     session = default_session(spec.backend, spec.device_index)
     result = render_reference(spec, samples=args.samples, target_error=args.target_error, seed=args.seed,

@@ -1,4 +1,4 @@
-"""``sdfpbr stress``: seeded sweeps over the edges (see sdfpbr/tools/stress/ for the checks)."""
+"""``sdfpbr stress``: seeded sweeps over the edges (see sdfpbr/devtools/stress/ for the checks)."""
 import argparse
 
 FULL_COUNT = 10_000
@@ -44,8 +44,8 @@ def run(args) -> int:
     from ...errors import OutputError
     from ...files import atomic_file
     from ...image.io import check_writable
-    from ...tools.stress.cases import generate_cases
-    from ...tools.stress.runner import make_sessions, run_sweep
+    from ...devtools.stress.cases import generate_cases
+    from ...devtools.stress.runner import make_sessions, run_sweep
 
     failures_dir = None
     if args.failures:

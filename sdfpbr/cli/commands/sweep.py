@@ -38,7 +38,7 @@ def run(args) -> int:
     import time
 
     from ..main import spec_from_args
-    from ...tools.compare import at_panel_size, sweep
+    from ...features.compare import at_panel_size, sweep
     from ...image.io import check_writable
     from ...spec.chart_spec import make_spec
     from ...spec.fields import resolve_field, sweep_defaults, sweep_values_from_text

@@ -15,7 +15,7 @@ from ...spec.fields import names_file
 from .entries import Item
 
 # The modules that make an image; the key hashes them and every sdfpbr module they import.
-IMAGE_MODULES = ("sdfpbr.api", "sdfpbr.tools.compare")
+IMAGE_MODULES = ("sdfpbr.api", "sdfpbr.features.compare")
 FORMAT = "sdfpbr-build-1"    # bump when the build changes what it writes into an image
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]     # the sdfpbr package directory
 

@@ -3,7 +3,7 @@
 between reads. frame.read_rgba takes the framebuffer into a kept array: on an H100 the
 texture read moved 0.9 GB/s, glReadPixels into mapped memory 8-10 GB/s.
 
-    python -m sdfpbr.tools.bench.readback [SIZE ...]      (default 1024 2048 4096)
+    python -m sdfpbr.devtools.bench.readback [SIZE ...]      (default 1024 2048 4096)
 """
 from __future__ import annotations
 

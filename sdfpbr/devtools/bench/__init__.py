@@ -16,7 +16,7 @@ For every scene of a fixed suite and every quality preset it measures
   the same right after, with the sdfpbr disk cache filled (bakes, LUTs and the cells stage's
   plates: the user's second run); ``start_s``:
   the median of three more with Mesa's shader cache warm too (every later run).
-* error against the reference renderer (``sdfpbr.tools.reference``): mean LDR FLIP of the display
+* error against the reference renderer (``sdfpbr.features.reference``): mean LDR FLIP of the display
   images over the whole frame (``flip_mean``) and over sphere pixels (``flip_sphere_mean``),
   HDR FLIP, and relative RMSE of linear radiance over sphere pixels (``rel_rmse``). References
   are rendered once per scene (the scene's truth does not depend on the preset) and cached on

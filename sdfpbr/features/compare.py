@@ -461,7 +461,7 @@ def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panels: list[Panel], pa
 
 # What a helper composing comparisons imports (workers.helper_pool): the cards here, a
 # gallery's pages (tools.gallery.images).
-HELPER_IMPORTS = ("sdfpbr.tools.compare", "sdfpbr.image.metrics", "sdfpbr.image.flip")
+HELPER_IMPORTS = ("sdfpbr.features.compare", "sdfpbr.image.metrics", "sdfpbr.image.flip")
 
 
 def _whole_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):

@@ -28,7 +28,7 @@ class Reference:
     cached: bool
 
 
-REFERENCE_MODULE = "sdfpbr.tools.reference"
+REFERENCE_MODULE = "sdfpbr.features.reference"
 
 
 def reference_available() -> bool:
@@ -39,7 +39,7 @@ def reference_samples_cap() -> int | None:
     """The most samples a pixel of the reference takes, where the reference is installed."""
     if not reference_available():
         return None
-    from ..reference.integrator import MAX_SAMPLES
+    from ...features.reference.integrator import MAX_SAMPLES
     return MAX_SAMPLES
 
 
@@ -96,7 +96,7 @@ def _reference_code_digest(spec: ChartSpec, cache=None) -> str:
     table leaves the bench's references alone, and any edit of what the path tracer runs or
     reads re-renders them). ``cache``: where the table is kept (else computed)."""
     from ...shading.plan import reference_plan
-    from ..reference import compensation_choice, compensation_table
+    from ...features.reference import compensation_choice, compensation_table
     h = hashlib.sha256()
     for p in reference_code_files():
         h.update(p.name.encode())
@@ -114,7 +114,7 @@ def reference_key(spec: ChartSpec, samples: int, seed: int, cache=None) -> str:
 
 def _key(spec: ChartSpec, samples: int, seed: int, code_digest: str) -> str:
     from ...cache import content_key
-    from ..reference import scene_fields
+    from ...features.reference import scene_fields
     return content_key("bench-reference", scene_fields(spec), samples, seed, __version__, code_digest)
 
 
@@ -122,7 +122,7 @@ def get_reference(session, spec: ChartSpec, samples: int, seed: int, log=None) -
     """The reference of ``spec`` at ``samples`` per pixel and ``seed``: from the cache, else
     rendered, going on from the cached run of the same seed with the most samples among
     resumable_counts(samples) when there is one; ``seconds`` is the render time of all its samples."""
-    from ..reference import render_reference
+    from ...features.reference import render_reference
     code_digest = _reference_code_digest(spec, session.cache)
     key = _key(spec, samples, seed, code_digest)
     cached = session.cache.get("bench-reference", key, require_finite=False)   # stderr may be NaN
@@ -166,7 +166,7 @@ def _resumable(session, spec: ChartSpec, samples: int, seed: int, code_digest: s
     with the most samples among resumable_counts(samples) that kept its accumulators, else
     (None, 0.0). A reference's samples are hashes of (seed, pixel, sample index), so going on
     from one gives the straight run's bits."""
-    from ..reference import Accumulators, run_key
+    from ...features.reference import Accumulators, run_key
     for fewer in resumable_counts(samples):
         cached = session.cache.get("bench-reference", _key(spec, fewer, seed, code_digest), require_finite=False)
         if cached is not None and "sums" in cached:
