@@ -12,7 +12,7 @@
 //
 // The specular estimator is a quadrature, not a random walk, so its error is its bias, and it
 // is made well conditioned on any IEEE float32 driver (REFERENCE.md §2, measured against the
-// float64 quadrature of sdfpbr.oracle.mirror in tests/test_shading.py):
+// float64 quadrature of sdfpbr.oracle.shading_model in tests/test_shading.py):
 // - In the CDF variable u of D cos(theta_h) the integrand grows like 1/sqrt(1 - u) towards
 //   u = 1 as NdotV -> 0 (1/NdotH, with l still above the horizon), so a rule on u errs by
 //   O(1/sqrt(N)): 0.0068 at N = 4096 on llvmpipe, and the few samples nearest u = 1 carry

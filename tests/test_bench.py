@@ -308,7 +308,7 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     assert key() in keys
     # Its Python: the integrator and its tables are keyed, its labels are not; as code.
     names = {p.name for p in accuracy.reference_code_files()}
-    assert {"integrator.py", "tables.py", "__init__.py"} <= names and not {"labels.py", "mirror.py", "lobes.py"} & names
+    assert {"integrator.py", "tables.py", "__init__.py"} <= names and not {"labels.py", "shading_model.py", "lobes.py"} & names
     from sdfpbr.features import reference
     table = reference.compensation_table(spec.brdf)
     for values, kept in ((table.copy(), True), (np.nextafter(table, np.float32(2.0)), False)):

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import shading_model
 from sdfpbr.spec.chart_spec import Light, make_spec
 
 # Point-sampled (no anti-aliasing): each pixel is its centre's shading, which the oracles
@@ -72,22 +72,22 @@ class FurnaceBudget:
         base = np.asarray(base_color, float)
 
         def expected(t, rounding=(None, None)):
-            return mirror.furnace_from_dfg(*dfg_read(t, mu, r, rounding), base, metallic, spec.multiscatter)
+            return shading_model.furnace_from_dfg(*dfg_read(t, mu, r, rounding), base, metallic, spec.multiscatter)
 
         terms = dfg_read(table, mu, r)
-        self.through_table = mirror.furnace_from_dfg(*terms, base, metallic, spec.multiscatter)
+        self.through_table = shading_model.furnace_from_dfg(*terms, base, metallic, spec.multiscatter)
         rounded = [expected(table, q) for q in FILTER_ROUNDINGS[1:]]
         self.filter = np.max([np.abs(e - self.through_table) for e in rounded], 0) + 1e-5 * (1 + self.through_table)
         # The float64 table on the rows these roughnesses read.
         rows = np.unique(np.minimum(np.floor(r * (size - 1)).astype(int), size - 2)[:, None] + [0, 1])
         grid = np.arange(size) / (size - 1)
         exact = table.copy()
-        exact[rows, :, :3] = np.stack(mirror.dfg_integrate(np.maximum(grid[None, :], mirror.MIN_N_DOT_V),
+        exact[rows, :, :3] = np.stack(shading_model.dfg_integrate(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V),
                                                            grid[rows][:, None]), -1)
         self.texel_error = np.abs(table[rows, :, :3] - exact[rows, :, :3]).max()
-        self.model = mirror.furnace_expected(mu, base, metallic, r, multiscatter=spec.multiscatter)
+        self.model = shading_model.furnace_expected(mu, base, metallic, r, multiscatter=spec.multiscatter)
         self.interpolation = np.abs(expected(exact) - self.model)
-        moved = [mirror.furnace_from_dfg(*(t + self.texel_error * (k == i) for k, t in enumerate(terms)), base,
+        moved = [shading_model.furnace_from_dfg(*(t + self.texel_error * (k == i) for k, t in enumerate(terms)), base,
                                          metallic, spec.multiscatter) for i in range(3)]
         self.spread = np.sum([np.abs(m - self.through_table) for m in moved], 0)
 
@@ -120,7 +120,7 @@ def test_furnace_every_row_matches_split_sum_expectation(session):
 
 def test_direct_light_matches_mirror_per_pixel(session):
     """Black environment, one directional light of zero size: every sphere pixel equals
-    f(v, l) cos E from the float64 mirror, evaluated with the pixel's own normal."""
+    f(v, l) cos E from the float64 model, evaluated with the pixel's own normal."""
     light = Light("directional", direction=(0.6, 0.5, 0.62), intensity=2.0)
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
                      multiscatter=False, camera="orthographic", width=192, height=192, rows=3, cols=4,
@@ -130,13 +130,13 @@ def test_direct_light_matches_mirror_per_pixel(session):
     n = res.aov["normal"][m].astype(float)
     v = np.broadcast_to(-res.camera.forward, n.shape)
     l = np.broadcast_to(np.array(light.direction), n.shape)
-    want = mirror.brdf(n, v, l, np.array(spec.base_color), res.aov["metallic"][m].astype(float),
+    want = shading_model.brdf(n, v, l, np.array(spec.base_color), res.aov["metallic"][m].astype(float),
                        res.aov["roughness"][m].astype(float)) * np.clip((n * l).sum(1), 0, None)[:, None] * 2.0
     np.testing.assert_allclose(res.hdr[m], want, rtol=5e-3, atol=2e-4)
 
 
 def test_metal_row_has_no_diffuse_under_back_light(session):
-    """Where the float64 mirror puts no specular energy but a Lambert body would be lit, the
+    """Where the float64 model puts no specular energy but a Lambert body would be lit, the
     metal row is black and the dielectric row is not."""
     light = Light("directional", direction=(-0.8, 0.3, -0.52), intensity=3.0)   # behind, to the left
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
@@ -148,7 +148,7 @@ def test_metal_row_has_no_diffuse_under_back_light(session):
     v = np.broadcast_to(-res.camera.forward, n.shape)
     l = np.broadcast_to(np.array(light.direction), n.shape)
     cos = np.clip((n * l).sum(1), 0, None)
-    specular_only = mirror.brdf(n, v, l, np.ones(3), 1.0, res.aov["roughness"][m].astype(float))[:, 0] * cos * 3.0
+    specular_only = shading_model.brdf(n, v, l, np.ones(3), 1.0, res.aov["roughness"][m].astype(float))[:, 0] * cos * 3.0
     lambert = cos / np.pi * 3.0
     quiet = (specular_only < 2e-3) & (lambert > 0.1)
     rows = res.aov["row"][m]

@@ -1,5 +1,5 @@
 """A silhouette pixel's covered part is shaded at points that share it evenly across the
-silhouette (edge_coverage.glsl, its float64 mirror sdfpbr.oracle.edge): the rule itself against
+silhouette (edge_coverage.glsl, its float64 model sdfpbr.oracle.edge): the rule itself against
 exact box integrals, and the chart's pixels against the rule with the float64 BRDF."""
 import dataclasses
 import math
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import edge, mirror
+from sdfpbr.oracle import edge, shading_model
 from sdfpbr.shading.camera import frame
 from sdfpbr.spec.chart_spec import make_spec
 
@@ -95,9 +95,9 @@ def _mirror_edge(spec, samples, s_error=0.0):
     depth, ro, rd = distance(points[..., 0], points[..., 1])
     b = (ro * rd).sum(-1)
     t = -b - np.sqrt(np.maximum(b * b - ((ro * ro).sum(-1) - spec.sphere_radius ** 2), 0.0))
-    n = mirror.normalize(ro + rd * t[..., None])
+    n = shading_model.normalize(ro + rd * t[..., None])
     light = spec.lights[0]
-    f = mirror.brdf(n, -rd, np.broadcast_to(np.asarray(light.direction), n.shape), spec.base_color,
+    f = shading_model.brdf(n, -rd, np.broadcast_to(np.asarray(light.direction), n.shape), spec.base_color,
                     0.0, spec.roughness[0])
     radiance = f * (light.intensity * np.clip((n * np.asarray(light.direction)).sum(-1), 0, 1))[..., None]
     return coverage, radiance.mean(-2), -depth.max(-1)

@@ -8,7 +8,7 @@ from contextlib import redirect_stdout
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import shading_model
 from test_chart import FurnaceBudget
 from sdfpbr.cli.main import main
 from sdfpbr.devtools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
@@ -55,8 +55,8 @@ def test_mixed_metallic_row_is_the_mix_of_its_lobes(session, report):
     budget = FurnaceBudget(session, spec, res, m)
     n_dot_v = res.aov["ndotv"][m].astype(float)
     rough = np.maximum(res.aov["roughness"][m].astype(float), MIN_PERCEPTUAL_ROUGHNESS)
-    half = 0.5 * (mirror.furnace_expected(n_dot_v, np.ones(3), 0.0, rough)
-                  + mirror.furnace_expected(n_dot_v, np.ones(3), 1.0, rough))
+    half = 0.5 * (shading_model.furnace_expected(n_dot_v, np.ones(3), 0.0, rough)
+                  + shading_model.furnace_expected(n_dot_v, np.ones(3), 1.0, rough))
     assert (np.abs(budget.got - half) <= budget.interpolation + budget.spread + budget.filter).all()
     assert m.sum() > 100
 
@@ -69,17 +69,17 @@ def test_smooth_dielectric_gains_energy_at_grazing_angles(session, report):
     mu = 0.05
     rng = np.random.default_rng(7)
     n = 400_000
-    l = mirror.sample_sphere_cosine(rng, n)
+    l = shading_model.sample_sphere_cosine(rng, n)
     v = np.array([math.sqrt(1 - mu * mu), 0.0, mu])
     h = l + v
     h /= np.linalg.norm(h, axis=1, keepdims=True)
     v_dot_h = np.clip(h @ v, 0, 1)
     body = 1 - (0.04 + 0.96 * (1 - v_dot_h) ** 5)
     lambert, lambert_stderr = np.mean(body), np.std(body) / math.sqrt(n)
-    a, b, _ = mirror.dfg_integrate(mu, MIN_PERCEPTUAL_ROUGHNESS)
-    f0 = np.float64(mirror.DIELECTRIC_F0)
-    coat = (f0 * a + b) * mirror.energy_compensation(f0, np.asarray(a + b))
-    model = mirror.furnace_expected(mu, 1.0, 0.0, 0.0)[0]
+    a, b, _ = shading_model.dfg_integrate(mu, MIN_PERCEPTUAL_ROUGHNESS)
+    f0 = np.float64(shading_model.DIELECTRIC_F0)
+    coat = (f0 * a + b) * shading_model.energy_compensation(f0, np.asarray(a + b))
+    model = shading_model.furnace_expected(mu, 1.0, 0.0, 0.0)[0]
     assert model == pytest.approx(coat + lambert, abs=5 * lambert_stderr)
     assert model == pytest.approx(1.72, abs=5e-3)
     spec, res, cells = report

@@ -20,7 +20,7 @@ import pytest
 from test_chart import FurnaceBudget
 from sdfpbr.gpu.ibl import make_environment
 from sdfpbr.oracle import ibl_integral as oracle
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import shading_model
 from sdfpbr.shading.camera import frame_grid, sphere_centers
 from sdfpbr.shading.plan import prefilter_kernel, render_plan
 from sdfpbr.spec.chart_spec import make_spec
@@ -100,9 +100,9 @@ def errors_for(session, env_path, truth, quality):
 
 def _points(m, seed=1):
     rng = np.random.default_rng(seed)
-    n = mirror.normalize(rng.normal(size=(m, 3)))
+    n = shading_model.normalize(rng.normal(size=(m, 3)))
     t = rng.normal(size=(m, 3))
-    t = mirror.normalize(t - np.sum(t * n, -1, keepdims=True) * n)
+    t = shading_model.normalize(t - np.sum(t * n, -1, keepdims=True) * n)
     mu = rng.uniform(0.3, 0.95, m)
     v = mu[:, None] * n + np.sqrt(1 - mu * mu)[:, None] * t
     return n, v, mu, rng.choice([0.0, 0.25, 0.5, 0.75, 1.0], m), rng.choice([0.0, 0.5, 1.0], m)
@@ -111,7 +111,7 @@ def _points(m, seed=1):
 def test_oracle_under_uniform_light_is_the_furnace():
     n, v, mu, r, m = _points(40)
     got = oracle.ibl_integral(n, v, 0.75, m, r, oracle.UNIFORM)
-    np.testing.assert_allclose(got, mirror.furnace_expected(mu, 0.75, m, r), rtol=1e-8)
+    np.testing.assert_allclose(got, shading_model.furnace_expected(mu, 0.75, m, r), rtol=1e-8)
 
 
 def test_oracle_quadrature_is_converged():
@@ -124,7 +124,7 @@ def test_oracle_quadrature_is_converged():
 
 
 def test_oracle_matches_brute_force_sum_of_mirror_brdf():
-    """An independent check of the parametrisation: mirror.brdf summed over a fine midpoint
+    """An independent check of the parametrisation: shading_model.brdf summed over a fine midpoint
     grid of the whole sphere of directions, within the sum's own error (its step from a grid
     half as fine: the horizon's kink, off the grid's pole, keeps the rule below second order;
     for any order from one the step bounds the error) and the oracle's (its step to twice its
@@ -133,7 +133,7 @@ def test_oracle_matches_brute_force_sum_of_mirror_brdf():
     r, metal = 0.75, 0.5
     want = oracle.ibl_integral(n, v, 0.75, metal, r, ENV)[0]
     finer = oracle.ibl_integral(n, v, 0.75, metal, r, ENV, orders={k: 2 * o for k, o in oracle.ORDERS.items()})[0]
-    A, B, _ = mirror.dfg_integrate(mu, r)
+    A, B, _ = shading_model.dfg_integrate(mu, r)
 
     def brute(N):
         th = (np.arange(N) + 0.5) / N * np.pi
@@ -141,7 +141,7 @@ def test_oracle_matches_brute_force_sum_of_mirror_brdf():
         T, P = np.meshgrid(th, ph, indexing="ij")
         l = np.stack([np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], -1).reshape(-1, 3)
         dw = (np.sin(T) * (np.pi / N) ** 2).reshape(-1)
-        f = mirror.brdf(n[0], v[0], l, 0.75, metal, r, multiscatter=True, e_spec=A + B)
+        f = shading_model.brdf(n[0], v[0], l, 0.75, metal, r, multiscatter=True, e_spec=A + B)
         return np.sum(f * ENV.radiance(l) * (np.maximum(l @ n[0], 0) * dw)[:, None], axis=0)
     got, coarse = brute(900), brute(450)
     assert (np.abs(got - want) <= np.abs(coarse - got) + np.abs(want - finer) + 1e-12).all(), (got, want)
@@ -251,7 +251,7 @@ def test_split_sum_corrections_help_rough_metals(session, env_path, truth, monke
 
 def test_sampled_path_keeps_the_furnace(session):
     """Under a uniform environment the sampled path's ratio estimators return the radiance
-    itself, so `high` reads the split sum's furnace values (mirror.furnace_expected) through
+    itself, so `high` reads the split sum's furnace values (shading_model.furnace_expected) through
     its DFG table, within what that table allows (test_chart.FurnaceBudget). One ray per pixel
     (no anti-aliasing): each pixel is the shading of its centre's N.V."""
     spec = make_spec(env="uniform", lights="none", ground=False, ao=False, shadows=False, rows=3, cols=5,

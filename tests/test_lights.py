@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import shading_model
 from sdfpbr.shading.camera import frame
 from sdfpbr.spec.chart_spec import make_spec
 from sdfpbr.features.reference import render_reference
@@ -48,10 +48,10 @@ def disc_image(spec, axis, theta):
     disc = b * b - ((ro * ro).sum(-1) - r * r)
     hit = disc > 0
     t = -b - np.sqrt(np.where(hit, disc, 0.0))
-    n = mirror.normalize(ro + rd * t[..., None])
-    angle = np.arccos(np.clip(mirror.reflect(rd, n) @ axis, -1.0, 1.0))
+    n = shading_model.normalize(ro + rd * t[..., None])
+    angle = np.arccos(np.clip(shading_model.reflect(rd, n) @ axis, -1.0, 1.0))
     radius_px = r * np.abs(cam.project(np.zeros((1, 3)))[1][0])
-    margin = 2 * 2.0 / radius_px + 2 * mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
+    margin = 2 * 2.0 / radius_px + 2 * shading_model.MIN_PERCEPTUAL_ROUGHNESS ** 2
     return hit, angle, margin
 
 
@@ -63,9 +63,9 @@ def disc_view_ratio(spec, axis):
     b = (ro * rd).sum(-1)
     disc = b * b - ((ro * ro).sum(-1) - spec.sphere_radius ** 2)
     t = -b - np.sqrt(np.maximum(disc, 0.0))
-    n = mirror.normalize(ro + rd * t[..., None])
+    n = shading_model.normalize(ro + rd * t[..., None])
     v = -rd
-    return (v * mirror.normalize(v + axis)).sum(-1) / np.maximum((n * v).sum(-1), 1e-6)
+    return (v * shading_model.normalize(v + axis)).sum(-1) / np.maximum((n * v).sum(-1), 1e-6)
 
 
 @pytest.mark.parametrize("kind", ["directional", "point"])
@@ -94,7 +94,7 @@ def test_a_mirror_sphere_shows_a_disc_light_as_the_disc(session, kind, theta_deg
     hit, angle, margin = disc_image(spec, axis, theta)
     inside, outside = hit & (angle < theta - margin), hit & (angle > theta + margin)
     assert inside.sum() >= 12 and outside.sum() > 1000     # the disc's image is a disc, many pixels wide
-    alpha = mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
+    alpha = shading_model.MIN_PERCEPTUAL_ROUGHNESS ** 2
     rtol = (2 * np.abs(disc_view_ratio(spec, axis)[inside] - 1).max() + 1 / math.cos(theta / 2) - 1
             + alpha ** 2 / ((margin / 2) ** 2 + alpha ** 2))
     np.testing.assert_allclose(hdr[inside], L, rtol=rtol)
@@ -116,7 +116,7 @@ def test_the_reference_mirror_shows_the_light_at_its_radiance(session, kind):
     assert inside.sum() >= 12
     got = res.hdr.astype(np.float64)[..., :3][inside]
     stderr = float(np.sqrt((res.stderr.astype(np.float64)[inside] ** 2).sum()) / inside.sum())
-    alpha = mirror.MIN_PERCEPTUAL_ROUGHNESS ** 2
+    alpha = shading_model.MIN_PERCEPTUAL_ROUGHNESS ** 2
     lobe = alpha ** 2 / ((margin / 2) ** 2 + alpha ** 2)
     assert abs(got.mean() - L) <= 4 * stderr + lobe * L, (got.mean(), L, stderr, lobe)
 
@@ -138,8 +138,8 @@ def test_the_reference_lights_a_lambert_sphere_by_a_sphere_light_as_by_its_point
     bq = (ro * rd).sum(-1)
     disc = bq * bq - ((ro * ro).sum(-1) - a.sphere_radius ** 2)
     hit = disc > 0
-    n = mirror.normalize(ro + rd * (-bq - np.sqrt(np.where(hit, disc, 0.0)))[..., None])
-    l = mirror.normalize(np.asarray(position) - n)
+    n = shading_model.normalize(ro + rd * (-bq - np.sqrt(np.where(hit, disc, 0.0)))[..., None])
+    l = shading_model.normalize(np.asarray(position) - n)
     keep = hit & ((n * l).sum(-1) > 2.0 / np.linalg.norm(position) + 0.05)
     assert keep.sum() > 1000
     res = [render_reference(s, samples=32, seed=5, session=session, lambert=True) for s in (a, b)]
@@ -153,7 +153,7 @@ def test_the_reference_lights_a_lambert_sphere_by_a_sphere_light_as_by_its_point
 def test_a_disc_lights_highlight_holds_the_discs_light_where_the_disc_puts_it(perceptual_roughness, theta_deg):
     """float64: the light a white metal sphere sends to the camera from a disc light (the
     default studio's 6 and 10 degrees) 50 degrees off the view, summed over the sphere's
-    visible normals (weighted by projected area), as the chart shades it (mirror.brdf with
+    visible normals (weighted by projected area), as the chart shades it (shading_model.brdf with
     disc_angular_radius: D averaged over the disc's half vectors in closed form, d_ggx_disc)
     and as the disc integrates it (the BRDF at 400 points spread evenly over the disc's solid
     angle): in total and in each band of angle from the highlight's centre (0-3, 3-6, 6-10,
@@ -171,7 +171,7 @@ def test_a_disc_lights_highlight_holds_the_discs_light_where_the_disc_puts_it(pe
     xy = rng.uniform(-1, 1, (40000, 2))
     xy = xy[(xy ** 2).sum(1) < 1][:20000]
     n = np.concatenate([xy, np.sqrt(1 - (xy ** 2).sum(1))[:, None]], 1)
-    chart = (mirror.brdf(n, v, l, 1.0, 1.0, perceptual_roughness, disc_angular_radius=theta)[:, 0]
+    chart = (shading_model.brdf(n, v, l, 1.0, 1.0, perceptual_roughness, disc_angular_radius=theta)[:, 0]
              * np.clip(n @ l, 0, None))
     t1 = np.cross(l, [0.0, 1.0, 0.0])
     t1 /= np.linalg.norm(t1)
@@ -182,10 +182,10 @@ def test_a_disc_lights_highlight_holds_the_discs_light_where_the_disc_puts_it(pe
     sin_t = np.sqrt(1 - cos_t ** 2)
     points = cos_t[:, None] * l + sin_t[:, None] * (np.cos(phi)[:, None] * t1 + np.sin(phi)[:, None] * t2)
     radiance = 1.0 / (math.pi * math.sin(theta) ** 2)                 # E = 1
-    exact = sum(mirror.brdf(n, v, np.broadcast_to(p, n.shape), 1.0, 1.0, perceptual_roughness)[:, 0]
+    exact = sum(shading_model.brdf(n, v, np.broadcast_to(p, n.shape), 1.0, 1.0, perceptual_roughness)[:, 0]
                 * np.clip(n @ p, 0, None) for p in points)
     exact = exact * radiance * 2 * math.pi * (1 - math.cos(theta)) / len(points)
-    from_centre = np.degrees(np.arccos(np.clip(n @ mirror.normalize(v + l), -1.0, 1.0)))
+    from_centre = np.degrees(np.arccos(np.clip(n @ shading_model.normalize(v + l), -1.0, 1.0)))
     bound = math.sin(theta) ** 2 + 0.01
     assert abs(chart.sum() / exact.sum() - 1) <= bound, chart.sum() / exact.sum()
     for lo, hi in [(0, 3), (3, 6), (6, 10), (10, 20), (20, 40), (40, 90)]:

@@ -1,5 +1,5 @@
 """The KHR lobes (clearcoat, sheen, specular/ior, emission) in the chart shader, the reference
-and the float64 mirror (sdfpbr.oracle.lobes): GLSL against float64 per lobe, the reference's
+and the float64 model (sdfpbr.oracle.lobes): GLSL against float64 per lobe, the reference's
 furnace against the mirror's directional albedo, the chart's split-sum furnace against the
 mirror, and a scene that does not use a lobe does not compile it."""
 import dataclasses
@@ -14,7 +14,7 @@ from test_reference import FURNACE, check_converged, interior, luminance, primar
 
 from sdfpbr.gpu.programs import set_uniforms
 from sdfpbr.oracle import ibl_integral as ibl_oracle
-from sdfpbr.oracle import dfg_bake, display, lobes, mirror
+from sdfpbr.oracle import dfg_bake, display, lobes, shading_model
 from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program, render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
@@ -93,8 +93,8 @@ def test_glsl_layers_match_the_float64_mirror(ctx, session, tmp_path, lobe):
     v = _units(rng, count)
     v = np.where((v * n).sum(1, keepdims=True) < 0, -v, v)
     l = _units(rng, count)
-    n_dot_v = np.clip((n * v).sum(1), mirror.MIN_N_DOT_V, 1)
-    e = mirror.single_scatter_albedo(n_dot_v, np.full(count, max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)), "gltf")
+    n_dot_v = np.clip((n * v).sum(1), shading_model.MIN_N_DOT_V, 1)
+    e = shading_model.single_scatter_albedo(n_dot_v, np.full(count, max(m.roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)), "gltf")
     cases = np.zeros((count, 4, 4), np.float32)
     cases[:, 0, :3], cases[:, 1, :3], cases[:, 2, :3], cases[:, 3, 0] = n, v, l, e
     root = tmp_path / "shaders"
@@ -130,8 +130,8 @@ def test_glsl_layers_match_the_float64_mirror(ctx, session, tmp_path, lobe):
         # The kernel reads E_s from the table (bilinear, GPUs holding the filter's fractions in
         # 8 bits); the mirror integrates it. The base's scaling min(1 - c E_s(N.V), 1 - c E_s(N.L))
         # moves by c times the larger read error, on the base layer's light.
-        r_s = max(m.sheen_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
-        n_dot_l = np.maximum((n * l).sum(1), mirror.MIN_N_DOT_V)
+        r_s = max(m.sheen_roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)
+        n_dot_l = np.maximum((n * l).sum(1), shading_model.MIN_N_DOT_V)
         table64 = table.astype(np.float64)
         read_error = 0.0
         for x in (n_dot_v, np.where((n * l).sum(1) > 0, n_dot_l, 1.0)):
@@ -170,7 +170,7 @@ def sheen_diffuse_scaling_error(c, e_view, sheen_roughness):
     u8, w8 = 0.5 * (nodes + 1.0), 0.5 * weights
 
     def mean_over(u, w):
-        e_l = lobes.sheen_albedo(np.maximum(np.sqrt(u), mirror.MIN_N_DOT_V), np.full(u.shape, sheen_roughness))
+        e_l = lobes.sheen_albedo(np.maximum(np.sqrt(u), shading_model.MIN_N_DOT_V), np.full(u.shape, sheen_roughness))
         return (w[None, :] * np.minimum(1.0 - c * e_view[:, None], 1.0 - c * e_l[None, :])).sum(-1)
     fine = [mean_over((np.arange(k) + 0.5) / k, np.full(k, 1.0 / k)) for k in (2000, 4000)]
     return np.abs(mean_over(u8, w8) - fine[1]) + np.abs(fine[1] - fine[0]), u8
@@ -181,17 +181,17 @@ def sheen_factorisation_gap(n_dot_v, m, n=64):
     Lambert weight's integral C by the scaling's cosine mean S, where the spec's form integrates
     their product: |int (1 - F) cos / pi scale dl - C S|, per N.V, on a Gauss-Legendre product
     grid (within 1e-7 of twice its order)."""
-    r_s = max(m.sheen_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
+    r_s = max(m.sheen_roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)
     shade = max(m.sheen_color)
-    x, w = mirror.gauss_legendre01(n)
+    x, w = shading_model.gauss_legendre01(n)
     n_dot_l, phi = x, 2.0 * np.pi * x
     e_v = lobes.sheen_albedo(n_dot_v, np.full(n_dot_v.shape, r_s))
-    e_l = lobes.sheen_albedo(np.maximum(n_dot_l, mirror.MIN_N_DOT_V), np.full(n, r_s))
+    e_l = lobes.sheen_albedo(np.maximum(n_dot_l, shading_model.MIN_N_DOT_V), np.full(n, r_s))
     scale = np.minimum(1.0 - shade * e_v[:, None], 1.0 - shade * e_l[None, :])
     v_dot_l = (np.sqrt(1.0 - n_dot_v ** 2)[:, None, None] * np.sqrt(1.0 - n_dot_l ** 2)[None, :, None]
                * np.cos(phi)[None, None, :] + n_dot_v[:, None, None] * n_dot_l[None, :, None])
     f0 = max(lobes.dielectric_f0(m.ior, m.specular_color))
-    fresnel = m.specular * (f0 + (1.0 - f0) * mirror.fresnel_weight(np.sqrt(np.maximum(0.5 * (1.0 + v_dot_l), 0.0))))
+    fresnel = m.specular * (f0 + (1.0 - f0) * shading_model.fresnel_weight(np.sqrt(np.maximum(0.5 * (1.0 + v_dot_l), 0.0))))
     kernel = (1.0 - fresnel) * (n_dot_l * w)[None, :, None] / np.pi * (2.0 * np.pi * w)[None, None, :]
     cosine_mean = (scale * (2.0 * n_dot_l * w)[None, :]).sum(1)
     return np.abs((kernel * scale[:, :, None]).sum((1, 2)) - kernel.sum((1, 2)) * cosine_mean)
@@ -203,11 +203,11 @@ def sheen_specular_rule(n_dot_v, m):
     visible-normal square, the azimuth on one side of the N-V plane, each node weighted by
     Vis N.L F (Heitz 2018's map of the square to half vectors, written again here), with the
     float64 E_s; and the rule's N.L (..., 32) with each node's share of the weight (..., 32, 3)."""
-    mu = np.clip(np.asarray(n_dot_v, np.float64), mirror.MIN_N_DOT_V, 1.0)[:, None]
-    r = max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
+    mu = np.clip(np.asarray(n_dot_v, np.float64), shading_model.MIN_N_DOT_V, 1.0)[:, None]
+    r = max(m.roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)
     alpha = r * r
-    r_s = max(m.sheen_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
-    x8, w8 = mirror.gauss_legendre01(8)
+    r_s = max(m.sheen_roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)
+    x8, w8 = shading_model.gauss_legendre01(8)
     x4, w4 = np.polynomial.legendre.leggauss(4)
     u1, u2, w = np.repeat(x8, 4), np.tile(x4 / 4.0, 8), np.repeat(w8, 4) * np.tile(w4, 8)
     sin_v = np.sqrt(1.0 - mu * mu)
@@ -229,8 +229,8 @@ def sheen_specular_rule(n_dot_v, m):
     f0 = lobes.dielectric_f0(m.ior, m.specular_color)
     f0_a = (1.0 - m.metallic) * m.specular * f0 + m.metallic * np.asarray(m.base_color)
     f0_b = (1.0 - m.metallic) * m.specular + m.metallic
-    fc = mirror.fresnel_weight(v_dot_h)[..., None]
-    weight = np.where(lit, w * mirror.vis_smith_ggx_correlated(nl, mu, alpha) * nl, 0.0)[..., None] \
+    fc = shading_model.fresnel_weight(v_dot_h)[..., None]
+    weight = np.where(lit, w * shading_model.vis_smith_ggx_correlated(nl, mu, alpha) * nl, 0.0)[..., None] \
         * (f0_a * (1.0 - fc) + f0_b * fc)
     share = weight / weight.sum(1, keepdims=True)
     e_s = np.maximum(lobes.sheen_albedo_interpolated(mu, r_s), lobes.sheen_albedo_interpolated(nl, r_s))
@@ -283,18 +283,18 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
 
     table = chart_dfg_table(session, spec)
     base_max = max(m.base_color)
-    r = np.full(mu.shape, max(m.roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS))
-    a, b, c = mirror.dfg_integrate(mu, r)
+    r = np.full(mu.shape, max(m.roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS))
+    a, b, c = shading_model.dfg_integrate(mu, r)
     core = 2.0 * (dfg_read_error(table, mu, r, a, 0) + dfg_read_error(table, mu, r, b, 1)) / (a + b) \
         + base_max * dfg_read_error(table, mu, r, c, 2)
     bound = core + mirror_error + 1e-5 * (1.0 + want.max(-1))
     if m.clearcoat > 0.0:
-        r_c = np.full(mu.shape, max(m.clearcoat_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS))
-        weight = m.clearcoat * (mirror.DIELECTRIC_F0 + (1.0 - mirror.DIELECTRIC_F0) * mirror.fresnel_weight(mu))
-        bound = bound + weight * dfg_read_error(table, mu, r_c, sum(mirror.dfg_integrate(mu, r_c)[:2]), "E")
+        r_c = np.full(mu.shape, max(m.clearcoat_roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS))
+        weight = m.clearcoat * (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(mu))
+        bound = bound + weight * dfg_read_error(table, mu, r_c, sum(shading_model.dfg_integrate(mu, r_c)[:2]), "E")
     if max(m.sheen_color) > 0.0:
         shade = max(m.sheen_color)
-        r_s = max(m.sheen_roughness, mirror.MIN_PERCEPTUAL_ROUGHNESS)
+        r_s = max(m.sheen_roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)
         e_view = lobes.sheen_albedo(mu, np.full(mu.shape, r_s))
         rule_error, u8 = sheen_diffuse_scaling_error(shade, e_view, r_s)
         nodes = np.sqrt(u8)
@@ -308,7 +308,7 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
         exact = lobes.sheen_specular_scaling(mu, m)
         rule, nodes, share = sheen_specular_rule(mu, m)
         f0 = lobes.dielectric_f0(m.ior, m.specular_color)
-        base_specular = m.specular * (f0 * a[:, None] + b[:, None]) * mirror.energy_compensation(f0, a + b)
+        base_specular = m.specular * (f0 * a[:, None] + b[:, None]) * shading_model.energy_compensation(f0, a + b)
         if sampled:
             rule_error = np.abs(rule - exact) + np.abs(lobes.sheen_specular_scaling(mu, m, n=128) - exact)
             node_read = dfg_read_error(table, nodes.ravel(), np.full(nodes.size, r_s),
@@ -342,7 +342,7 @@ def test_sheen_lut_is_its_rule_and_the_rule_is_float64(session):
     with session.ctx:
         table = session.ibl.compute_dfg_table(plan.dfg, size, samples).astype(np.float64)
     grid = np.arange(size) / (size - 1)
-    mu, r = np.maximum(np.tile(grid, size), mirror.MIN_N_DOT_V), np.repeat(grid, size)
+    mu, r = np.maximum(np.tile(grid, size), shading_model.MIN_N_DOT_V), np.repeat(grid, size)
     rule = dfg_bake.dfg_rule(mu, r, samples, sheen=True)[3]
     # Float32: each term to its few ulps (dfg_bake.float32_bound), and, where the half vector's
     # cosine comes from 1 - sin^2 near the horizon, the cancellation's absolute ulp at the
@@ -351,7 +351,7 @@ def test_sheen_lut_is_its_rule_and_the_rule_is_float64(session):
     assert (np.abs(table[..., 3].ravel() - rule) <= float32).all()
     exact = lobes.sheen_albedo(mu, r, n=200)
     steps = (np.abs(rule - exact) - np.abs(exact - lobes.sheen_albedo(mu, r, n=100))) / display.srgb_half_step(exact)
-    clamped = r <= mirror.MIN_PERCEPTUAL_ROUGHNESS
+    clamped = r <= shading_model.MIN_PERCEPTUAL_ROUGHNESS
     assert (steps[~clamped] <= 1.0).all() and (steps[clamped] <= 2.0).all()
 
 
@@ -438,12 +438,12 @@ def test_a_scene_compiles_only_the_lobes_it_uses():
 def sheen_centroid(n_dot_v, sheen_roughness, n=160):
     """(c_n, c_t) of the sheen lobe (shading.sheen) in float64: a Gauss-Legendre product rule
     over the hemisphere (theta_l; phi_l over the half on one side of the N-V plane, doubled)."""
-    mu, r = np.broadcast_arrays(np.clip(np.asarray(n_dot_v, np.float64), mirror.MIN_N_DOT_V, 1.0),
+    mu, r = np.broadcast_arrays(np.clip(np.asarray(n_dot_v, np.float64), shading_model.MIN_N_DOT_V, 1.0),
                                 np.asarray(sheen_roughness, np.float64))
     shape = mu.shape
     mu = mu.ravel()[:, None, None]
-    alpha = np.maximum(r.ravel(), mirror.MIN_PERCEPTUAL_ROUGHNESS)[:, None, None] ** 2
-    x, w = mirror.gauss_legendre01(n)
+    alpha = np.maximum(r.ravel(), shading_model.MIN_PERCEPTUAL_ROUGHNESS)[:, None, None] ** 2
+    x, w = shading_model.gauss_legendre01(n)
     theta, phi = 0.5 * np.pi * x[:, None], np.pi * x[None, :]
     weight = (0.5 * np.pi * w[:, None]) * np.sin(theta) * (np.pi * w[None, :])
     n_dot_l, t_dot_l = np.cos(theta), np.sin(theta) * np.cos(phi)

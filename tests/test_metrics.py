@@ -360,11 +360,11 @@ def test_a_measured_pair_is_stored_on_disk_and_read_back_exactly(tmp_path):
     assert M.flip_ldr(tests[0], refs[0])[0] == measured[0][0]
 
 
-def test_kept_results_stay_within_their_byte_budget():
+def test_cached_results_stay_within_their_byte_budget():
     """The least recently used go first once the sizes pass the budget; a value put again under
     its key counts once; the newest stays whatever its size; clear starts from nothing."""
-    from sdfpbr.kept import Kept
-    kept = Kept(10, len)
+    from sdfpbr.result_cache import ResultCache
+    kept = ResultCache(10, len)
     kept.put("a", "xxxx")
     kept.put("b", "xxxx")
     assert kept.get("a") == "xxxx"                                     # a is now the most recent

@@ -1,4 +1,4 @@
-"""Half precision: where the BRDF formulas break in float16 (the numpy mirror evaluated with
+"""Half precision: where the BRDF formulas break in float16 (the numpy model evaluated with
 every operation rounded to half), each boundary derived in closed form from the half-float
 format (max 65504, smallest normal 2^-14, smallest subnormal 2^-24); and the renderer's
 half-float radiance targets, which stay finite because the chart program clamps them."""
@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import display, mirror
+from sdfpbr.oracle import display, shading_model
 from sdfpbr.shading.plan import render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
 
@@ -31,18 +31,18 @@ def _rel(a, b):
 
 def test_the_mirror_keeps_float64_by_default():
     r = np.linspace(0.05, 1, 7)
-    assert mirror.d_ggx(0.9, r * r).dtype == np.float64
-    assert mirror.d_ggx(0.9, r * r, dtype=HALF).dtype == HALF
-    np.testing.assert_allclose(mirror.d_ggx_half_safe(np.linspace(0, 1, 50)[:, None], r * r),
-                               mirror.d_ggx(np.linspace(0, 1, 50)[:, None], r * r), rtol=1e-12)
+    assert shading_model.d_ggx(0.9, r * r).dtype == np.float64
+    assert shading_model.d_ggx(0.9, r * r, dtype=HALF).dtype == HALF
+    np.testing.assert_allclose(shading_model.d_ggx_half_safe(np.linspace(0, 1, 50)[:, None], r * r),
+                               shading_model.d_ggx(np.linspace(0, 1, 50)[:, None], r * r), rtol=1e-12)
 
 
 def test_filament_fp16_roughness_keeps_alpha_squared_a_normal_half():
     """REFERENCE §1: 0.089 is the smallest perceptual roughness (to 3 digits) whose alpha^2 =
     r^4 is a normal half; 0.045, the fp32 clamp, lands deep in the subnormals."""
     r_star = HALF_NORMAL_MIN ** 0.25
-    assert mirror.MIN_PERCEPTUAL_ROUGHNESS_FP16 == math.ceil(r_star * 1000) / 1000
-    a2 = mirror.alpha_from_perceptual(np.array([0.045, 0.088, 0.089]), dtype=HALF) ** 2
+    assert shading_model.MIN_PERCEPTUAL_ROUGHNESS_FP16 == math.ceil(r_star * 1000) / 1000
+    a2 = shading_model.alpha_from_perceptual(np.array([0.045, 0.088, 0.089]), dtype=HALF) ** 2
     assert a2[2] >= HALF_NORMAL_MIN > a2[1] and a2[0] < HALF_NORMAL_MIN / 10
 
 
@@ -51,11 +51,11 @@ def test_d_peak_in_half_safe_form_is_finite_exactly_above_the_overflow_roughness
     finite iff 1/alpha^2 <= 65504, i.e. r >= 65504^(-1/4) = 0.0625, and accurate above it."""
     r_overflow = HALF_MAX ** -0.25
     for r in ROUGHNESS_GRID:
-        d16 = mirror.d_ggx_half_safe(1.0, r * r, dtype=HALF)
+        d16 = shading_model.d_ggx_half_safe(1.0, r * r, dtype=HALF)
         if r < r_overflow * 0.99:
             assert np.isinf(d16), r
         elif r > r_overflow * 1.01:
-            assert np.isfinite(d16) and _rel(d16, mirror.d_ggx(1.0, r * r)) < 1e-2, r
+            assert np.isfinite(d16) and _rel(d16, shading_model.d_ggx(1.0, r * r)) < 1e-2, r
 
 
 def test_d_peak_in_the_textbook_form_underflows_in_half():
@@ -65,17 +65,17 @@ def test_d_peak_in_the_textbook_form_underflows_in_half():
     overflowing. In float16 this form needs r >= 0.3; the half-safe form (above) 0.0625."""
     r_normal = 2.0 ** (-14 / 8)
     assert 0.296 < r_normal < 0.298
-    errors = {r: _rel(mirror.d_ggx(1.0, r * r, dtype=HALF), mirror.d_ggx(1.0, r * r)) for r in ROUGHNESS_GRID}
+    errors = {r: _rel(shading_model.d_ggx(1.0, r * r, dtype=HALF), shading_model.d_ggx(1.0, r * r)) for r in ROUGHNESS_GRID}
     assert all(e < 1e-2 for r, e in errors.items() if r >= r_normal)
     assert any(e > 1e-2 for r, e in errors.items() if 0.1 < r < r_normal)
     r_flush = 2.0 ** (-25 / 8)   # r^8 below half the smallest subnormal rounds to 0
     for r in (0.045, 0.06):
         assert r < r_flush
-        d16 = float(mirror.d_ggx(1.0, r * r, dtype=HALF))
-        assert np.isfinite(d16) and d16 < 1e-2 * mirror.d_ggx(1.0, r * r)
+        d16 = float(shading_model.d_ggx(1.0, r * r, dtype=HALF))
+        assert np.isfinite(d16) and d16 < 1e-2 * shading_model.d_ggx(1.0, r * r)
     # r = 0.01: alpha^2 = 1e-8 is below 2^-25 and rounds to 0, so D is 0 everywhere.
-    assert float(mirror.alpha_from_perceptual(0.01, dtype=HALF) ** 2) == 0.0
-    assert float(mirror.d_ggx(1.0, 1e-4, dtype=HALF)) == 0.0
+    assert float(shading_model.alpha_from_perceptual(0.01, dtype=HALF) ** 2) == 0.0
+    assert float(shading_model.d_ggx(1.0, 1e-4, dtype=HALF)) == 0.0
 
 
 def test_half_cannot_resolve_n_dot_h_for_smooth_lobes():
@@ -87,8 +87,8 @@ def test_half_cannot_resolve_n_dot_h_for_smooth_lobes():
     def worst_over_lobe(r):
         a = r * r
         theta = np.linspace(0, 3 * a, 400)
-        exact = mirror.d_ggx(np.cos(theta), a)
-        return float(np.max(np.abs(mirror.d_ggx(np.cos(theta), a, dtype=HALF) / exact - 1)))
+        exact = shading_model.d_ggx(np.cos(theta), a)
+        return float(np.max(np.abs(shading_model.d_ggx(np.cos(theta), a, dtype=HALF) / exact - 1)))
 
     assert worst_over_lobe(0.25) > 0.1
     assert worst_over_lobe(0.5) < 0.02
@@ -98,13 +98,13 @@ def test_visibility_at_the_n_dot_v_clamp_overflows_half_below_a_closed_form_roug
     """At NdotV = NdotL = x (the 1e-4 clamp) the height-correlated V is 0.25 / (x sqrt(x^2 (1 -
     a2) + a2)): wherever that passes 65504 (r < ~0.2) the half V is unusable -- Inf, or 0 once
     a2 and x^2 underflow too (r < ~0.012) -- and below it half V is within 2 %."""
-    x = mirror.MIN_N_DOT_V
+    x = shading_model.MIN_N_DOT_V
     seen_inf = seen_finite = False
     for r in ROUGHNESS_GRID:
         a = r * r
-        v64 = mirror.vis_smith_ggx_correlated(x, x, a)
+        v64 = shading_model.vis_smith_ggx_correlated(x, x, a)
         assert v64 == pytest.approx(0.25 / (x * math.sqrt(x * x * (1 - a * a) + a * a)), rel=1e-12)
-        v16 = mirror.vis_smith_ggx_correlated(x, x, a, dtype=HALF)
+        v16 = shading_model.vis_smith_ggx_correlated(x, x, a, dtype=HALF)
         if v64 > HALF_MAX * 1.01:
             assert np.isinf(v16) or v16 == 0, r
             seen_inf = True
@@ -120,17 +120,17 @@ def test_half_brdf_at_the_fp16_clamp_is_finite_but_coarse():
     the fp32 clamp (0.045) its mirror-direction peak is lost."""
     rng = np.random.default_rng(5)
     n = np.tile([0.0, 0.0, 1.0], (4000, 1))
-    v, l = mirror.sample_sphere_cosine(rng, 4000), mirror.sample_sphere_cosine(rng, 4000)
+    v, l = shading_model.sample_sphere_cosine(rng, 4000), shading_model.sample_sphere_cosine(rng, 4000)
     keep = (v[:, 2] > 0.05) & (l[:, 2] > 0.05)
     args = (n[keep], v[keep], l[keep], np.array([0.9, 0.6, 0.3]), 1.0, 0.0)
-    f16 = mirror.brdf(*args, dtype=HALF, min_perceptual_roughness=mirror.MIN_PERCEPTUAL_ROUGHNESS_FP16)
-    f64 = mirror.brdf(*args, min_perceptual_roughness=mirror.MIN_PERCEPTUAL_ROUGHNESS_FP16)
+    f16 = shading_model.brdf(*args, dtype=HALF, min_perceptual_roughness=shading_model.MIN_PERCEPTUAL_ROUGHNESS_FP16)
+    f64 = shading_model.brdf(*args, min_perceptual_roughness=shading_model.MIN_PERCEPTUAL_ROUGHNESS_FP16)
     assert np.isfinite(f16).all()
     big = f64 > 1e-2
     assert np.median(np.abs(f16[big] / f64[big] - 1)) < 0.15
     # h = n exactly (v and l mirror images about n): the peak of the r = 0.045 lobe.
     peak = (np.array([0.0, 0, 1]), np.array([0.6, 0, 0.8]), np.array([-0.6, 0, 0.8]), np.ones(3), 1.0, 0.0)
-    p16, p64 = mirror.brdf(*peak, dtype=HALF), mirror.brdf(*peak)
+    p16, p64 = shading_model.brdf(*peak, dtype=HALF), shading_model.brdf(*peak)
     assert np.isinf(p16).all() or float(p16.max()) < 1e-2 * float(p64.max())
 
 

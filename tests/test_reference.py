@@ -1,8 +1,8 @@
-"""The path-traced reference against closed forms and float64 integrals (sdfpbr.mirror).
+"""The path-traced reference against closed forms and float64 integrals (sdfpbr.oracle.shading_model).
 
 Expected pixel values are integrated here independently of the renderer: primary rays are
 re-traced in numpy at 6 x 6 points per pixel (the reference averages over the pixel), and
-the BRDF integrals come from the float64 mirror. Tolerances are k standard errors of the
+the BRDF integrals come from the float64 model. Tolerances are k standard errors of the
 reference's own per-pixel estimate plus a stated bias bound."""
 import dataclasses
 import subprocess
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.oracle import lobes, mirror
+from sdfpbr.oracle import lobes, shading_model
 from sdfpbr.shading.camera import frame_grid, sphere_centers
 from sdfpbr.features.reference import batch_size, integrator, render_reference
 from sdfpbr.spec.chart_spec import Light, make_spec
@@ -91,13 +91,13 @@ def table_bias(session, spec, hits, want, model="gltf", sheen=False):
     from test_chart import dfg_read_error
     table = compensation_table(model, session.cache, sheen).astype(np.float64)
     hit, row, col, normal, view = hits
-    mu = np.clip((normal * view).sum(-1), mirror.MIN_N_DOT_V, 1.0).ravel()
+    mu = np.clip((normal * view).sum(-1), shading_model.MIN_N_DOT_V, 1.0).ravel()
     cells = np.stack([np.maximum(row, 0), np.maximum(col, 0)], -1).reshape(-1, 2)
 
     def per_subsample(name):
         return spec.material_array(name)[cells[:, 0], cells[:, 1]]
     roughness = np.maximum(per_subsample("roughness"), MIN_PERCEPTUAL_ROUGHNESS)
-    a, b, _ = mirror.dfg_integrate(mu, roughness, model=model, n=32)
+    a, b, _ = shading_model.dfg_integrate(mu, roughness, model=model, n=32)
     relative = (dfg_read_error(table, mu, roughness, a + b, "E") / (a + b)).reshape(hit.shape).max(-1)
     if not sheen:
         return relative + BIAS
@@ -105,7 +105,7 @@ def table_bias(session, spec, hits, want, model="gltf", sheen=False):
     shade = per_subsample("sheen_color").max(-1)
     at_view = dfg_read_error(table, mu, sheen_r, lobes.sheen_albedo(mu, sheen_r), 3)
     at_light = 0.0
-    n_dot_l = np.maximum(np.linspace(0.0, 1.0, 1025) ** 2, mirror.MIN_N_DOT_V)
+    n_dot_l = np.maximum(np.linspace(0.0, 1.0, 1025) ** 2, shading_model.MIN_N_DOT_V)
     for r_s in np.unique(sheen_r):
         rs = np.full(n_dot_l.shape, r_s)
         at_light = max(at_light, float(dfg_read_error(table, n_dot_l, rs, lobes.sheen_albedo(n_dot_l, rs), 3).max()))
@@ -130,7 +130,7 @@ def furnace_curve(mu, metallic, roughness, multiscatter):
     """Directional albedo of the white material under the uniform environment (REFERENCE.md
     §2-3, float64), interpolated from a dense NdotV grid (spacing 2e-3: error < 1e-6)."""
     grid = np.linspace(0.0, 1.0, 513)
-    albedo = mirror.furnace_expected(grid, np.ones(3), metallic, roughness, multiscatter=multiscatter)[:, 0]
+    albedo = shading_model.furnace_expected(grid, np.ones(3), metallic, roughness, multiscatter=multiscatter)[:, 0]
     return np.interp(mu, grid, albedo)
 
 
@@ -344,7 +344,7 @@ def test_small_sun_converges_to_closed_form(session):
         def f_cos(l):
             l = np.broadcast_to(l, normal.shape)
             cos = np.clip((normal * l).sum(-1), 0, None)[..., None]
-            return mirror.brdf(normal, view, l, base, metallic, roughness) * cos
+            return shading_model.brdf(normal, view, l, base, metallic, roughness) * cos
 
         disc = illuminance * 2 / (1 + np.cos(theta)) * cone_average(f_cos, sun_dir, theta, rings, spokes).mean(-2)
         return m, disc, illuminance * f_cos(sun_dir).mean(-2)

@@ -6,14 +6,14 @@ integrates the same pixel square as the chart's anti-aliasing.
 Expected values are computed here independently of the renderer: primary rays of the cell
 camera are re-traced in float64 numpy (the pixel -> cell mapping re-implemented from
 CellGrid, not read from the shader), coverage by a 48 x 48 midpoint rule per pixel, and BRDF
-values from the float64 mirror."""
+values from the float64 model."""
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import shading_model
 from sdfpbr.shading.camera import frame_cell
 from sdfpbr.shading.cells import cell_grid
 from sdfpbr.spec.chart_spec import Light, make_spec
@@ -259,7 +259,7 @@ def test_floor_direct_light_matches_the_closed_form(session):
     """Floor lit by a directional light of illuminance E from l, black environment, direct
     light only. Lambert floor (lambert=True): L = albedo / pi * E (n . l), the same at every
     lit pixel (the reference then has no noise left: float32 only). glTF floor (dielectric,
-    ground roughness): L = f(v, l) E (n . l) from the float64 mirror, integrated over the
+    ground roughness): L = f(v, l) E (n . l) from the float64 model, integrated over the
     pixel (6 x 6 midpoints) for the reference, at the pixel centre for the chart (spp 1; its
     IBL switched off: the chart's IBL is not direct light). Floor points the sphere shadows
     read exactly 0 in the reference."""
@@ -273,11 +273,11 @@ def test_floor_direct_light_matches_the_closed_form(session):
 
     ref = render_reference(spec, samples=32, max_bounces=1, seed=14, session=session)
     n = np.broadcast_to([0.0, 1.0, 0.0], rd.shape)
-    f_cos = mirror.brdf(n, -rd, np.broadcast_to(SUN_DIR, rd.shape), FLOOR, 0.0, spec.ground_roughness) \
+    f_cos = shading_model.brdf(n, -rd, np.broadcast_to(SUN_DIR, rd.shape), FLOOR, 0.0, spec.ground_roughness) \
         * SUN_E * SUN_DIR[1]
     # The 6 x 6 midpoint rule's own error over the pixel, (4/3) of its step to 12 x 12 (h^2).
     _, rd12, _ = cell_rays(spec, grid_offsets(12))
-    f_cos12 = mirror.brdf(np.broadcast_to([0.0, 1.0, 0.0], rd12.shape), -rd12, np.broadcast_to(SUN_DIR, rd12.shape),
+    f_cos12 = shading_model.brdf(np.broadcast_to([0.0, 1.0, 0.0], rd12.shape), -rd12, np.broadcast_to(SUN_DIR, rd12.shape),
                           FLOOR, 0.0, spec.ground_roughness) * SUN_E * SUN_DIR[1]
     want6, want12 = luminance(f_cos.mean(-2))[lit], luminance(f_cos12.mean(-2))[lit]
     check_converged(luminance(ref.hdr)[lit], want6, ref.stderr[lit], bias=4 / 3 * np.abs(want6 - want12) / want6 + BIAS)
@@ -286,7 +286,7 @@ def test_floor_direct_light_matches_the_closed_form(session):
     chart = session.render(make_spec(spec, ibl=False))
     _, rd0, _ = cell_rays(spec, np.array([[0.5, 0.5]]))
     n0 = np.broadcast_to([0.0, 1.0, 0.0], rd0.shape)
-    centre = (mirror.brdf(n0, -rd0, np.broadcast_to(SUN_DIR, rd0.shape), FLOOR, 0.0, spec.ground_roughness)
+    centre = (shading_model.brdf(n0, -rd0, np.broadcast_to(SUN_DIR, rd0.shape), FLOOR, 0.0, spec.ground_roughness)
               * SUN_E * SUN_DIR[1])[..., 0, :]
     whole = lit & (chart.aov["coverage"] == 0)   # the sphere's anti-aliased edge blends some in
     assert whole.sum() > 0.9 * lit.sum()
@@ -311,7 +311,7 @@ def test_a_blend_spheres_shadow_lets_the_rest_of_the_light_through(session):
     opaque = session.render(make_spec(floor_scene(), ibl=False, ao=False))
     _, rd0, _ = cell_rays(spec, np.array([[0.5, 0.5]]))
     n0 = np.broadcast_to([0.0, 1.0, 0.0], rd0.shape)
-    centre = (mirror.brdf(n0, -rd0, np.broadcast_to(SUN_DIR, rd0.shape), FLOOR, 0.0, spec.ground_roughness)
+    centre = (shading_model.brdf(n0, -rd0, np.broadcast_to(SUN_DIR, rd0.shape), FLOOR, 0.0, spec.ground_roughness)
               * SUN_E * SUN_DIR[1])[..., 0, :]
     deep = dark & (chart.aov["coverage"] == 0)
     assert deep.sum() > 20 and (opaque.hdr[deep] == 0).all()

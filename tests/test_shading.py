@@ -1,10 +1,10 @@
-"""GLSL against the float64 numpy mirror and REFERENCE.md: BRDF, DFG LUT, tone mappers, IBL."""
+"""GLSL against the float64 numpy model and REFERENCE.md: BRDF, DFG LUT, tone mappers, IBL."""
 import shutil
 
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import dfg_bake, display, mirror
+from sdfpbr.oracle import dfg_bake, display, shading_model
 from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program as compose, display_options, render_plan
 from sdfpbr.gpu.programs import set_uniforms
@@ -99,7 +99,7 @@ def test_glsl_brdf_matches_float64_mirror(ctx, session, tmp_path, model, multisc
     ctx.memory_barrier()
     got = np.frombuffer(outbuf.read(), np.float32).reshape(n_cases, 4)[:, :3]
     def brdf_cos(n, v, l, base, metal, rough, e, disc):   # disc: one radius for every case
-        return mirror.brdf(n, v, l, base, metal, rough, model=model, multiscatter=multiscatter, e_spec=e,
+        return shading_model.brdf(n, v, l, base, metal, rough, model=model, multiscatter=multiscatter, e_spec=e,
                            disc_angular_radius=float(disc[0])) * np.clip((n * l).sum(1), 0, None)[:, None]
     # The disc's radius an argument too: its rounding and the driver's sin of it enter the bound.
     args = (n, v, l, base, metal, rough, e, np.full(n_cases, np.radians(disc_deg)))
@@ -121,7 +121,7 @@ def test_dfg_lut_is_its_rule_in_float32(ctx, session, model):
     source = compose("dfg_main.glsl", {"BRDF_MODEL": model.replace("-", "_")})
     gpu = session.ibl.compute_dfg_table(source, size, samples).astype(np.float64)
     grid = np.arange(size) / (size - 1)
-    mu, r = np.maximum(np.tile(grid, size), mirror.MIN_N_DOT_V), np.repeat(grid, size)
+    mu, r = np.maximum(np.tile(grid, size), shading_model.MIN_N_DOT_V), np.repeat(grid, size)
     a, b, c, _ = dfg_bake.dfg_rule(mu, r, samples, model)
     gamma = dfg_bake.float32_bound(samples)
     got = gpu.reshape(-1, 4)
@@ -136,10 +136,10 @@ def test_dfg_lut_is_its_rule_in_float32(ctx, session, model):
 
 @pytest.mark.parametrize("preset", ["draft", "default", "high"])
 def test_dfg_rule_bias_is_below_half_an_8bit_step(preset):
-    """The rule's own error (oracle.dfg_bake against mirror.dfg_integrate, both float64) at a
+    """The rule's own error (oracle.dfg_bake against shading_model.dfg_integrate, both float64) at a
     preset's table size and sample count, on every row the chart reads (from the one below the
     roughness clamp), as white furnace pixels take it: a dielectric and a metal, compensated or
-    not (mirror.furnace_from_dfg with the rule's A, B, C against the integral's), each within
+    not (shading_model.furnace_from_dfg with the rule's A, B, C against the integral's), each within
     half an 8-bit step of sRGB at its value (display.srgb_half_step): every preset's table is
     invisible in an 8-bit image (draft's had 256 samples, 1.67 half steps off; 512 now). (Rows
     below the clamp are never read; there the mirror's delta-lobe shortcut for alpha < 1e-4
@@ -149,13 +149,13 @@ def test_dfg_rule_bias_is_below_half_an_8bit_step(preset):
     grid = np.arange(q.dfg_size) / (q.dfg_size - 1)
     rows = grid[int(np.floor(MIN_PERCEPTUAL_ROUGHNESS * (q.dfg_size - 1))):]
     for chunk in np.array_split(rows, max(1, rows.size // 8)):
-        mu, r = np.maximum(np.tile(grid, chunk.size), mirror.MIN_N_DOT_V), np.repeat(chunk, grid.size)
+        mu, r = np.maximum(np.tile(grid, chunk.size), shading_model.MIN_N_DOT_V), np.repeat(chunk, grid.size)
         rule = dfg_bake.dfg_rule(mu, r, q.dfg_samples)[:3]
-        exact = mirror.dfg_integrate(mu, r)
+        exact = shading_model.dfg_integrate(mu, r)
         for metallic in (0.0, 1.0):
             for multiscatter in (True, False):
-                want = mirror.furnace_from_dfg(*exact, np.ones(3), metallic, multiscatter)[:, 0]
-                got = mirror.furnace_from_dfg(*rule, np.ones(3), metallic, multiscatter)[:, 0]
+                want = shading_model.furnace_from_dfg(*exact, np.ones(3), metallic, multiscatter)[:, 0]
+                got = shading_model.furnace_from_dfg(*rule, np.ones(3), metallic, multiscatter)[:, 0]
                 assert (np.abs(got - want) <= display.srgb_half_step(want)).all(), (metallic, multiscatter)
 
 
@@ -164,8 +164,8 @@ def test_dfg_rule_bias_falls_with_samples():
     the samples take the worst texel's error down more than twofold away from the grazing
     column, where t = sqrt(1 - u) makes the integrand smooth (measured 5.5x per fourfold)."""
     grid = np.arange(16) / 15
-    mu, r = np.maximum(np.tile(grid[1:], 16), mirror.MIN_N_DOT_V), np.repeat(grid, 15)
-    exact = np.stack(mirror.dfg_integrate(mu, r), -1)
+    mu, r = np.maximum(np.tile(grid[1:], 16), shading_model.MIN_N_DOT_V), np.repeat(grid, 15)
+    exact = np.stack(shading_model.dfg_integrate(mu, r), -1)
     worst = [np.abs(np.stack(dfg_bake.dfg_rule(mu, r, n)[:3], -1) - exact).max(0) for n in (1024, 4096)]
     assert (worst[1] * 2 < worst[0]).all()
 

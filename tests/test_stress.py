@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_chart import FurnaceBudget
 
-from sdfpbr.oracle import mirror
+from sdfpbr.oracle import shading_model
 
 from sdfpbr.oracle import furnace
 from sdfpbr.devtools.stress import cases as stress_cases, checks, runner
@@ -135,7 +135,7 @@ def test_furnace_table_matches_direct_integration():
     metal = rng.choice([0.0, 0.5, 1.0], 40)
     for model in ("gltf", "schlick-ggx"):
         got = furnace.FurnaceTable().expected(mu, r, base, metal, model, True)
-        want = mirror.furnace_expected(mu, base, metal, r, model=model)
+        want = shading_model.furnace_expected(mu, base, metal, r, model=model)
         np.testing.assert_allclose(got, want, atol=1e-5)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SpecError
-from ..kept import Kept
+from ..result_cache import ResultCache
 from ..progress import Progress
 from ..workers import helper_pool
 from ..image.io import check_writable, png_bytes, write_png
@@ -119,11 +119,11 @@ class RenderedChart:
 
 
 # Renders a process keeps by spec for the sheets: the catalog's cards and a gallery's per-bug
-# pages render the same correct chart again and again (renders are deterministic). Kept arrays
+# pages render the same correct chart again and again (renders are deterministic). ResultCache arrays
 # are read-only; the oldest go first past the budget.
 KEPT_RENDER_BYTES = 96 << 20
 SHEET_AOVS = ("row", "col")   # what the sheets measure cells by
-_kept = Kept(KEPT_RENDER_BYTES, lambda r: sum(a.nbytes for a in [r.result.image, *r.result.aov.values()]))
+_kept = ResultCache(KEPT_RENDER_BYTES, lambda r: sum(a.nbytes for a in [r.result.image, *r.result.aov.values()]))
 
 
 # The radiance of kept renders that measure cells (a bug pair's correct chart): a chart that
@@ -132,7 +132,7 @@ _kept = Kept(KEPT_RENDER_BYTES, lambda r: sum(a.nbytes for a in [r.result.image,
 # drawn again: the catalog's five display bugs and gamma-2.2's darker chart. Read only where it
 # fits the budget (512²: 4 MB).
 KEPT_RADIANCE_BYTES = 32 << 20
-_radiance = Kept(KEPT_RADIANCE_BYTES, lambda result: result.hdr.nbytes + result.alpha.nbytes)
+_radiance = ResultCache(KEPT_RADIANCE_BYTES, lambda result: result.hdr.nbytes + result.alpha.nbytes)
 
 
 def render_chart(spec: ChartSpec, aovs: bool = False, keep: bool = False) -> RenderedChart:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..kept import Kept
+from ..result_cache import ResultCache
 
 _F32 = np.float32
 
@@ -272,4 +272,4 @@ def _error(reference: _Prepared, test: _Prepared) -> np.ndarray:
 
 # Prepared references by content (ldr_flip), within a byte budget: a 512² image's is 5 MB.
 KEPT_REFERENCE_BYTES = 48 << 20
-_kept_references = Kept(KEPT_REFERENCE_BYTES, lambda prepared: prepared.nbytes)
+_kept_references = ResultCache(KEPT_REFERENCE_BYTES, lambda prepared: prepared.nbytes)

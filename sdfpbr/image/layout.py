@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..cache import ArrayCache, content_key
-from ..kept import Kept
+from ..result_cache import ResultCache
 from ..oracle.display import srgb_eotf
 from .text import SYSTEM_FONTS, draw_text, drawable_text, font_files, load_font, text_bbox, wrap_text
 
@@ -574,10 +574,10 @@ def label_boxes(render_shape: Sequence[int], cells: Sequence[Cell], column_value
 
 
 # Label patches by all that decides their pixels: the charts of a gallery's bug pages differ
-# in title and footer only, and drawing every axis value again was 0.8 s of a build. Kept
+# in title and footer only, and drawing every axis value again was 0.8 s of a build. ResultCache
 # within a byte budget (an 8192² chart's title alone is megabytes).
 TEXT_PATCH_BYTES = 32 << 20
-_text_patches = Kept(TEXT_PATCH_BYTES, lambda patch: patch.nbytes)
+_text_patches = ResultCache(TEXT_PATCH_BYTES, lambda patch: patch.nbytes)
 
 
 def _text_patch(style: _Style, text: str, stroke: int, size: tuple[int, int] | None,

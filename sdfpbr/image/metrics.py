@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SpecError
-from ..kept import Kept
+from ..result_cache import ResultCache
 
 DEFAULT_EPS = 1e-2          # relMSE's guard against division by ~0 (Rousselle et al. use 0.01)
 DEFAULT_PPD = 67.0          # FLIP's default: 0.7 m from a 0.7 m wide 3840-pixel monitor
@@ -172,7 +172,7 @@ def _ppd(pixels_per_degree) -> float:
 # FLIP results a process keeps by content: a gallery's per-bug pages and its catalog measure the
 # same pairs (0.2 s each at 512² on two cores); hashing a pair costs ~1 % of that.
 KEPT_FLIP_BYTES = 64 << 20
-_kept_flips = Kept(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mean, error map)
+_kept_flips = ResultCache(KEPT_FLIP_BYTES, lambda kept: kept[1].nbytes)   # key -> (mean, error map)
 
 
 # Measured pairs are also stored on disk by the same content key (the cache's "flip" kind; the

@@ -1,12 +1,12 @@
 """The DFG bake's own quadrature rule (shaders/dfg_main.glsl) in float64.
 
-mirror.dfg_integrate is the integral; this is the rule the GPU evaluates, sample for sample:
+shading_model.dfg_integrate is the integral; this is the rule the GPU evaluates, sample for sample:
 the table the GPU bakes differs from it by float32 alone, and it differs from the integral by
 the rule's bias, which is a property of the rule and its sample count, computed here rather
 than measured on one driver."""
 import numpy as np
 
-from . import lobes, mirror
+from . import lobes, shading_model
 
 # The float32 unit roundoff (round to nearest).
 FLOAT32_UNIT_ROUNDOFF = 2.0 ** -24
@@ -60,9 +60,9 @@ def dfg_rule(n_dot_v, perceptual_roughness, samples, model="gltf", sheen=False):
     n_dot_l = 2.0 * v_dot_h * cos_h - mu
     ok = (n_dot_l > 0.0) & (v_dot_h > 0.0)
     safe_l = np.where(ok, n_dot_l, 1.0)
-    vis = mirror.visibility(model, safe_l, mu, r, alpha, ibl=True)
+    vis = shading_model.visibility(model, safe_l, mu, r, alpha, ibl=True)
     w = np.where(ok, vis * 4.0 * v_dot_h * safe_l / cos_h * (2.0 * t), 0.0)
-    fc = mirror.fresnel_weight(np.clip(v_dot_h, 0.0, 1.0))
+    fc = shading_model.fresnel_weight(np.clip(v_dot_h, 0.0, 1.0))
     a = ((1.0 - fc) * w).sum(1) * inv
     b = (fc * w).sum(1) * inv
     # Lambert weight of the dielectric mix: cosine-weighted Hammersley directions.
@@ -70,10 +70,10 @@ def dfg_rule(n_dot_v, perceptual_roughness, samples, model="gltf", sheen=False):
     cos_d, sin_d, phi_d = np.sqrt(1.0 - u_x), np.sqrt(u_x), 2.0 * np.pi * u_y
     v_dot_ld = sin_v * sin_d * np.cos(phi_d) + mu * cos_d
     v_dot_hd = np.abs((1.0 + v_dot_ld) / np.sqrt(np.maximum(2.0 + 2.0 * v_dot_ld, 1e-300)))
-    c = (1.0 - (mirror.DIELECTRIC_F0 + (1.0 - mirror.DIELECTRIC_F0) * mirror.fresnel_weight(v_dot_hd))).sum(1) * inv
+    c = (1.0 - (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(v_dot_hd))).sum(1) * inv
     e_s = np.zeros_like(a)
     if sheen:
-        alpha_s = np.maximum(r, mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
+        alpha_s = np.maximum(r, shading_model.MIN_PERCEPTUAL_ROUGHNESS) ** 2
         sin_s = (u_x + 0.5 * inv) ** (alpha_s / (2.0 * alpha_s + 1.0))
         cos_s = np.sqrt(np.maximum(1.0 - sin_s * sin_s, 0.0))
         v_dot_hs = sin_v * sin_s * np.cos(phi_d) + mu * cos_s

@@ -1,4 +1,4 @@
-"""Float64 numpy mirror of the display program: the tone mappers, the sRGB and gamma encodings
+"""Float64 numpy model of the display program: the tone mappers, the sRGB and gamma encodings
 and the 8-bit encode, as tonemap.glsl / encode.glsl / display_main.glsl compute them.
 See shared/REFERENCE.md for the curves and test vectors."""
 from __future__ import annotations

@@ -1,39 +1,39 @@
 """The float64 white-furnace expectation (REFERENCE.md section 3): the split-sum terms of
-``mirror.dfg_integrate`` tabulated per roughness, so a whole render can be checked pixel by
+``shading_model.dfg_integrate`` tabulated per roughness, so a whole render can be checked pixel by
 pixel. The stress sweep and the energy report read it."""
 from __future__ import annotations
 
 import numpy as np
 
-from . import mirror
+from . import shading_model
 
 
 class FurnaceTable:
-    """The float64 split-sum terms (A, B, C) of mirror.dfg_integrate, tabulated per roughness
+    """The float64 split-sum terms (A, B, C) of shading_model.dfg_integrate, tabulated per roughness
     at N_MU values of NdotV and interpolated linearly (the interpolation error, < 1e-5 for
     NdotV >= 0.05, is checked in tests/test_stress.py against direct integration)."""
 
     N_MU = 1024
-    QUADRATURE = 32   # Gauss-Legendre order; mirror.dfg_integrate says 32 agrees with 512 to 1e-9
+    QUADRATURE = 32   # Gauss-Legendre order; shading_model.dfg_integrate says 32 agrees with 512 to 1e-9
 
     def __init__(self):
-        self.mu = np.linspace(mirror.MIN_N_DOT_V, 1.0, self.N_MU)
+        self.mu = np.linspace(shading_model.MIN_N_DOT_V, 1.0, self.N_MU)
         self._terms: dict = {}
 
     def terms(self, model: str, perceptual_roughness: float):
-        r = max(float(perceptual_roughness), mirror.MIN_PERCEPTUAL_ROUGHNESS)
+        r = max(float(perceptual_roughness), shading_model.MIN_PERCEPTUAL_ROUGHNESS)
         key = (model, round(r, 12))
         if key not in self._terms:
-            self._terms[key] = mirror.dfg_integrate(self.mu, r, model=model, n=self.QUADRATURE)
+            self._terms[key] = shading_model.dfg_integrate(self.mu, r, model=model, n=self.QUADRATURE)
         return self._terms[key]
 
     def expected(self, n_dot_v, perceptual_roughness, base_color, metallic, model="gltf", multiscatter=True):
         """furnace_expected (radiance 1) at each pixel: (N,) inputs -> (N, 3)."""
-        n_dot_v = np.clip(np.asarray(n_dot_v, np.float64), mirror.MIN_N_DOT_V, 1.0)
+        n_dot_v = np.clip(np.asarray(n_dot_v, np.float64), shading_model.MIN_N_DOT_V, 1.0)
         rough = np.asarray(perceptual_roughness, np.float64)
         A, B, C = (np.empty_like(n_dot_v) for _ in range(3))
         for r in np.unique(rough):
             m = rough == r
             tA, tB, tC = self.terms(model, r)
             A[m], B[m], C[m] = (np.interp(n_dot_v[m], self.mu, t) for t in (tA, tB, tC))
-        return mirror.furnace_from_dfg(A, B, C, base_color, metallic, multiscatter)
+        return shading_model.furnace_from_dfg(A, B, C, base_color, metallic, multiscatter)

@@ -2,7 +2,7 @@
 
 ``Lo(v) = integral over l of f(v, l) L(l) NdotL dl`` with f the chart's BRDF (glTF Appendix B,
 height-correlated Smith, energy compensation per lobe as the shader applies it: each lobe's
-specular scaled by 1 + f0 (1/E - 1), E the single-scatter albedo of mirror.dfg_integrate).
+specular scaled by 1 + f0 (1/E - 1), E the single-scatter albedo of shading_model.dfg_integrate).
 This is what every IBL approximation of the chart (split sum, dominant direction, the sampled
 path of ``high``) is judged against; it shares no code with them beyond the BRDF terms of
 ``mirror``.
@@ -15,12 +15,12 @@ function through the existing file environment and no preset is added to the spe
 
 Quadrature (deterministic Gauss-Legendre):
 - specular: over the half vector with the measure D cos(theta_h) dw_h = du dphi / 2pi (D
-  cancels), theta_h split where the integrand stops being smooth, as in mirror.dfg_integrate;
+  cancels), theta_h split where the integrand stops being smooth, as in shading_model.dfg_integrate;
   phi over the arc where NdotL > 0 (closed form), so the horizon is an end point, not a kink;
 - diffuse: over l in (theta_l, phi) on the hemisphere around n.
 The orders are chosen so that doubling them changes no value by more than 2e-4 relative
 (``convergence`` reports it; tests/test_ibl_accuracy.py checks it), and a uniform environment
-reproduces mirror.furnace_expected to 1e-6.
+reproduces shading_model.furnace_expected to 1e-6.
 """
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import mirror
+from . import shading_model
 
 
 
@@ -82,16 +82,16 @@ def _frame(n, v):
 def specular_terms(n, v, r, env, n_theta, n_phi):
     """S_A = int (1 - Fc) f_spec L cos, S_B = int Fc f_spec L cos (F = 1, f_spec = D Vis),
     per pixel, RGB: (m, 3) each. With L = 1 these are the A, B of the DFG LUT."""
-    mu = np.clip(np.sum(n * v, -1), mirror.MIN_N_DOT_V, 1.0)
+    mu = np.clip(np.sum(n * v, -1), shading_model.MIN_N_DOT_V, 1.0)
     alpha = r * r
     a2 = alpha * alpha
     sv = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
     tx, ty = _frame(n, v)
-    pieces, th_c = mirror.half_vector_pieces(mu, alpha)
-    x, w = mirror.gauss_legendre01(n_theta)
+    pieces, th_c = shading_model.half_vector_pieces(mu, alpha)
+    x, w = shading_model.gauss_legendre01(n_theta)
     xs = x * x * (3.0 - 2.0 * x)
     ws = w * 6.0 * x * (1.0 - x)
-    xp, wp = mirror.gauss_legendre01(n_phi)
+    xp, wp = shading_model.gauss_legendre01(n_phi)
     SA = np.zeros(mu.shape + (3,))
     SB = np.zeros(mu.shape + (3,))
     mu3, sv3, a23, al3 = (t[:, None, None] for t in (mu, sv, a2, alpha))
@@ -100,14 +100,14 @@ def specular_terms(n, v, r, env, n_theta, n_phi):
     N, X, Y = (t[:, None, None, :] for t in (n, tx, ty))
     for lo, hi in pieces:
         use_u = (hi <= th_c)[:, None, None]
-        c, s, w_th = mirror.half_vector_nodes(lo[:, None, None], hi[:, None, None], a23, xt, wt, use_u)
+        c, s, w_th = shading_model.half_vector_nodes(lo[:, None, None], hi[:, None, None], a23, xt, wt, use_u)
         c0 = mu3 * (1.0 - 2.0 * c * c) / np.maximum(2.0 * c * s * sv3, 1e-300)
         phi_max = np.arccos(np.clip(c0, -1.0, 1.0))
         phi = phi_max * (2.0 * xq - 1.0)               # the whole arc: L is not symmetric
         cp, sp = np.cos(phi), np.sin(phi)
         v_dot_h = sv3 * s * cp + mu3 * c
         n_dot_l = np.maximum(2.0 * v_dot_h * c - mu3, 0.0)
-        vis = mirror.vis_smith_ggx_correlated(n_dot_l, mu3, al3)
+        vis = shading_model.vis_smith_ggx_correlated(n_dot_l, mu3, al3)
         g = vis * n_dot_l * 4.0 * v_dot_h / np.maximum(c, 1e-300)
         wgt = w_th * 2.0 * phi_max * wq / (2.0 * np.pi)
         # l = 2 (v.h) h - v in world space.
@@ -116,7 +116,7 @@ def specular_terms(n, v, r, env, n_theta, n_phi):
         l = 2.0 * v_dot_h[..., None] * h - vw
         l /= np.linalg.norm(l, axis=-1, keepdims=True)
         L = env.radiance(l)
-        fc = mirror.fresnel_weight(v_dot_h)
+        fc = shading_model.fresnel_weight(v_dot_h)
         SB += np.sum((g * fc * wgt)[..., None] * L, axis=(1, 2))
         SA += np.sum((g * (1.0 - fc) * wgt)[..., None] * L, axis=(1, 2))
     return SA, SB
@@ -125,8 +125,8 @@ def specular_terms(n, v, r, env, n_theta, n_phi):
 def _diffuse_term(n, v, env, n_theta, n_phi):
     """S_C = int (1 - F_d(VdotH)) L cos / pi dl, F_d the dielectric Schlick (f0 0.04): (m, 3)."""
     tx, ty = _frame(n, v)
-    x, w = mirror.gauss_legendre01(n_theta)
-    xp, wp = mirror.gauss_legendre01(n_phi)
+    x, w = shading_model.gauss_legendre01(n_theta)
+    xp, wp = shading_model.gauss_legendre01(n_phi)
     th = 0.5 * np.pi * x[None, :, None]
     ph = 2.0 * np.pi * xp[None, None, :]
     st, ct = np.sin(th), np.cos(th)
@@ -134,7 +134,7 @@ def _diffuse_term(n, v, env, n_theta, n_phi):
     l = (st * np.cos(ph))[..., None] * X + (st * np.sin(ph))[..., None] * Y + ct[..., None] * N
     vv = v[:, None, None, :]
     v_dot_h = np.sqrt(np.clip(0.5 * (1.0 + np.sum(vv * l, -1)), 0.0, 1.0))
-    one_minus_fd = 1.0 - (mirror.DIELECTRIC_F0 + (1.0 - mirror.DIELECTRIC_F0) * mirror.fresnel_weight(v_dot_h))
+    one_minus_fd = 1.0 - (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(v_dot_h))
     wgt = (0.5 * np.pi * w[None, :, None]) * st * ct * (2.0 * np.pi * wp[None, None, :]) / np.pi
     return np.sum((one_minus_fd * wgt)[..., None] * env.radiance(l), axis=(1, 2))
 
@@ -149,14 +149,14 @@ def ibl_integral(n, v, base_color, metallic, perceptual_roughness, env: LobeSky,
     """Exact Lo (m, 3) at m shading points: n, v (m, 3) unit; base_color (3,) or (m, 3);
     metallic, perceptual_roughness (m,) or scalars (roughness clamped as the shader does)."""
     o = {**ORDERS, **(orders or {})}
-    n = mirror.normalize(np.atleast_2d(n))
-    v = mirror.normalize(np.atleast_2d(v))
+    n = shading_model.normalize(np.atleast_2d(n))
+    v = shading_model.normalize(np.atleast_2d(v))
     m = n.shape[0]
     r = np.maximum(np.broadcast_to(np.asarray(perceptual_roughness, np.float64), (m,)),
-                   mirror.MIN_PERCEPTUAL_ROUGHNESS)
+                   shading_model.MIN_PERCEPTUAL_ROUGHNESS)
     metal = np.broadcast_to(np.asarray(metallic, np.float64), (m,))[:, None]
     base = np.broadcast_to(np.asarray(base_color, np.float64), (m, 3))
-    mu = np.clip(np.sum(n * v, -1), mirror.MIN_N_DOT_V, 1.0)
+    mu = np.clip(np.sum(n * v, -1), shading_model.MIN_N_DOT_V, 1.0)
     SA = np.empty((m, 3))
     SB = np.empty((m, 3))
     SC = np.empty((m, 3))
@@ -164,11 +164,11 @@ def ibl_integral(n, v, base_color, metallic, perceptual_roughness, env: LobeSky,
         sl = slice(s, s + chunk)
         SA[sl], SB[sl] = specular_terms(n[sl], v[sl], r[sl], env, o["spec_theta"], o["spec_phi"])
         SC[sl] = _diffuse_term(n[sl], v[sl], env, o["diff_theta"], o["diff_phi"])
-    A, B, _ = mirror.dfg_integrate(mu, r)
+    A, B, _ = shading_model.dfg_integrate(mu, r)
     e = (A + B)[:, None]
-    comp_d = 1.0 + mirror.DIELECTRIC_F0 * (1.0 / e - 1.0) if multiscatter else 1.0
+    comp_d = 1.0 + shading_model.DIELECTRIC_F0 * (1.0 / e - 1.0) if multiscatter else 1.0
     comp_m = 1.0 + base * (1.0 / e - 1.0) if multiscatter else 1.0
-    spec_d = (mirror.DIELECTRIC_F0 * SA + SB) * comp_d
+    spec_d = (shading_model.DIELECTRIC_F0 * SA + SB) * comp_d
     spec_m = (base * SA + SB) * comp_m
     dielectric = base * SC + spec_d
     return (1.0 - metal) * dielectric + metal * spec_m
@@ -180,18 +180,18 @@ def prefiltered(directions, perceptual_roughness, env: LobeSky, n_theta: int = 9
     P(R) = int L(l) w D cos(theta_h) dw_h / int w D cos(theta_h) dw_h (NdotL > 0), with
     w = NdotL (kernel "cosine") or NdotL Vis(NdotL, 1) (kernel "brdf", height-correlated
     Smith), at (m, 3) directions; r = 0 is the environment itself."""
-    d = mirror.normalize(np.atleast_2d(directions))
+    d = shading_model.normalize(np.atleast_2d(directions))
     r = max(float(perceptual_roughness), 0.0)
     if r == 0.0:
         return env.radiance(d)
-    a2 = max(r, mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 4
+    a2 = max(r, shading_model.MIN_PERCEPTUAL_ROUGHNESS) ** 4
     # theta_h in [0, pi/4] (NdotL = cos 2 theta_h > 0), u the CDF variable of D cos.
-    u_max = mirror.u_of_theta(np.sin(np.pi / 4), np.cos(np.pi / 4), a2)
-    x, w = mirror.gauss_legendre01(n_theta)
-    xp, wp = mirror.gauss_legendre01(n_phi)
+    u_max = shading_model.u_of_theta(np.sin(np.pi / 4), np.cos(np.pi / 4), a2)
+    x, w = shading_model.gauss_legendre01(n_theta)
+    xp, wp = shading_model.gauss_legendre01(n_phi)
     # Two pieces in u so the peak of small lobes and the tail both get nodes.
     th_c = min(np.arctan(3.0 * np.sqrt(a2)), np.pi / 4)
-    u_c = mirror.u_of_theta(np.sin(th_c), np.cos(th_c), a2)
+    u_c = shading_model.u_of_theta(np.sin(th_c), np.cos(th_c), a2)
     tx, ty = _frame(d, d)
     N, X, Y = (t[:, None, None, :] for t in (d, tx, ty))
     num = np.zeros((d.shape[0], 3))
@@ -207,7 +207,7 @@ def prefiltered(directions, perceptual_roughness, env: LobeSky, n_theta: int = 9
         n_dot_l = np.maximum(2.0 * c * c - 1.0, 0.0)
         wgt = (hi - lo) * w[None, :, None] * wp[None, None, :] * n_dot_l
         if kernel == "brdf":
-            wgt = wgt * mirror.vis_smith_ggx_correlated(n_dot_l, 1.0, np.sqrt(a2))
+            wgt = wgt * shading_model.vis_smith_ggx_correlated(n_dot_l, 1.0, np.sqrt(a2))
         h = (s * np.cos(ph))[..., None] * X + (s * np.sin(ph))[..., None] * Y + c[..., None] * N
         l = 2.0 * c[..., None] * h - N
         num += np.sum(wgt[..., None] * env.radiance(l), axis=(1, 2))

@@ -23,7 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from . import mirror
+from . import shading_model
 from .ibl_integral import specular_terms, prefiltered
 
 R_NODES = (0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
@@ -56,7 +56,7 @@ class Sky:
         rng = np.random.default_rng(seed)
         self.a = rng.uniform(0.02, 0.3, 3)
         self.b = rng.uniform(0.0, 1.0, 3)
-        self.axes = mirror.normalize(rng.normal(size=(3, 3)))
+        self.axes = shading_model.normalize(rng.normal(size=(3, 3)))
         self.k = np.exp(rng.uniform(np.log(4), np.log(256), 3))
         self.c = rng.uniform(0.5, 8.0, (3, 3))
 
@@ -80,7 +80,7 @@ def lookup(n, v, r, lobe_t, lobe_dr):
     reflected = 2.0 * mu[:, None] * n - v
     mu_c, a_c = np.clip(mu, 0.1, 1.0), np.clip(np.full_like(mu, r * r), 0.01, 1.0)
     t = np.clip(_poly3x3(lobe_t, mu_c, a_c), 0.0, 1.0)
-    d = mirror.normalize(n + (reflected - n) * t[:, None])
+    d = shading_model.normalize(n + (reflected - n) * t[:, None])
     return d, r + _poly3x3(lobe_dr, mu_c, a_c) * (r >= 0.1)
 
 
@@ -88,16 +88,16 @@ def exact_radiance(n, v, r, sky):
     """The lobe's mean radiance as the split sum defines it: (S_A + S_B) / (A + B)."""
     m = len(n)
     sa, sb = specular_terms(n, v, np.full(m, r), sky, 48, 96)
-    mu = np.clip(np.sum(n * v, -1), mirror.MIN_N_DOT_V, 1.0)
-    a, b, _ = mirror.dfg_integrate(mu, np.full(m, r))
+    mu = np.clip(np.sum(n * v, -1), shading_model.MIN_N_DOT_V, 1.0)
+    a, b, _ = shading_model.dfg_integrate(mu, np.full(m, r))
     return (sa + sb) / (a + b)[:, None]
 
 
 def _points(seed: int, mu: float, count: int):
     rng = np.random.default_rng(seed)
-    n = mirror.normalize(rng.normal(size=(count, 3)))
+    n = shading_model.normalize(rng.normal(size=(count, 3)))
     t = rng.normal(size=(count, 3))
-    t = mirror.normalize(t - np.sum(t * n, -1, keepdims=True) * n)
+    t = shading_model.normalize(t - np.sum(t * n, -1, keepdims=True) * n)
     return n, mu * n + np.sqrt(1.0 - mu * mu) * t
 
 
@@ -113,7 +113,7 @@ def _reads(n, v, r, sky, lobe_t, lobe_dr, fade, pairs):
         if delta == 0.0:
             cores[delta, core] = prefiltered(d, width, sky, ORDER, ORDER, kernel="brdf")
         else:
-            cores[delta, core] = 0.5 * sum(prefiltered(mirror.normalize(d + s * delta * across), width, sky,
+            cores[delta, core] = 0.5 * sum(prefiltered(shading_model.normalize(d + s * delta * across), width, sky,
                                                        ORDER, ORDER, kernel="brdf") for s in (1.0, -1.0))
     return cores, prefiltered(n, 1.0, sky, ORDER, ORDER, kernel="brdf")
 

@@ -1,4 +1,4 @@
-"""Float64 mirror of the KHR layers (shaders/lobes.glsl, brdf.glsl; docs/lobes.md): the full
+"""Float64 model of the KHR layers (shaders/lobes.glsl, brdf.glsl; docs/lobes.md): the full
 layered BRDF of a Material, and its directional albedo by quadrature (the furnace value).
 
 Conventions, as the shaders: roughnesses clamped to MIN_PERCEPTUAL_ROUGHNESS, alpha = r^2;
@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import mirror
+from . import shading_model
 from ..spec.material import dielectric_f0
-from .mirror import DIELECTRIC_F0, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, fresnel_weight
+from .shading_model import DIELECTRIC_F0, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, fresnel_weight
 
 __all__ = ["dielectric_f0", "d_charlie", "v_sheen", "sheen_albedo", "layered_brdf", "layered_albedo"]
 
@@ -54,7 +54,7 @@ def v_sheen(n_dot_l, n_dot_v, alpha):
 def _hemisphere_grid(mu, n):
     """l over the hemisphere on a Gauss-Legendre grid in (theta_l, phi in [0, pi]), doubled by
     symmetry: returns (N.L, V.L, weight) with weights integrating dl, shapes (m, n, n)."""
-    x, w = mirror.gauss_legendre01(n)
+    x, w = shading_model.gauss_legendre01(n)
     mu3 = np.asarray(mu, np.float64)[:, None, None]
     sv3 = np.sqrt(np.maximum(1.0 - mu3 * mu3, 0.0))
     th = 0.5 * np.pi * x[None, :, None]
@@ -105,19 +105,19 @@ def layered_brdf(n, v, l, m, model="gltf", multiscatter=True, e_spec=None):
     n_dot_v = np.clip(np.sum(n * v, -1), MIN_N_DOT_V, 1.0)
     lit = n_dot_l > 0.0
     nl = np.clip(n_dot_l, 0.0, 1.0)
-    h = mirror.normalize(v + l)
+    h = shading_model.normalize(v + l)
     n_dot_h = np.clip(np.sum(n * h, -1), 0.0, 1.0)
     v_dot_h = np.abs(np.sum(v * h, -1))
-    f_spec = (mirror.d_ggx(n_dot_h, alpha) * mirror.visibility(model, nl, n_dot_v, r, alpha, False))[..., None]
+    f_spec = (shading_model.d_ggx(n_dot_h, alpha) * shading_model.visibility(model, nl, n_dot_v, r, alpha, False))[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     f0 = dielectric_f0(m.ior, m.specular_color)
     fd = m.specular * (f0 + (1.0 - f0) * fc)
     spec_d = f_spec * fd
     spec_m = f_spec * (base + (1.0 - base) * fc)
     if multiscatter:
-        e = mirror.single_scatter_albedo(n_dot_v, np.full(n_dot_v.shape, r), model) if e_spec is None else np.asarray(e_spec)
-        spec_d = spec_d * mirror.energy_compensation(f0, e)
-        spec_m = spec_m * mirror.energy_compensation(base, e)
+        e = shading_model.single_scatter_albedo(n_dot_v, np.full(n_dot_v.shape, r), model) if e_spec is None else np.asarray(e_spec)
+        spec_d = spec_d * shading_model.energy_compensation(f0, e)
+        spec_m = spec_m * shading_model.energy_compensation(base, e)
     diffuse = base / np.pi * (1.0 - np.max(fd, axis=-1, keepdims=True))
     f = (1.0 - m.metallic) * (diffuse + spec_d) + m.metallic * spec_m
     sheen = max(m.sheen_color)
@@ -128,7 +128,7 @@ def layered_brdf(n, v, l, m, model="gltf", multiscatter=True, e_spec=None):
         f = f_sheen + f * scaling[..., None]
     if m.clearcoat > 0.0:
         rc = max(m.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)
-        coat = mirror.d_ggx(n_dot_h, rc * rc) * mirror.visibility(model, nl, n_dot_v, rc, rc * rc, False)
+        coat = shading_model.d_ggx(n_dot_h, rc * rc) * shading_model.visibility(model, nl, n_dot_v, rc, rc * rc, False)
         w = m.clearcoat * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fresnel_weight(n_dot_v))
         f = f * (1.0 - w[..., None]) + (coat * w)[..., None]
     return np.where(lit[..., None], f, 0.0)
@@ -167,8 +167,8 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
     spec_d = m.specular * (f0 * A[:, None] + B[:, None])
     spec_m = base * A[:, None] + B[:, None]
     if multiscatter:
-        spec_d = spec_d * mirror.energy_compensation(f0, e)
-        spec_m = spec_m * mirror.energy_compensation(base, e)
+        spec_d = spec_d * shading_model.energy_compensation(f0, e)
+        spec_m = spec_m * shading_model.energy_compensation(base, e)
     # Lambert and sheen over l.
     nl, vl, wgt = _hemisphere_grid(mu, n)
     nh, vh = _half(mu, nl, vl)
@@ -226,4 +226,4 @@ def sheen_albedo_interpolated(n_dot_l, rs):
 def _ggx_integrals(mu, r, model, n, weight):
     """int (1 - Fc) f_spec cos w(l) and int Fc f_spec cos w(l) over l, f_spec = D Vis (F = 1),
     for each mu at one roughness r; weight(N.L) -> factor, None for 1."""
-    return mirror.ggx_lobe_integrals(mu, np.full(mu.shape, max(r, MIN_PERCEPTUAL_ROUGHNESS)), model, n, weight)
+    return shading_model.ggx_lobe_integrals(mu, np.full(mu.shape, max(r, MIN_PERCEPTUAL_ROUGHNESS)), model, n, weight)

@@ -5,7 +5,7 @@ one cell, and every cell's Material from a spec.
 A parameter is a range on the spec (``clearcoat = 0:1`` or one number, ``clearcoat = 0.5``);
 the chart's x and y axes each name one parameter, whose values run across the columns (down
 the rows): its range, inclusive, or an explicit list (``x_values``). Every other parameter
-holds one value. The float64 mirror (sdfpbr.oracle.lobes), the chart's material table
+holds one value. The float64 model (sdfpbr.oracle.lobes), the chart's material table
 (sdfpbr.shading.material_table) and the labels all read a cell's Material from here.
 """
 from __future__ import annotations

@@ -4,7 +4,7 @@ backends. Every configuration is rendered and checked against properties derived
 renderer (the checks are plain functions of arrays, tested on their own):
 
 - finite:    no NaN, Inf or negative radiance; coverage in [0, 1];
-- display:   the display image equals the float64 mirror's exposure -> tone map -> sRGB of
+- display:   the display image equals the float64 model's exposure -> tone map -> sRGB of
              the HDR within 1 LSB wherever the HDR is finite (a NaN born in the display pass
              shows up here);
 - furnace:   in a uniform environment every sphere and ground pixel matches the float64

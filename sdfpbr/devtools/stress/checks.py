@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ...oracle import display, mirror
+from ...oracle import display, shading_model
 from ...oracle.furnace import FurnaceTable
 from ...image.layout import BACKGROUND
 from ...shading.cells import cell_border_mask
@@ -42,7 +42,7 @@ def check_finite(hdr: np.ndarray, alpha: np.ndarray) -> list[str]:
 
 
 def expected_display(hdr: np.ndarray, alpha: np.ndarray, spec: ChartSpec) -> np.ndarray:
-    """(H, W, 4) uint8 from the float64 mirror: un-premultiply (transparent), exposure, tone
+    """(H, W, 4) uint8 from the float64 model: un-premultiply (transparent), exposure, tone
     map, sRGB OETF; alpha 255 or the coverage."""
     x = hdr.astype(np.float64)
     a = alpha.astype(np.float64)
@@ -134,7 +134,7 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
         dn[c] = np.maximum(dn[c], np.arccos(np.clip((nb * n[c]).sum(-1), -1.0, 1.0)))
     dv = 0.0 if camera.orthographic else 2 * camera.half_height / H   # view direction, per pixel
     alpha_px = np.maximum(np.where(ids >= 0, np.nan_to_num(aov["roughness"]), spec.ground_roughness),
-                          mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
+                          shading_model.MIN_PERCEPTUAL_ROUGHNESS) ** 2
     if spec.ibl and spec.env != "uniform" and spec.env != "black":
         # The reflected direction moves by up to 2 dn + dv a pixel; the prefiltered environment
         # varies on its own feature scale widened by the lobe. Sampled at least twice across
@@ -148,14 +148,14 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
     p = ro + rd * depth
     v = -rd
     rough = np.where(ids >= 0, np.nan_to_num(aov["roughness"]), spec.ground_roughness)
-    alpha_mat = np.maximum(rough, mirror.MIN_PERCEPTUAL_ROUGHNESS) ** 2
+    alpha_mat = np.maximum(rough, shading_model.MIN_PERCEPTUAL_ROUGHNESS) ** 2
     pixel_size = 2 * camera.half_height / H * (1.0 if camera.orthographic else depth[..., 0])
     for light in spec.lights:
         a, disc = alpha_mat, 0.0
         if light.kind == "directional":
             l = np.broadcast_to(np.asarray(light.direction), p.shape)
             # A disc light's highlight is the disc (half vectors within theta/2 of its centre's)
-            # with edges as sharp as the material's own lobe (mirror.d_ggx_disc).
+            # with edges as sharp as the material's own lobe (shading_model.d_ggx_disc).
             disc = 0.5 * math.radians(light.angular_radius_deg)
         else:
             to_light = np.asarray(light.position) - p
@@ -163,7 +163,7 @@ def smooth_region(aov: dict, spec: ChartSpec, camera) -> np.ndarray:
             l = to_light / np.maximum(dist, 1e-300)[..., None]
             test &= dist > 8 * pixel_size
             disc = 0.5 * np.arcsin(np.minimum(light.radius / np.maximum(dist, 1e-300), 1.0))   # a sphere light's
-        h = mirror.normalize(v + l)
+        h = shading_model.normalize(v + l)
         delta = np.maximum(np.arccos(np.clip((n * h).sum(-1), -1.0, 1.0)) - disc, 0.0)
         # h moves by dn_h = dn + dv/2 a pixel. D changes by at most exp(2 dn_h / alpha) per step
         # (its log slope peaks at 2/alpha), <= 2.4 when dn_h <= 0.44 alpha: a resolved lobe.
@@ -267,7 +267,7 @@ def furnace_error(hdr, aov, spec: ChartSpec, table: FurnaceTable) -> tuple[float
     got = hdr.astype(np.float64)
     worst, bad, tested = 0.0, 0, 0
     # Where the model exceeds the half range the target holds 65504 (the shader's clamp).
-    cap = mirror.HALF_MAX if half else np.inf
+    cap = shading_model.HALF_MAX if half else np.inf
     rtol = FURNACE_RTOL[spec.quality] + (HALF_EPS if half else 0.0)
     atol = HALF_SUBNORMAL if half else 0.0
 
@@ -320,15 +320,15 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
         normals.append(aov["normal"][row, x].astype(np.float64))
     if max(np.abs(np.asarray(normals) - np.asarray(normal)).max(-1)) > 1e-4:
         failures.append("columns are not pixel-aligned: probe normals differ")
-    rough = np.maximum(spec.material_array("roughness")[0], mirror.MIN_PERCEPTUAL_ROUGHNESS)
+    rough = np.maximum(spec.material_array("roughness")[0], shading_model.MIN_PERCEPTUAL_ROUGHNESS)
     half = spec.hdr_precision == "float16"
     atol = HALF_SUBNORMAL if half else 0.0
-    clamped = half and max(values) >= mirror.HALF_MAX * (1 - HALF_EPS)
+    clamped = half and max(values) >= shading_model.HALF_MAX * (1 - HALF_EPS)
     worst_rise = 0.0
     order = np.argsort(rough, kind="stable")
     for a, b in zip(order, order[1:]):
         va, vb = values[a], values[b]
-        if clamped and min(va, vb) >= mirror.HALF_MAX * (1 - HALF_EPS):
+        if clamped and min(va, vb) >= shading_model.HALF_MAX * (1 - HALF_EPS):
             continue
         scale = max(va, vb, 1e-300)
         if abs(rough[a] - rough[b]) < 1e-9:
@@ -341,24 +341,24 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
                 failures.append(f"peak rises with roughness {rough[a]:g} -> {rough[b]:g}: {va:.6g} -> {vb:.6g}")
         worst_rise = max(worst_rise, rise)
     # The float64 BRDF at the probe, the light's disc shaded as the chart shades it
-    # (mirror.brdf's disc_angular_radius), E at the material's roughness.
+    # (shading_model.brdf's disc_angular_radius), E at the material's roughness.
     # Renormalised in float64: a float32 unit vector is off by ~6e-8 in length, which at
     # the peak of an alpha = 0.002 lobe reads as a 3e-4 rad tilt and a 5 % lower D.
-    n = mirror.normalize(np.asarray(normals))
+    n = shading_model.normalize(np.asarray(normals))
     v = np.array([0.0, 0.0, 1.0])
     l = np.asarray(light.direction)
     e = None
     if spec.multiscatter:
-        A, B, _ = mirror.dfg_integrate(np.clip(n @ v, mirror.MIN_N_DOT_V, 1), rough, model=spec.brdf)
+        A, B, _ = shading_model.dfg_integrate(np.clip(n @ v, shading_model.MIN_N_DOT_V, 1), rough, model=spec.brdf)
         e = A + B
     scale = np.clip(n @ l, 0, None) * light.intensity
-    lobes = [mirror.brdf(n, v, l, np.asarray(spec.base_color), metal, rough, model=spec.brdf,
+    lobes = [shading_model.brdf(n, v, l, np.asarray(spec.base_color), metal, rough, model=spec.brdf,
                          multiscatter=spec.multiscatter, e_spec=e,
                          disc_angular_radius=math.radians(light.angular_radius_deg)).mean(-1) * scale
              for metal in (spec.material_array("metallic")[0, 0], 0.0, 1.0)]
     want, got = lobes[0], np.asarray(values)
     if spec.hdr_precision == "float16":
-        want = np.minimum(want, mirror.HALF_MAX)
+        want = np.minimum(want, shading_model.HALF_MAX)
     # GLSL mix(a, b, 1) may be evaluated as a + (b - a): a few float32 ulps of the larger lobe
     # remain (a black metal's Fresnel-only highlight sits 1e-7 below its dielectric lobe).
     mix_ulps = 4 * 2.0 ** -24 * np.maximum(lobes[1], lobes[2])

@@ -60,7 +60,7 @@ _IMPORT = re.compile(r"^\s*from (\.+)([\w.]*) import ([\w, ()]+)", re.M)
 def image_modules() -> list[Path]:
     """The Python sources an image depends on: IMAGE_MODULES and, transitively, every sdfpbr
     module they import (relative imports, resolved across subpackages). A change to any of
-    them re-renders; other modules (the CLI, the numpy mirror, benchmarks) do not."""
+    them re-renders; other modules (the CLI, the numpy model, benchmarks) do not."""
     from importlib.util import resolve_name
     package = PACKAGE_ROOT
 

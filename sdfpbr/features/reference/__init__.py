@@ -26,7 +26,7 @@ one in sample order, so a run resumed from another's accumulators (``resume``) w
 samples gives the bits of the straight run; the bench goes on from its cached references so.
 
 The energy compensation's single-scatter albedo E(NdotV, r) comes from a float64 quadrature
-table (sdfpbr.mirror), not the chart's sampled LUT, so the reference integrates the model
+table (sdfpbr.oracle.shading_model), not the chart's sampled LUT, so the reference integrates the model
 itself rather than the chart's approximation of it. For the schlick-ggx model the reference
 uses the punctual-light visibility (k = (r+1)^2/8) for every direction, since a path tracer
 needs one BRDF; the chart's IBL uses k = alpha/2 and differs from it by construction.

@@ -12,7 +12,7 @@ import numpy as np
 from ...cache import content_key
 from ...gpu.frame import table_texture
 from ...gpu.programs import set_uniforms
-from ...oracle import lobes, mirror
+from ...oracle import lobes, shading_model
 
 COMPENSATION_TABLE_SIZE = 128  # E(NdotV, r) grid, float64 quadrature (bilinear error < 4e-4)
 COMPENSATION_QUADRATURE = 16   # Gauss-Legendre order: within 7e-7 of order 32 on this grid
@@ -32,10 +32,10 @@ def compensation_choice(spec, plan) -> dict:
 
 def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarray:
     """(size, size, 4) float32: [j, i] = (A, B, C, E_s or 1) at NdotV = i/(size-1), r = j/(size-1),
-    the layout dfg.glsl reads, by float64 quadrature (sdfpbr.oracle.mirror, .lobes for the
+    the layout dfg.glsl reads, by float64 quadrature (sdfpbr.oracle.shading_model, .lobes for the
     sheen's albedo E_s when ``sheen``), disk-cached."""
     size, order = COMPENSATION_TABLE_SIZE, COMPENSATION_QUADRATURE
-    key = content_key("reference-dfg", model, size, order, sheen, Path(mirror.__file__).read_bytes(),
+    key = content_key("reference-dfg", model, size, order, sheen, Path(shading_model.__file__).read_bytes(),
                       Path(lobes.__file__).read_bytes() if sheen else b"")
     if key in _tables:
         return _tables[key]
@@ -44,8 +44,8 @@ def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarra
         _tables[key] = cached["table"]
         return cached["table"]
     grid = np.arange(size, dtype=np.float64) / (size - 1)
-    a, b, c = mirror.dfg_integrate(np.maximum(grid[None, :], mirror.MIN_N_DOT_V), grid[:, None], model=model, n=order)
-    e_sheen = lobes.sheen_albedo(np.maximum(grid[None, :], mirror.MIN_N_DOT_V), grid[:, None]) if sheen else np.ones_like(a)
+    a, b, c = shading_model.dfg_integrate(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V), grid[:, None], model=model, n=order)
+    e_sheen = lobes.sheen_albedo(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V), grid[:, None]) if sheen else np.ones_like(a)
     table = np.stack([a, b, c, e_sheen], axis=-1).astype(np.float32)
     if cache is not None:
         cache.put("reference_dfg", key, {"table": table})

@@ -1,4 +1,4 @@
-"""Tests of the float64 numpy mirror against shared/REFERENCE.md (sections 1-4).
+"""Tests of the float64 numpy model against shared/REFERENCE.md (sections 1-4).
 
 Expected values are REFERENCE numbers, closed forms, or integrals computed here with an
 integrator independent of the module (seeded Monte Carlo, or exact Gauss-Legendre on
@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from sdfpbr.oracle import display, mirror
+from sdfpbr.oracle import display, shading_model
 
 # REFERENCE §2: (r, mu, E, A, B), height-correlated visibility, F = 1.
 DFG_TABLE = [
@@ -46,59 +46,59 @@ def srgb_formula(x):
 # --- BRDF terms -------------------------------------------------------------
 
 def test_alpha_and_k():
-    assert mirror.alpha_from_perceptual(0.5) == pytest.approx(0.25)
-    assert mirror.k_direct(0.5) == pytest.approx(1.5 ** 2 / 8)
-    assert mirror.k_ibl(0.5) == pytest.approx(0.125)
-    assert mirror.MIN_PERCEPTUAL_ROUGHNESS == 0.045
+    assert shading_model.alpha_from_perceptual(0.5) == pytest.approx(0.25)
+    assert shading_model.k_direct(0.5) == pytest.approx(1.5 ** 2 / 8)
+    assert shading_model.k_ibl(0.5) == pytest.approx(0.125)
+    assert shading_model.MIN_PERCEPTUAL_ROUGHNESS == 0.045
 
 
 def test_d_ggx_peak_and_normalisation():
     for r in (0.045, 0.01):
         a = r * r
-        assert mirror.d_ggx(1.0, a) == pytest.approx(1.0 / (math.pi * a * a), rel=1e-12)
+        assert shading_model.d_ggx(1.0, a) == pytest.approx(1.0 / (math.pi * a * a), rel=1e-12)
     # REFERENCE §1 peak values: r = 0.045 -> 7.8e4, r = 0.01 -> 3.2e7.
-    assert mirror.d_ggx(1.0, 0.045 ** 2) == pytest.approx(7.8e4, rel=0.01)
-    assert mirror.d_ggx(1.0, 0.01 ** 2) == pytest.approx(3.2e7, rel=0.01)
+    assert shading_model.d_ggx(1.0, 0.045 ** 2) == pytest.approx(7.8e4, rel=0.01)
+    assert shading_model.d_ggx(1.0, 0.01 ** 2) == pytest.approx(3.2e7, rel=0.01)
     # int D cos dw_h = 1 (projected microfacet area), own Gauss-Legendre in theta.
     x, w = np.polynomial.legendre.leggauss(2000)
     th = 0.25 * np.pi * (x + 1.0)
     wt = 0.25 * np.pi * w
     for a in (0.25, 0.6, 1.0):
-        total = 2 * np.pi * np.sum(mirror.d_ggx(np.cos(th), a) * np.cos(th) * np.sin(th) * wt)
+        total = 2 * np.pi * np.sum(shading_model.d_ggx(np.cos(th), a) * np.cos(th) * np.sin(th) * wt)
         assert total == pytest.approx(1.0, abs=1e-6)
     # Same value as the textbook form away from the peak.
     nh, a = 0.9, 0.3
     a2 = a ** 4
-    assert mirror.d_ggx(nh, a * a) == pytest.approx(a2 / (math.pi * (nh * nh * (a2 - 1) + 1) ** 2), rel=1e-12)
+    assert shading_model.d_ggx(nh, a * a) == pytest.approx(a2 / (math.pi * (nh * nh * (a2 - 1) + 1) ** 2), rel=1e-12)
     with np.errstate(divide="raise", over="raise", invalid="raise"):
-        assert np.isfinite(mirror.d_ggx(1.0, 0.0))
+        assert np.isfinite(shading_model.d_ggx(1.0, 0.0))
 
 
 def test_visibility_terms():
     # alpha = 1: sqrt(...) = 1, so Vis = 0.5 / (NdotL + NdotV).
-    assert mirror.vis_smith_ggx_correlated(0.3, 0.7, 1.0) == pytest.approx(0.5)
+    assert shading_model.vis_smith_ggx_correlated(0.3, 0.7, 1.0) == pytest.approx(0.5)
     nl, nv, a = 0.4, 0.9, 0.3
     a2 = a * a
     expect = 0.5 / (nl * math.sqrt(nv * nv * (1 - a2) + a2) + nv * math.sqrt(nl * nl * (1 - a2) + a2))
-    assert mirror.vis_smith_ggx_correlated(nl, nv, a) == pytest.approx(expect, rel=1e-14)
+    assert shading_model.vis_smith_ggx_correlated(nl, nv, a) == pytest.approx(expect, rel=1e-14)
     with np.errstate(divide="raise", over="raise", invalid="raise"):
-        assert mirror.vis_smith_ggx_correlated(0.0, 0.0, 0.0) == 0.0
-        assert mirror.vis_smith_ggx_correlated(np.zeros(3), np.zeros(3), 0.5).tolist() == [0, 0, 0]
+        assert shading_model.vis_smith_ggx_correlated(0.0, 0.0, 0.0) == 0.0
+        assert shading_model.vis_smith_ggx_correlated(np.zeros(3), np.zeros(3), 0.5).tolist() == [0, 0, 0]
     k = 0.2
 
     def g1(x):
         return x / (x * (1 - k) + k)
 
-    assert mirror.vis_schlick_ggx(nl, nv, k) == pytest.approx(g1(nl) * g1(nv) / (4 * nl * nv), rel=1e-14)
+    assert shading_model.vis_schlick_ggx(nl, nv, k) == pytest.approx(g1(nl) * g1(nv) / (4 * nl * nv), rel=1e-14)
 
 
 def test_fresnel_schlick():
-    assert mirror.fresnel_schlick(0.04, 1.0) == pytest.approx(0.04)
-    assert mirror.fresnel_schlick(0.04, 0.0) == pytest.approx(1.0)
-    assert mirror.fresnel_schlick(0.04, 0.5) == pytest.approx(0.04 + 0.96 * 0.5 ** 5)
+    assert shading_model.fresnel_schlick(0.04, 1.0) == pytest.approx(0.04)
+    assert shading_model.fresnel_schlick(0.04, 0.0) == pytest.approx(1.0)
+    assert shading_model.fresnel_schlick(0.04, 0.5) == pytest.approx(0.04 + 0.96 * 0.5 ** 5)
     # x outside [0, 1] is clipped: no NaN from a negative base.
-    assert mirror.fresnel_schlick(0.04, 1.0 + 1e-7) == pytest.approx(0.04)
-    rgb = mirror.fresnel_schlick(np.array([1.0, 0.5, 0.0]), np.array([0.5, 1.0]))
+    assert shading_model.fresnel_schlick(0.04, 1.0 + 1e-7) == pytest.approx(0.04)
+    rgb = shading_model.fresnel_schlick(np.array([1.0, 0.5, 0.0]), np.array([0.5, 1.0]))
     assert rgb.shape == (2, 3)
     assert rgb[1] == pytest.approx([1.0, 0.5, 0.0])
     assert rgb[0, 2] == pytest.approx(0.5 ** 5)
@@ -108,7 +108,7 @@ def test_fresnel_schlick():
 
 @pytest.mark.parametrize("r, mu, e, a, b", DFG_TABLE)
 def test_dfg_table_vectors(r, mu, e, a, b):
-    A, B, _ = mirror.dfg_integrate(mu, r)
+    A, B, _ = shading_model.dfg_integrate(mu, r)
     assert float(A) == pytest.approx(a, abs=1e-5)
     assert float(B) == pytest.approx(b, abs=1e-5)
     assert float(A + B) == pytest.approx(e, abs=1e-5)
@@ -117,29 +117,29 @@ def test_dfg_table_vectors(r, mu, e, a, b):
 def test_dfg_vectorised_and_exact_one_minus_ln2():
     r = np.array([x[0] for x in DFG_TABLE])
     mu = np.array([x[1] for x in DFG_TABLE])
-    A, B, C = mirror.dfg_integrate(mu, r)
+    A, B, C = shading_model.dfg_integrate(mu, r)
     assert A.shape == B.shape == C.shape == (len(DFG_TABLE),)
     assert A + B == pytest.approx([x[2] for x in DFG_TABLE], abs=1e-5)
-    A1, B1, _ = mirror.dfg_integrate(1.0, 1.0)
+    A1, B1, _ = shading_model.dfg_integrate(1.0, 1.0)
     assert float(A1 + B1) == pytest.approx(1.0 - math.log(2.0), abs=1e-9)
     # Broadcasting: (3,) x (2, 1) -> (2, 3).
-    A2, _, _ = mirror.dfg_integrate(np.array([0.2, 0.5, 1.0]), np.array([[0.3], [0.8]]))
+    A2, _, _ = shading_model.dfg_integrate(np.array([0.2, 0.5, 1.0]), np.array([[0.3], [0.8]]))
     assert A2.shape == (2, 3)
 
 
 def test_dfg_limits_no_nan():
     with np.errstate(divide="raise", over="raise", invalid="raise"):
         for mu in (0.0, 1e-6, 0.3, 1.0):
-            A, B, C = mirror.dfg_integrate(mu, 0.0)
+            A, B, C = shading_model.dfg_integrate(mu, 0.0)
             fc = (1 - max(mu, 1e-4)) ** 5
             assert float(A) == pytest.approx(1 - fc, abs=1e-12)
             assert float(B) == pytest.approx(fc, abs=1e-12)
             for r in (0.045, 0.3, 1.0):
-                vals = mirror.dfg_integrate(mu, r)
+                vals = shading_model.dfg_integrate(mu, r)
                 assert all(np.isfinite(v).all() for v in vals)
                 assert 0.0 < float(vals[0] + vals[1]) <= 1.0 + 1e-9
     # Just above the delta cut the lobe is nearly a mirror: E close to 1 away from grazing.
-    A, B, _ = mirror.dfg_integrate(0.5, 0.0101)
+    A, B, _ = shading_model.dfg_integrate(0.5, 0.0101)
     assert float(A + B) == pytest.approx(1.0, abs=1e-4)
 
 
@@ -152,7 +152,7 @@ def test_dfg_c_term_at_normal_incidence():
     integral = np.sum(8 * t * (2 * t * t - 1) * (1 - t) ** 5 * w) * 0.5 * (hi - lo)
     expect = 1.0 - 0.04 - 0.96 * integral
     for r in (0.1, 0.5, 1.0):
-        assert float(mirror.dfg_integrate(1.0, r)[2]) == pytest.approx(expect, abs=1e-10)
+        assert float(shading_model.dfg_integrate(1.0, r)[2]) == pytest.approx(expect, abs=1e-10)
 
 
 def test_dfg_c_term_monte_carlo():
@@ -166,26 +166,26 @@ def test_dfg_c_term_monte_carlo():
     h = (l + v) / np.linalg.norm(l + v, axis=-1, keepdims=True)
     g = 1.0 - (0.04 + 0.96 * (1 - np.abs(h @ v)) ** 5)
     se = g.std() / math.sqrt(n)
-    assert float(mirror.dfg_integrate(0.2, 0.7)[2]) == pytest.approx(g.mean(), abs=3 * se + 1e-12)
+    assert float(shading_model.dfg_integrate(0.2, 0.7)[2]) == pytest.approx(g.mean(), abs=3 * se + 1e-12)
 
 
 def test_schlick_ggx_model_differs_and_is_finite():
-    Ag, Bg, _ = mirror.dfg_integrate(0.5, 0.5, model="gltf")
-    As, Bs, _ = mirror.dfg_integrate(0.5, 0.5, model="schlick-ggx")
+    Ag, Bg, _ = shading_model.dfg_integrate(0.5, 0.5, model="gltf")
+    As, Bs, _ = shading_model.dfg_integrate(0.5, 0.5, model="schlick-ggx")
     assert np.isfinite([As, Bs]).all()
     assert abs(float(As + Bs) - float(Ag + Bg)) > 1e-3
     with pytest.raises(ValueError):
-        mirror.dfg_integrate(0.5, 0.5, model="beckmann")
+        shading_model.dfg_integrate(0.5, 0.5, model="beckmann")
 
 
 def test_e_avg_reference():
-    assert float(mirror.e_avg(0.5)) == pytest.approx(0.882323, abs=1e-6)
-    assert float(mirror.e_avg(1.0)) == pytest.approx(0.409137, abs=1e-6)
+    assert float(shading_model.e_avg(0.5)) == pytest.approx(0.882323, abs=1e-6)
+    assert float(shading_model.e_avg(1.0)) == pytest.approx(0.409137, abs=1e-6)
 
 
 def test_dfg_table_layout_and_speed():
     t0 = time.perf_counter()
-    lut = mirror.dfg_table(32)
+    lut = shading_model.dfg_table(32)
     assert time.perf_counter() - t0 < 10.0
     assert lut.shape == (32, 32, 3) and lut.dtype == np.float64
     assert np.isfinite(lut).all()
@@ -194,10 +194,10 @@ def test_dfg_table_layout_and_speed():
     e = lut[..., 0] + lut[..., 1]
     assert (np.diff(e[:, -1]) < 0).all()  # at mu ~ 1, E falls with roughness
     # Texel centres: size 4, [j=1, i=1] is r = mu = 0.375; [j=3, i=0] is r = 0.875, mu = 0.125.
-    small = mirror.dfg_table(4)
-    a, b, _ = mirror.dfg_integrate(0.375, 0.375)
+    small = shading_model.dfg_table(4)
+    a, b, _ = shading_model.dfg_integrate(0.375, 0.375)
     assert small[1, 1, :2] == pytest.approx([float(a), float(b)], abs=1e-12)
-    a, b, _ = mirror.dfg_integrate(0.125, 0.875)
+    a, b, _ = shading_model.dfg_integrate(0.125, 0.875)
     assert small[3, 0, :2] == pytest.approx([float(a), float(b)], abs=1e-12)
 
 
@@ -206,14 +206,14 @@ def test_dfg_table_layout_and_speed():
 def test_white_metal_furnace_compensated_is_one():
     mu = np.array([1e-4, 0.05, 0.25, 0.5, 0.8, 1.0])
     r = np.array([[0.0], [0.045], [0.25], [0.5], [0.75], [1.0]])
-    out = mirror.furnace_expected(mu, 1.0, 1.0, r, multiscatter=True)
+    out = shading_model.furnace_expected(mu, 1.0, 1.0, r, multiscatter=True)
     assert out.shape == (6, 6, 3)
     assert np.abs(out - 1.0).max() < 1e-9
 
 
 @pytest.mark.parametrize("r, mu, e, a, b", DFG_TABLE)
 def test_white_metal_furnace_uncompensated_is_e(r, mu, e, a, b):
-    out = mirror.furnace_expected(mu, 1.0, 1.0, r, multiscatter=False)
+    out = shading_model.furnace_expected(mu, 1.0, 1.0, r, multiscatter=False)
     assert out == pytest.approx([e, e, e], abs=1e-5)
 
 
@@ -223,12 +223,12 @@ def test_furnace_lobes_compensated_separately():
     e = 0.85726
     a, b = 0.83492, 0.02235
     base = np.array([0.9, 0.5, 0.1])
-    c = float(mirror.dfg_integrate(mu, r)[2])
+    c = float(shading_model.dfg_integrate(mu, r)[2])
     comp = lambda f0: 1 + f0 * (1 / e - 1)
     diel = base * c + (0.04 * a + b) * comp(0.04)
     metal = (base * a + b) * comp(base)
     expect = 0.5 * diel + 0.5 * metal
-    got = mirror.furnace_expected(mu, base, 0.5, r)
+    got = shading_model.furnace_expected(mu, base, 0.5, r)
     assert got == pytest.approx(expect, abs=3e-5)
     f0_blend = 0.5 * 0.04 + 0.5 * base
     blended = 0.5 * base * c + (f0_blend * a + b) * comp(f0_blend)
@@ -238,7 +238,7 @@ def test_furnace_lobes_compensated_separately():
 def test_dielectric_literal_coupling_gains_energy_at_grazing():
     # REFERENCE §3: the literal Appendix-B coupling reflects more than 1. Assert it.
     for ms in (False, True):
-        out = mirror.furnace_expected(0.05, 1.0, 0.0, 0.045, multiscatter=ms)
+        out = shading_model.furnace_expected(0.05, 1.0, 0.0, 0.045, multiscatter=ms)
         assert (out > 1.0).all()
         assert (out > 1.5).all()  # not a rounding artefact: a large gain
 
@@ -252,7 +252,7 @@ def _mc_hemisphere(mu, base, metallic, r, multiscatter, n=200_000, seed=1):
     phi = 2 * np.pi * u2
     l = np.stack([st * np.cos(phi), st * np.sin(phi), ct], -1)
     v = np.broadcast_to(view_dir(mu), l.shape)
-    f = mirror.brdf(Z, v, l, base, metallic, r, multiscatter=multiscatter)
+    f = shading_model.brdf(Z, v, l, base, metallic, r, multiscatter=multiscatter)
     g = f * ct[:, None] * 2 * np.pi  # pdf = 1 / (2 pi)
     return g.mean(axis=0), g.std(axis=0) / math.sqrt(n)
 
@@ -261,7 +261,7 @@ def _mc_hemisphere(mu, base, metallic, r, multiscatter, n=200_000, seed=1):
 def test_monte_carlo_white_metal(r, mu, e):
     mean, se = _mc_hemisphere(mu, 1.0, 1.0, r, multiscatter=False)
     assert np.all(np.abs(mean - e) < 3 * se + 1e-5)
-    expect = mirror.furnace_expected(mu, 1.0, 1.0, r, multiscatter=False)
+    expect = shading_model.furnace_expected(mu, 1.0, 1.0, r, multiscatter=False)
     assert np.all(np.abs(mean - expect) < 3 * se)
     mean, se = _mc_hemisphere(mu, 1.0, 1.0, r, multiscatter=True)
     assert np.all(np.abs(mean - 1.0) < 3 * se)
@@ -270,7 +270,7 @@ def test_monte_carlo_white_metal(r, mu, e):
 def test_monte_carlo_mixed_material_matches_split_sum():
     base = np.array([0.9, 0.5, 0.1])
     mean, se = _mc_hemisphere(0.6, base, 0.5, 0.7, multiscatter=True, seed=3)
-    expect = mirror.furnace_expected(0.6, base, 0.5, 0.7, multiscatter=True)
+    expect = shading_model.furnace_expected(0.6, base, 0.5, 0.7, multiscatter=True)
     assert np.all(np.abs(mean - expect) < 3 * se)
 
 
@@ -280,25 +280,25 @@ def test_brdf_point_value():
     a = r * r
     d = 1 / (math.pi * a * a)
     vis = 0.5 / (1.0 + 1.0)  # NdotL = NdotV = 1: both square roots are 1
-    f = mirror.brdf(Z, Z, Z, base, 0.0, r)
+    f = shading_model.brdf(Z, Z, Z, base, 0.0, r)
     assert f == pytest.approx(base / math.pi * 0.96 + d * vis * 0.04, rel=1e-12)
-    f = mirror.brdf(Z, Z, Z, base, 1.0, r)
+    f = shading_model.brdf(Z, Z, Z, base, 1.0, r)
     assert f == pytest.approx(d * vis * base, rel=1e-12)
     # schlick-ggx at NdotL = NdotV = 1: Vis = 1/4 whatever k is.
-    f = mirror.brdf(Z, Z, Z, 1.0, 1.0, r, model="schlick-ggx")
+    f = shading_model.brdf(Z, Z, Z, 1.0, 1.0, r, model="schlick-ggx")
     assert f == pytest.approx([d / 4] * 3, rel=1e-12)
     # Roughness 0 is clamped to 0.045 before alpha.
-    assert mirror.brdf(Z, Z, Z, 1.0, 1.0, 0.0) == pytest.approx(mirror.brdf(Z, Z, Z, 1.0, 1.0, 0.045))
+    assert shading_model.brdf(Z, Z, Z, 1.0, 1.0, 0.0) == pytest.approx(shading_model.brdf(Z, Z, Z, 1.0, 1.0, 0.045))
     # e_spec overrides the integrated E: metal comp = 1 + base (1/E - 1).
-    plain = mirror.brdf(Z, Z, Z, base, 1.0, r)
-    comp = mirror.brdf(Z, Z, Z, base, 1.0, r, multiscatter=True, e_spec=0.5)
+    plain = shading_model.brdf(Z, Z, Z, base, 1.0, r)
+    comp = shading_model.brdf(Z, Z, Z, base, 1.0, r, multiscatter=True, e_spec=0.5)
     assert comp == pytest.approx(plain * (1 + base), rel=1e-12)
 
 
 def test_brdf_below_horizon_is_zero():
     l = np.array([0.6, 0.0, -0.8])
-    assert mirror.brdf(Z, view_dir(0.5), l, 1.0, 0.0, 0.5).tolist() == [0.0, 0.0, 0.0]
-    assert mirror.brdf(Z, view_dir(0.5), np.array([1.0, 0.0, 0.0]), 1.0, 1.0, 0.5).tolist() == [0, 0, 0]
+    assert shading_model.brdf(Z, view_dir(0.5), l, 1.0, 0.0, 0.5).tolist() == [0.0, 0.0, 0.0]
+    assert shading_model.brdf(Z, view_dir(0.5), np.array([1.0, 0.0, 0.0]), 1.0, 1.0, 0.5).tolist() == [0, 0, 0]
 
 
 def test_brdf_no_nan_at_edges():
@@ -307,10 +307,10 @@ def test_brdf_no_nan_at_edges():
             for mu in (0.0, 1e-6, 0.5, 1.0):
                 v = view_dir(mu)
                 ls = np.array([Z, np.array([-v[0], 0.0, v[2]]), np.array([1.0, 0.0, 0.0]),
-                               v, -v, np.array([0.0, 1.0, 0.0]), mirror.normalize([-1, 0, 1e-6])])
+                               v, -v, np.array([0.0, 1.0, 0.0]), shading_model.normalize([-1, 0, 1e-6])])
                 for metallic in (0.0, 1.0):
                     for ms in (False, True):
-                        f = mirror.brdf(Z, np.broadcast_to(v, ls.shape), ls, [1.0, 0.5, 0.0],
+                        f = shading_model.brdf(Z, np.broadcast_to(v, ls.shape), ls, [1.0, 0.5, 0.0],
                                         metallic, r, multiscatter=ms)
                         assert f.shape == (len(ls), 3)
                         assert np.isfinite(f).all(), (r, mu, metallic, ms)
@@ -389,12 +389,12 @@ def test_encode_srgb8():
 # --- helpers ------------------------------------------------------------------
 
 def test_helpers():
-    assert mirror.normalize([3.0, 0.0, 4.0]) == pytest.approx([0.6, 0.0, 0.8])
-    assert mirror.normalize(np.zeros(3)).tolist() == [0.0, 0.0, 0.0]
-    v = mirror.normalize([1.0, 0.0, 1.0])
+    assert shading_model.normalize([3.0, 0.0, 4.0]) == pytest.approx([0.6, 0.0, 0.8])
+    assert shading_model.normalize(np.zeros(3)).tolist() == [0.0, 0.0, 0.0]
+    v = shading_model.normalize([1.0, 0.0, 1.0])
     # GLSL convention: reflect(I, N) = I - 2 dot(N, I) N; the mirror direction of V is reflect(-V, N).
-    assert mirror.reflect(-v, Z) == pytest.approx([-v[0], 0.0, v[2]])
-    d = mirror.sample_sphere_cosine(np.random.default_rng(0), 100_000)
+    assert shading_model.reflect(-v, Z) == pytest.approx([-v[0], 0.0, v[2]])
+    d = shading_model.sample_sphere_cosine(np.random.default_rng(0), 100_000)
     assert d.shape == (100_000, 3)
     assert np.linalg.norm(d, axis=-1) == pytest.approx(np.ones(100_000))
     assert (d[:, 2] >= 0).all()

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Callable, Hashable
 
 
-class Kept:
+class ResultCache:
     """A dict of results bounded by their total size (``size(value)`` bytes); the most
     recently used last. At least the newest entry is kept, whatever its size."""
 

@@ -1,4 +1,4 @@
-"""Float64 numpy mirror of the GLSL shading (the display side, tone maps and encodings, is in
+"""Float64 numpy model of the GLSL shading (the display side, tone maps and encodings, is in
 sdfpbr.oracle.display).
 
 The oracle for the shader tests and the generator/validator of lookup tables.
