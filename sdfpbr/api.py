@@ -11,7 +11,7 @@ from . import __version__
 from .files import write_group
 from .image.io import check_outputs, hdr_writer, npz_writer, png_bytes, png_writer
 from .image.chart_labels import finish_labels, labelled_canvas
-from .shading.camera import frame
+from .shading.plan import render_plan
 from .gpu.render import RenderResult, check_memory
 from .gpu.session import Session, default_session
 from .spec.chart_spec import ChartSpec, as_spec, make_spec
@@ -79,11 +79,12 @@ def chart(spec: ChartSpec | str | Path | None = None, *, hdr: bool = False, aovs
     spec = make_spec(as_spec(spec), **options)
     check_memory(spec, aovs, hdr)   # before a GL context is made (some drivers reserve much address space)
     session = session or default_session(spec.backend, spec.device_index)
-    canvas = labelled_canvas(spec, frame(spec))
+    plan = render_plan(spec)   # the labels read its frame, the render all of it
+    canvas = labelled_canvas(spec, plan.frame)
     if canvas is None:
-        result = session.render(spec, aovs=aovs, hdr=hdr)
+        result = session.render(spec, aovs=aovs, hdr=hdr, plan=plan)
         return Chart(spec, result, result.image, session.renderer, session)
     # The render is drawn straight into the labelled chart's render area: no second image.
     image, (x, y) = canvas
-    result = session.render(spec, aovs=aovs, hdr=hdr, image=image[y:y + spec.height, x:x + spec.width])
-    return Chart(spec, result, finish_labels(spec, image, result.camera, (x, y)), session.renderer, session)
+    result = session.render(spec, aovs=aovs, hdr=hdr, image=image[y:y + spec.height, x:x + spec.width], plan=plan)
+    return Chart(spec, result, finish_labels(spec, image, result.frame, (x, y)), session.renderer, session)

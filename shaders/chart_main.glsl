@@ -28,11 +28,11 @@
 #include "catcher_fade.glsl"   // no seams between the cells' own floors
 #endif
 
-// Chart program: one fullscreen triangle per tile (CHART_STAGE fragment), or one invocation
+// Chart program: one fullscreen triangle per tile (CHART_SHADER fragment), or one invocation
 // per pixel of the tile (compute: where a GPU runs few fragment units, session.py picks it);
 // each pixel integrates its box, with SPP stratified rays or (ANALYTIC_AA) the silhouette's
 // exact coverage. Outputs linear HDR radiance + coverage, and the AOVs of the pixel-centre ray.
-#if CHART_STAGE == compute
+#if CHART_SHADER == compute
 layout(local_size_x = 8, local_size_y = 8) in;
 vec4 out_radiance;      // stored to the images by main() below
 vec4 out_normal_depth;
@@ -317,7 +317,7 @@ void chart_pixel(vec2 frag_coord) {
     loop_guard();   // last: whether all the loops above ran in full
 }
 
-#if CHART_STAGE == compute
+#if CHART_SHADER == compute
 #if HALF_RADIANCE
 layout(rgba16f, binding = 0) uniform image2D u_radiance_out;
 #else

@@ -10,14 +10,12 @@ import moderngl
 import numpy as np
 
 from ..cache import content_key
-from ..image.layout import BACKGROUND
-from ..shading import camera as camera_mod
-from ..shading.catcher import catcher_band_pixels
-from ..shading.cells import FLOOR_RETURN_G, cell_border_px, cell_grid, stage
-from ..shading.plan import has_alpha, has_shadow_catcher
+from ..image.colour import BACKGROUND
+from ..shading.camera import Camera
+from ..shading.cells import FLOOR_RETURN_G
+from ..shading.plan import ChartFrame
 from ..shading.material_table import material_table, upload as upload_materials
-from ..spec.chart_spec import MAX_GRID, ChartSpec, Quality
-from ..spec.material import exposure_axis
+from ..spec.chart_spec import MAX_GRID, ChartSpec
 from .ibl import Environment, make_environment
 from .programs import set_uniforms
 
@@ -145,8 +143,9 @@ class TargetPool:
         self._staging.clear()
 
 
-def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
+def chart_uniforms(frame: ChartFrame) -> dict:
     """The scene's uniforms: camera, grid, materials, ground, lights and the marching budget."""
+    spec, cam, q = frame.spec, frame.camera, frame.quality
     directional = [light for light in spec.lights if light.kind == "directional"]
     point = [light for light in spec.lights if light.kind == "point"]
     scene_size = max(spec.rows, spec.cols) * spec.spacing + 2 * spec.sphere_radius
@@ -155,7 +154,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_grid": (spec.cols, spec.rows),
         "u_radius": spec.sphere_radius,
         "u_spacing": spec.spacing,
-        "u_ground_y": camera_mod.ground_height(spec),
+        "u_ground_y": frame.ground_y,
         "u_ground_color": spec.ground_color,
         "u_ground_roughness": spec.ground_roughness,
         "u_spp": spec.spp,
@@ -169,11 +168,11 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
         "u_ao_radius": 0.5 * spec.sphere_radius,
         "u_env_intensity": spec.env_intensity,
     }
-    if stage(spec) == "cells":
-        u.update(cell_grid(spec).uniforms(spec.height))
+    if frame.stage == "cells":
+        u.update(frame.grid.uniforms(spec.height))
         u["u_floor_return"] = FLOOR_RETURN_G
-        if has_shadow_catcher(spec):
-            u["u_catcher_band"] = catcher_band_pixels(spec)
+        if frame.catcher_band is not None:
+            u["u_catcher_band"] = frame.catcher_band
     if directional:
         u["u_dir_light_direction"] = [light.direction for light in directional]
         u["u_dir_light_illuminance"] = [tuple(c * light.intensity for c in light.color) for light in directional]
@@ -189,7 +188,7 @@ def chart_uniforms(spec: ChartSpec, cam: camera_mod.Camera, q: Quality) -> dict:
 @dataclass
 class SceneBindings:
     """Uniforms and textures of one render of a scene; ``release`` frees what it uploaded."""
-    camera: camera_mod.Camera
+    camera: Camera
     environment: Environment
     uniforms: dict
     textures: list = field(default_factory=list)     # (sampler name, texture)
@@ -253,15 +252,14 @@ class SceneBindings:
         self.owned.clear()
 
 
-def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, uses_textures: bool,
-                   cache=None) -> SceneBindings:
-    """Bindings for ``spec``: camera, grid, lights and marching budget (from ``quality``), the
-    environment (a texture for file environments) and the surface maps when the program
-    composes them in (procedural ones kept in ``cache``, the session's ArrayCache)."""
-    cam = camera_mod.frame(spec)
-    env = make_environment(ctx, spec)
-    uniforms = chart_uniforms(spec, cam, quality)
-    bindings = SceneBindings(cam, env, {**uniforms, **env.uniforms})
+def scene_bindings(ctx: moderngl.Context, frame: ChartFrame, uses_textures: bool, cache=None) -> SceneBindings:
+    """Bindings for ``frame``'s scene: camera, grid, lights and marching budget, the environment
+    (a texture for file environments) and the surface maps when the program composes them in
+    (procedural ones kept in ``cache``, the session's ArrayCache)."""
+    spec = frame.spec
+    env = make_environment(ctx, frame)
+    uniforms = chart_uniforms(frame)
+    bindings = SceneBindings(frame.camera, env, {**uniforms, **env.uniforms})
     if env.texture is not None:
         bindings.add_texture("u_env_map", env.texture, owned=True, key=env.content)
     materials = material_table(spec.cell_materials())
@@ -276,14 +274,14 @@ def scene_bindings(ctx: moderngl.Context, spec: ChartSpec, quality: Quality, use
     return bindings
 
 
-def display_uniforms(spec: ChartSpec, origin: tuple[int, int] = (0, 0)) -> dict:
+def display_uniforms(frame: ChartFrame, origin: tuple[int, int] = (0, 0)) -> dict:
     """The display program's uniforms; ``origin``: the pass's pixel (0, 0) in the image."""
+    spec = frame.spec
     out = {"u_exposure_scale": 2.0 ** spec.exposure, "u_reinhard_white": spec.reinhard_white,
            "u_radiance": RADIANCE_UNIT, **({"u_backdrop_srgb": tuple(spec.backdrop)} if spec.backdrop else {})}
-    axis = exposure_axis(spec)
-    border = cell_border_px(spec, has_alpha(spec))
+    axis, border = frame.exposure_axis, frame.cell_border
     if axis or border:   # where the cells lie
-        out.update(cell_grid(spec).uniforms(spec.height), u_grid=(spec.cols, spec.rows), u_display_origin=origin)
+        out.update(frame.grid.uniforms(spec.height), u_grid=(spec.cols, spec.rows), u_display_origin=origin)
     if axis:   # each column's (row's) EV relative to the spec's
         ev = [v - spec.exposure for v in spec.axis_values(axis)]
         out.update(u_axis_ev=ev + [0.0] * (MAX_GRID - len(ev)))   # the array is MAX_GRID long
@@ -292,10 +290,10 @@ def display_uniforms(spec: ChartSpec, origin: tuple[int, int] = (0, 0)) -> dict:
     return out
 
 
-def display_pass(ctx: moderngl.Context, program, radiance, spec: ChartSpec, width: int, height: int,
+def display_pass(ctx: moderngl.Context, program, radiance, frame: ChartFrame, width: int, height: int,
                  pool: TargetPool | None = None, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
-    """Exposure, tone map and OETF of ``radiance`` (a float RGBA texture) through the display
-    program: (height, width, 4) uint8, top row first. ``pool``: where its target and the array
+    """Exposure, tone map and OETF of ``radiance`` (a float RGBA texture) of ``frame``'s chart
+    through the display program: (height, width, 4) uint8, top row first. ``pool``: where its target and the array
     it is read into come from (then the result is good until the pool's next read: copy it
     out); ``origin``: the texture's pixel (0, 0) in the image (a tile's, GL coordinates)."""
     ldr = pool.take(width, height, "f1") if pool else ctx.texture((width, height), 4)
@@ -304,7 +302,7 @@ def display_pass(ctx: moderngl.Context, program, radiance, spec: ChartSpec, widt
     try:
         fbo.use()
         radiance.use(RADIANCE_UNIT)
-        set_uniforms(program, display_uniforms(spec, origin))
+        set_uniforms(program, display_uniforms(frame, origin))
         vao.render(moderngl.TRIANGLES, vertices=3)
         return read_rgba(fbo, width, height, np.uint8, pool)
     finally:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Callable
 
 import moderngl
@@ -13,9 +12,9 @@ import numpy as np
 
 from ..cache import ArrayCache, content_key
 from ..errors import SpecError
-from ..inputs import check_input, read_input
+from ..image.env_file import MAX_ENV_RADIANCE, fit_texture, load_env_file
 from ..shading.compose import ComposedSource
-from ..shading.plan import IBLPlan, RenderPlan, env_option
+from ..shading.plan import ChartFrame, IBLPlan, RenderPlan
 from ..spec.chart_spec import ChartSpec
 from .gl import allocate_cube_levels, upload_cube_levels
 from .programs import ProgramCache, set_uniforms
@@ -44,95 +43,6 @@ def _groups(n: int) -> int:
     return (n + LOCAL - 1) // LOCAL
 
 
-MAX_ENV_TEXELS = 1 << 28       # 16384 x 16384: beyond this an environment file is refused
-MAX_ENV_RADIANCE = 1e30        # finite but larger values overflow the bakes' float32 sums
-
-
-def load_env_file(path: str | Path) -> np.ndarray:
-    """An equirectangular environment (.npy, .exr or Radiance .hdr) as float32 (H, W, 3), row 0
-    at the zenith. Real numbers only (integer or float dtypes), at most MAX_ENV_TEXELS texels
-    and MAX_ENV_RADIANCE; read lazily, so a header claiming a huge array is refused before
-    anything is allocated."""
-    path = check_input(path, "environment", "environment")   # a regular file, not a FIFO or device
-    suffix = path.suffix.lower()
-    if suffix == ".hdr":   # RGBE, decoded here (image.rgbe): its header is checked before its pixels
-        from ..image.rgbe import read_rgbe
-        data = read_rgbe(read_input(path, "environment", "environment"), path, MAX_ENV_TEXELS)
-    elif suffix == ".npy":
-        try:
-            data = np.load(path, mmap_mode="r")   # allow_pickle stays off: a pickle is refused, not run
-        except (OSError, ValueError, EOFError) as exc:
-            raise SpecError(f"cannot read environment {path} as an H x W x 3 array of radiance in .npy "
-                            f"(numpy: {str(exc).splitlines()[0]})") from None
-    else:
-        try:
-            import OpenEXR
-        except ImportError:
-            from ..extras import missing_extra
-            raise missing_extra("exr", "reading .exr environments", "or give a .hdr or .npy file") from None
-        _check_exr_size(path)
-        try:
-            with OpenEXR.File(str(path)) as f:
-                channels = f.channels()
-                if "RGB" in channels:
-                    data = channels["RGB"].pixels
-                elif "RGBA" in channels:
-                    data = channels["RGBA"].pixels[..., :3]
-                else:
-                    data = np.stack([channels[c].pixels for c in "RGB"], axis=-1)
-        except Exception as exc:
-            raise SpecError(f"cannot read environment {path} as an OpenEXR image with R, G and B "
-                            f"channels ({exc})") from None
-    if not isinstance(data, np.ndarray) or data.dtype.kind not in "iuf":
-        kind = getattr(data, "dtype", type(data))
-        raise SpecError(f"environment {path} must hold real numbers (integer or float), got {kind}")
-    if data.ndim != 3 or data.shape[2] < 3 or data.shape[0] < 2 or data.shape[1] < 2:
-        raise SpecError(f"environment {path} must be an H x W x 3 image, got shape {data.shape}")
-    if data.shape[0] * data.shape[1] > MAX_ENV_TEXELS:
-        raise SpecError(f"environment {path} is {data.shape[1]}x{data.shape[0]}; at most "
-                        f"{MAX_ENV_TEXELS} texels (16384 x 16384) are read: scale it down")
-    data = np.asarray(data[..., :3], dtype=np.float32)
-    if not np.all(np.isfinite(data)) or data.min() < 0 or data.max() > MAX_ENV_RADIANCE:
-        raise SpecError(f"environment {path} has negative, NaN, Inf or over-1e30 values")
-    return np.ascontiguousarray(data)
-
-
-def _check_exr_size(path: Path) -> None:
-    """Refuse an OpenEXR file whose header declares more than MAX_ENV_TEXELS, before its
-    pixels are decoded (a small file may declare a huge image)."""
-    import OpenEXR
-    try:
-        with OpenEXR.File(str(path), header_only=True) as f:
-            low, high = f.header()["dataWindow"]
-        width, height = int(high[0]) - int(low[0]) + 1, int(high[1]) - int(low[1]) + 1
-    except Exception as exc:   # the library raises its own types for a bad file
-        raise SpecError(f"cannot read environment {path} as an OpenEXR image ({exc})") from None
-    if width * height > MAX_ENV_TEXELS:
-        raise SpecError(f"environment {path} is {width}x{height}; at most {MAX_ENV_TEXELS} texels "
-                        f"(16384 x 16384) are read: scale it down")
-
-
-def fit_texture(data: np.ndarray, limit: int) -> np.ndarray:
-    """``data`` (H, W, C) with each side longer than ``limit`` texels area-averaged down to
-    ``limit`` (GL leaves a larger texture undefined: an all-black environment). Only a long
-    side shrinks: a 2 x 100000 environment becomes 2 x 16384, never 0 rows (a lat-long map is
-    sampled by its (u, v), whatever its aspect). The mean radiance is kept exactly."""
-    for axis in (0, 1):
-        n = data.shape[axis]
-        if n > limit:
-            d = np.moveaxis(data, axis, 0).astype(np.float64)
-            # Output texel i covers input [i n / limit, (i + 1) n / limit): the integral of
-            # the piecewise-constant input over it, from its running sum, over its width.
-            running = np.concatenate([np.zeros((1, *d.shape[1:])), np.cumsum(d, axis=0)], axis=0)
-            edges = np.arange(limit + 1) * (n / limit)
-            whole = np.minimum(np.floor(edges).astype(np.int64), n - 1)
-            part = (edges - whole).reshape(-1, *([1] * (d.ndim - 1)))
-            integral = running[whole] + part * d[whole]
-            out = (integral[1:] - integral[:-1]) * (limit / n)
-            data = np.ascontiguousarray(np.moveaxis(out, 0, axis).astype(np.float32))
-    return data
-
-
 def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:
     for light in spec.lights:
         if light.kind == "directional":
@@ -149,8 +59,9 @@ class Environment:
     content: str   # hash of what defines the radiance
 
 
-def make_environment(ctx: moderngl.Context, spec: ChartSpec) -> Environment:
-    option = env_option(spec)
+def make_environment(ctx: moderngl.Context, frame: ChartFrame) -> Environment:
+    """``frame``'s environment: its uniforms, and its file's texture where it is a file."""
+    spec, option = frame.spec, frame.env
     uniforms = {"u_env_intensity": spec.env_intensity}
     if option == "sky":   # only the sky has a sun: other environments keep one bake as lights turn
         uniforms["u_sun_direction"] = sun_direction(spec)
@@ -472,7 +383,8 @@ class IBLBaker:
                                    orbit=(orbit, turn))
 
     # ---- the floor parallax table ---------------------------------------------------------
-    def floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting, scene_uniforms: dict) -> moderngl.TextureCube:
+    def floor_parallax(self, plan: IBLPlan, lighting: EnvironmentLighting,
+                       scene_uniforms: dict) -> moderngl.TextureCube:
         """The cells stage's floor parallax table of a stage probe (floor_parallax_main.glsl): the
         irradiance each sphere point gets from the floor beyond what the probe's, seen from the
         centre, gives it. Baked from the probe's level 0 once per probe and cached on disk with

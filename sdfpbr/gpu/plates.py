@@ -20,10 +20,8 @@ import moderngl
 import numpy as np
 
 from ..cache import content_key
-from ..shading.camera import cell_sphere_box
-from ..shading.cells import cell_grid, plate_frame
 from ..shading.compose import ComposedSource
-from ..shading.plan import RenderPlan, bounce_step
+from ..shading.plan import RenderPlan
 from . import loop_guard
 from .frame import SceneBindings, array_key, table_texture
 from .programs import set_uniforms
@@ -193,7 +191,7 @@ def _floor_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     """The cells stage's floor, shaded once per cell pixel (stage_floor_main.glsl): a float
     texture of the plate's size, read back by every cell (bilinear filtering between texel
     centres, for the anti-aliased edges' and extra samples' positions)."""
-    origin, size = plate_frame(plan.spec)
+    origin, size = plan.frame.plate
     scene.uniforms["u_plate_origin"] = origin
     scene.replace_texture("u_floor_plate", *_plate_pass(session, plan, plan.floor_plate, scene, size, cached=cached))
 
@@ -205,10 +203,9 @@ def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     form factor, ~ 1/d^2 at distance d): with h = R / 8 between texels, bilinear interpolation
     errs by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
     (tests/test_stage.py)."""
-    spec = plan.spec
-    grid = cell_grid(spec)
-    origin, (width, height) = plate_frame(spec)
-    step = bounce_step(spec)
+    grid = plan.frame.grid
+    origin, (width, height) = plan.frame.plate
+    step = plan.bounce_step
     while True:   # coarser for an image so wide that the tiles would not fit one texture
         tile = (math.ceil((width - 0.5) / step) + 1, math.ceil((height - 0.5) / step) + 1)
         if max(grid.cols * tile[0], grid.rows * tile[1]) <= session.max_texture_size:
@@ -221,7 +218,8 @@ def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
 
 def _sphere_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     """Each slot's sphere at metallic 0 and 1 once per cell pixel (stage_sphere_main.glsl), and
-    the table of each cell's slot the chart mixes them by (shading/cells.py)."""
+    the table of each cell's slot the chart mixes them by (shading/cells.py), each tile over
+    the cell's pixels near its sphere (the frame's sphere box)."""
     layout = plan.sphere_layout
     ctx = session.ctx
     scene.uniforms.update(u_sphere_origin=layout.origin, u_sphere_tile=layout.tile, u_sphere_tiles_x=layout.tiles_x)
@@ -231,7 +229,7 @@ def _sphere_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     # for the floor's texels too (it runs both sides of a branch). Boxes, not the disc: it
     # shades a 4 x 4 block once for each triangle that covers part of it, so a disc's many
     # triangles cost more than the box's corners (measured: 28 -> 31-38 ms at 1024²).
-    x0, y0, x1, y1 = cell_sphere_box(plan.spec)
+    x0, y0, x1, y1 = plan.frame.sphere_box
     ox, oy = layout.origin
     tw, th = layout.tile
     x0, y0, x1, y1 = max(x0 - ox, 0), max(y0 - oy, 0), min(x1 - ox, tw), min(y1 - oy, th)

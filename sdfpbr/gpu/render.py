@@ -15,11 +15,9 @@ import moderngl
 import numpy as np
 
 from ..errors import SpecError
-from ..shading import camera as camera_mod
-from ..shading.silhouette import silhouette_ring, sphere_boxes
-from ..shading.cells import cell_grid
+from ..shading.camera import Camera
 from ..shading.compose import ComposedSource
-from ..shading.plan import RenderPlan, render_plan
+from ..shading.plan import ChartFrame, GridShapes, RenderPlan, render_plan
 from ..shading.sheen import sheen_centroid_uniform
 from ..spec.chart_spec import ChartSpec
 from .loop_guard import LoopGuard, cut_error
@@ -36,10 +34,14 @@ class RenderResult:
     alpha: np.ndarray | None # (H, W) coverage, read with hdr
     image: np.ndarray        # (H, W, 4) uint8 display image (sRGB)
     aov: dict                # normal, depth, row, col, roughness, metallic, ndotv, coverage ({}: not read)
-    camera: camera_mod.Camera
+    frame: ChartFrame        # where the render's spheres lie (its plan's frame)
     chart_source: ComposedSource
     display_source: ComposedSource
     timings: dict = field(default_factory=dict)
+
+    @property
+    def camera(self) -> Camera:
+        return self.frame.camera
 
 
 # Host bytes a pixel of a render holds: image 4 and the labelled chart 4 x ~1.4 (its margins
@@ -106,18 +108,18 @@ def render_chart(session, spec: ChartSpec, aovs: bool = True, plan: RenderPlan |
         timings["compile_s"] = time.perf_counter() - t0
 
         t1 = time.perf_counter()
-        scene = chart_scene(session, spec, plan)
+        scene = chart_scene(session, plan)
         try:
             timings["setup_s"] = time.perf_counter() - t1
             t2 = time.perf_counter()
             bind_frame(session, plan, scene, chart.programs)
-            radiance, alpha, image, aov = _draw(session, chart, display, spec, aovs, hdr, image)
+            radiance, alpha, image, aov = _draw(session, chart, display, plan.frame, aovs, hdr, image)
             timings["render_s"] = time.perf_counter() - t2
         finally:
             scene.release()
     finally:
         chart.release()
-    return RenderResult(radiance, alpha, image, aov, scene.camera, plan.chart, plan.display, timings)
+    return RenderResult(radiance, alpha, image, aov, plan.frame, plan.chart, plan.display, timings)
 
 
 def redisplay(session, spec: ChartSpec, source: RenderResult) -> RenderResult:
@@ -139,17 +141,17 @@ def redisplay(session, spec: ChartSpec, source: RenderResult) -> RenderResult:
         rgba[..., :3], rgba[..., 3] = source.hdr[where], source.alpha[where]
         radiance = ctx.texture((tw, th), 4, rgba[::-1].tobytes(), dtype="f4")   # GL rows run bottom-up
         try:
-            image[where] = display_pass(ctx, display, radiance, spec, tw, th, session.targets, origin=(x0, y0))
+            image[where] = display_pass(ctx, display, radiance, plan.frame, tw, th, session.targets, origin=(x0, y0))
         finally:
             radiance.release()
-    return RenderResult(source.hdr, source.alpha, image, {}, source.camera, source.chart_source, plan.display,
+    return RenderResult(source.hdr, source.alpha, image, {}, plan.frame, source.chart_source, plan.display,
                         {"render_s": time.perf_counter() - t0})
 
 
-def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
+def chart_scene(session, plan: RenderPlan) -> SceneBindings:
     """The scene's bindings with the lighting the chart program reads: DFG LUT, and the baked
     environment, ground table and stage probe where the plan has them (cached bakes)."""
-    scene = scene_bindings(session.ctx, spec, plan.quality, plan.options["USE_TEXTURES"], session.cache)
+    scene = scene_bindings(session.ctx, plan.frame, plan.options["USE_TEXTURES"], session.cache)
     if plan.options.get("SHEEN_LEAN"):   # where the sheen lobe gathers its light (lobes_ibl.glsl)
         scene.uniforms["u_sheen_centroid"] = sheen_centroid_uniform()
     try:
@@ -177,15 +179,14 @@ def chart_scene(session, spec: ChartSpec, plan: RenderPlan) -> SceneBindings:
 
 
 class GridInstances:
-    """Triangles given in one instance's frame, drawn once per instance on a grid
-    (grid_instances_vert.glsl) with ``program``, whose vertex stage that is."""
+    """``shapes`` (the plan's), drawn once per instance on a grid (grid_instances_vert.glsl)
+    with ``program``, whose vertex stage that is."""
 
-    def __init__(self, ctx, program, triangles: np.ndarray, instances: int, origin=(0, 0), step=(0, 0),
-                 per_row: int = 1):
-        self.program, self.instances = program, instances
-        self.uniforms = {"u_instance_origin": tuple(map(float, origin)), "u_instance_step": tuple(step),
-                         "u_instances_x": per_row}
-        self.buffer = ctx.buffer(np.ascontiguousarray(triangles, np.float32).tobytes())
+    def __init__(self, ctx, program, shapes: GridShapes):
+        self.program, self.instances = program, shapes.instances
+        self.uniforms = {"u_instance_origin": tuple(map(float, shapes.origin)), "u_instance_step": tuple(shapes.step),
+                         "u_instances_x": shapes.per_row}
+        self.buffer = ctx.buffer(np.ascontiguousarray(shapes.triangles, np.float32).tobytes())
         try:
             self.vao = ctx.vertex_array(program, [(self.buffer, "2f", "in_position")])
         except BaseException:
@@ -236,10 +237,10 @@ class ChartDraw:
     sphere's box, which draws over the spheres' pixels, then (EDGE_PIXELS) its edge pass over a
     ring round each silhouette, which draws over the silhouettes' pixels."""
 
-    def __init__(self, session, plan: RenderPlan, stage: str | None = None):
-        """``stage``: "fragment" or "compute" (None: the session's chart_stage)."""
+    def __init__(self, session, plan: RenderPlan, shader: str | None = None):
+        """``shader``: "fragment" or "compute" (None: the session's chart_shader)."""
         ctx = self.ctx = session.ctx
-        self.compute = (stage or session.chart_stage) == "compute"
+        self.compute = (shader or session.chart_shader) == "compute"
         self.vao = None
         self.session, self.spec = session, plan.spec
         # A supersampled pixel's samples go in as few draws as the renderer's loop limit allows
@@ -261,18 +262,12 @@ class ChartDraw:
         try:
             self.guard = LoopGuard(ctx)
             self.vao = ctx.vertex_array(self.program, [])
-            for source, shapes in ((plan.sphere_pass, sphere_boxes), (plan.edge_pass, silhouette_ring)):
+            for source, shapes in ((plan.sphere_pass, plan.sphere_shapes), (plan.edge_pass, plan.edge_shapes)):
                 if source is None:
                     continue
                 program = session.programs.fragment(source, plan.instances_vertex)
                 self.programs.append(program)
-                triangles, instances = shapes(plan.spec)
-                placement = {}
-                if plan.options["STAGE"] == "cells":   # a cell's shapes, once in each cell
-                    grid = cell_grid(plan.spec)
-                    placement = dict(origin=grid.uniforms(plan.spec.height)["u_grid_origin"],
-                                     step=(grid.cell_width, grid.cell_height), per_row=grid.cols)
-                self.overlays.append(GridInstances(ctx, program, triangles, instances, **placement))
+                self.overlays.append(GridInstances(ctx, program, shapes))
         except BaseException:
             self.release()
             raise
@@ -285,7 +280,8 @@ class ChartDraw:
         known = self.session.samples_per_draw
         per_draw = min(known.get(self.program_key, spp), spp)
         while True:
-            self._draw_samples(x0, y0, tw, th, targets, fbo, sample_ranges(spp, per_draw) if self.supersample else [None])
+            self._draw_samples(x0, y0, tw, th, targets, fbo,
+                               sample_ranges(spp, per_draw) if self.supersample else [None])
             cut = self.guard.cut()
             if not cut:
                 break
@@ -335,9 +331,10 @@ class ChartDraw:
         self.vao, self.overlays, self.guard = None, [], None
 
 
-def _draw(session, chart: ChartDraw, display, spec: ChartSpec, aovs: bool, read_hdr: bool,
+def _draw(session, chart: ChartDraw, display, frame: ChartFrame, aovs: bool, read_hdr: bool,
           image: np.ndarray | None):
     ctx, pool = session.ctx, session.targets
+    spec = frame.spec
     W, H = spec.width, spec.height
     # Tiles are read straight into the final arrays: no full-size 4-channel staging copies.
     hdr = np.empty((H, W, 3), np.float32) if read_hdr else None
@@ -356,7 +353,7 @@ def _draw(session, chart: ChartDraw, display, spec: ChartSpec, aovs: bool, read_
             where = image_slices(H, x0, y0, tw, th)
             # Targets are read through the framebuffer (glReadPixels) where there is one.
             source = targets if fbo is None else [fbo] * len(targets)
-            image[where] = display_pass(ctx, display, targets[0], spec, tw, th, pool, origin=(x0, y0))
+            image[where] = display_pass(ctx, display, targets[0], frame, tw, th, pool, origin=(x0, y0))
             if read_hdr:
                 radiance = read_rgba(source[0], tw, th, np.float16 if half else np.float32, pool)
                 hdr[where] = radiance[..., :3]

@@ -15,6 +15,7 @@ import moderngl
 
 from ..cache import ArrayCache
 from ..errors import SpecError
+from ..shading.plan import CHART_SHADERS
 from .gl import create_context, renderer_string
 from .ibl import IBLBaker
 from .programs import ProgramCache
@@ -22,20 +23,19 @@ from .frame import TargetPool
 from .render import TILE, RenderResult, redisplay, render_chart
 
 
-CHART_STAGES = ("fragment", "compute")
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swiftshader")
 
 
-def chart_stage_for(renderer: str) -> str:
+def chart_shader_for(renderer: str) -> str:
     """Which program draws the chart on a renderer: the compute shader on a hardware GPU (on
     an H100 the same raymarch loop ran 30.7x faster as a compute shader than as a fragment
     shader: few of its units run fragments), the fragment shader on a software rasterizer
     (llvmpipe: compute takes 0.95-1.08x the fragment path's time, so nothing is gained there;
-    BENCHMARKS.md). $SDFPBR_CHART_STAGE (fragment or compute) overrides the rule."""
-    forced = os.environ.get("SDFPBR_CHART_STAGE", "")
+    BENCHMARKS.md). $SDFPBR_CHART_SHADER (fragment or compute) overrides the rule."""
+    forced = os.environ.get("SDFPBR_CHART_SHADER", "")
     if forced:
-        if forced not in CHART_STAGES:
-            raise SpecError(f"SDFPBR_CHART_STAGE must be one of {', '.join(CHART_STAGES)}, got {forced!r}")
+        if forced not in CHART_SHADERS:
+            raise SpecError(f"SDFPBR_CHART_SHADER must be one of {', '.join(CHART_SHADERS)}, got {forced!r}")
         return forced
     return "fragment" if any(name in renderer.lower() for name in SOFTWARE_RENDERERS) else "compute"
 
@@ -43,7 +43,7 @@ def chart_stage_for(renderer: str) -> str:
 class Session:
     def __init__(self, ctx: moderngl.Context | None = None, cache: ArrayCache | None = None, *,
                  tile: int | None = None, backend: str = "auto", device_index: int = 0,
-                 chart_stage: str | None = None):
+                 chart_shader: str | None = None):
         self.ctx = ctx if ctx is not None else create_context(backend, device_index)
         self.backend = getattr(self.ctx, "extra", None) and self.ctx.extra.get("backend") or backend
         self.device_index = device_index
@@ -54,9 +54,9 @@ class Session:
         self.renderer = renderer_string(self.ctx)
         self.ibl = IBLBaker(self.ctx, self.programs, self.cache, self.renderer)
         self.tables: dict = {}   # GPU tables other integrators keep per session (the reference's)
-        if chart_stage is not None and chart_stage not in CHART_STAGES:
-            raise SpecError(f"chart_stage must be one of {', '.join(CHART_STAGES)}, got {chart_stage!r}")
-        self.chart_stage = chart_stage or chart_stage_for(self.renderer)   # see chart_stage_for
+        if chart_shader is not None and chart_shader not in CHART_SHADERS:
+            raise SpecError(f"chart_shader must be one of {', '.join(CHART_SHADERS)}, got {chart_shader!r}")
+        self.chart_shader = chart_shader or chart_shader_for(self.renderer)   # see chart_shader_for
         # Per chart program (its source's digest), how many of a pixel's samples one draw may
         # take within the renderer's loop limit (gpu/render.py ChartDraw, found where the limit
         # cut a draw short).
@@ -91,11 +91,12 @@ class Session:
         finally:
             self.lock.release()
 
-    def render(self, spec, aovs: bool = True, hdr: bool = True, image=None) -> RenderResult:
+    def render(self, spec, aovs: bool = True, hdr: bool = True, image=None, plan=None) -> RenderResult:
         """Render ``spec``, reading back the display image (into ``image`` when given) and what
-        else is asked (see gpu.render.render_chart)."""
+        else is asked (see gpu.render.render_chart); ``plan``: its render_plan, where the
+        caller has it (the labels read its frame first)."""
         with self:
-            return render_chart(self, spec, aovs, hdr=hdr, image=image)
+            return render_chart(self, spec, aovs, plan=plan, hdr=hdr, image=image)
 
     def redisplay(self, spec, source: RenderResult) -> RenderResult:
         """``spec``'s render from ``source``'s radiance (see gpu.render.redisplay)."""

@@ -1,44 +1,40 @@
-"""The labels around a chart render: where each sphere landed (the camera's projection of the
-grid), the title, the axis values and the footer of scene settings. The chart, the reference,
-sheets and animations all label through here."""
+"""The labels around a chart render: where each sphere landed (its frame's discs: the camera's
+projection of the grid), the title, the axis values and the footer of scene settings. The chart,
+the reference, sheets and animations all label through here, from the plan's frame."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from ..shading.camera import sphere_centers
-from ..shading.cells import cell_grid
-from ..shading.cells import stage
-from ..shading.plan import brdf_model
+from ..shading.plan import ChartFrame
 from ..spec.chart_spec import ChartSpec
-from ..spec.material import axis_param, exposure_axis
+from ..spec.material import axis_param
 from .layout import FOOTER_SEPARATOR, Cell, chart_canvas, compose_chart, name_cells
 
 
-def chart_cells(spec: ChartSpec, camera) -> list[Cell]:
+def chart_cells(frame: ChartFrame) -> list[Cell]:
     """Each sphere's projected centre and radius in pixels, row by row."""
-    if stage(spec) == "cells":   # one camera per cell: the sphere at the origin of each
-        grid = cell_grid(spec)
-        (x, y), s = (v[0] for v in camera.project(np.zeros((1, 3))))
-        return [Cell(r, c, float(grid.left + c * grid.cell_width + x), float(grid.top + r * grid.cell_height + y),
-                     float(spec.sphere_radius * s)) for r in range(spec.rows) for c in range(spec.cols)]
-    px, scale = camera.project(sphere_centers(spec).reshape(-1, 3))
-    return [Cell(i // spec.cols, i % spec.cols, float(x), float(y), float(spec.sphere_radius * s))
-            for i, ((x, y), s) in enumerate(zip(px, scale))]
+    centers, radii = frame.sphere_discs
+    rows, cols = radii.shape
+    return [Cell(r, c, float(centers[r, c, 0]), float(centers[r, c, 1]), float(radii[r, c]))
+            for r in range(rows) for c in range(cols)]
 
 
-def footer_scene_parts(spec: ChartSpec, brdf: str) -> list[str]:
+def footer_scene_parts(frame: ChartFrame) -> list[str]:
     """What the chart and the reference footers share: display and scene settings."""
-    env = spec.env if len(spec.env) < 40 else "…" + spec.env[-38:]
-    axis = exposure_axis(spec)
+    spec, axis = frame.spec, frame.exposure_axis
+    # A map file by its name: the folder it was read from is the machine's, not the chart's.
+    env = Path(spec.env).name if Path(spec.env).suffix else spec.env
+    env = env if len(env) < 40 else "…" + env[-38:]
     exposure = f"exposure {spec.exposure:+g} EV" if not axis else f"exposure per {'column' if axis == 'x' else 'row'}"
     return [f"tone map {spec.tonemap}", exposure, f"env {env}",
-            f"BRDF {brdf}" + ("" if spec.multiscatter else " (single scatter)")]
+            f"BRDF {frame.brdf_model}" + ("" if spec.multiscatter else " (single scatter)")]
 
 
-def footer_text(spec: ChartSpec) -> str:
-    parts = footer_scene_parts(spec, brdf_model(spec)) + [f"{spec.spp} spp"]
+def footer_text(frame: ChartFrame) -> str:
+    spec = frame.spec
+    parts = footer_scene_parts(frame) + [f"{spec.spp} spp"]
     if spec.quality != "default":
         parts.append(f"quality {spec.quality}")
     if spec.bugs:
@@ -77,35 +73,36 @@ def grid_words(rows: int, cols: int) -> str:
 
 
 def label(spec: ChartSpec, result, title: str | None = None, footer: str | None = None) -> np.ndarray:
-    """The labeled layout around a render (anything with .image and .camera)."""
+    """The labeled layout around a render (anything with .image and .frame)."""
     if not spec.labels:
         return result.image
-    layout = _layout(spec, result.camera, title, footer)
+    layout = _layout(spec, result.frame, title, footer)
     return compose_chart(result.image, cell_names=cell_names(spec), **layout)
 
 
-def labelled_canvas(spec: ChartSpec, camera, title: str | None = None,
+def labelled_canvas(spec: ChartSpec, frame: ChartFrame, title: str | None = None,
                     footer: str | None = None) -> tuple[np.ndarray, tuple[int, int]] | None:
-    """The labelled chart before its render, for a renderer to draw into: (chart, (x, y) of the
-    render area), or None for a spec without labels. finish_labels completes it."""
+    """The labelled chart before its render (``frame``: its plan's), for a renderer to draw
+    into: (chart, (x, y) of the render area), or None for a spec without labels. finish_labels
+    completes it."""
     if not spec.labels:
         return None
-    layout = _layout(spec, camera, title, footer)
+    layout = _layout(spec, frame, title, footer)
     return chart_canvas((spec.height, spec.width), **layout, on_disk=True)
 
 
-def finish_labels(spec: ChartSpec, chart: np.ndarray, camera, origin: tuple[int, int]) -> np.ndarray:
+def finish_labels(spec: ChartSpec, chart: np.ndarray, frame: ChartFrame, origin: tuple[int, int]) -> np.ndarray:
     """A labelled_canvas chart with its render drawn in: the glTF cells' names over it."""
     names = cell_names(spec)
-    return name_cells(chart, chart_cells(spec, camera), names, origin, (spec.height, spec.width),
+    return name_cells(chart, chart_cells(frame), names, origin, (spec.height, spec.width),
                       spec.backdrop or None) if names else chart
 
 
-def _layout(spec: ChartSpec, camera, title: str | None, footer: str | None) -> dict:
+def _layout(spec: ChartSpec, frame: ChartFrame, title: str | None, footer: str | None) -> dict:
     """compose_chart's layout arguments for ``spec`` (everything but the render)."""
     title = spec.title or title or default_title(spec)
-    footer = footer if footer is not None else footer_text(spec)
-    cells = chart_cells(spec, camera)
+    footer = footer if footer is not None else footer_text(frame)
+    cells = chart_cells(frame)
     if spec.gltf:   # named cells, no axes
         return dict(cells=cells, column_values=[], row_values=[], title=title, footer=footer,
                     transparent=spec.transparent, column_axis_title="", row_axis_title="",

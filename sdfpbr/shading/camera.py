@@ -1,5 +1,6 @@
-"""A camera that frames the sphere grid, and the projection the chart labels use.
-Both the shader (through these uniforms) and the layout use this one definition."""
+"""A camera that frames the sphere grid (or each cell's sphere), and the projection the chart
+labels use. Both the shader (through these uniforms) and the layout use this one definition;
+the plan picks a spec's camera once (shading/plan.py chart_frame)."""
 from __future__ import annotations
 
 import math
@@ -8,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..spec.chart_spec import ChartSpec
-from .cells import CELL_FILL, cell_grid, cell_sphere_radius_px, stage
+from .cells import CELL_FILL
 
 FOV_Y_DEG = 30.0
 MARGIN = 1.06
@@ -75,7 +76,7 @@ def sphere_centers(spec: ChartSpec) -> np.ndarray:
 def ground_height(spec: ChartSpec) -> float:
     """The floor's height: under the bottom row (shared stage), or under each sphere, which
     rests on it (cells stage, where every sphere sits at its own origin)."""
-    if stage(spec) == "cells":
+    if spec.stage == "cells":
         return -spec.sphere_radius
     return -0.5 * (spec.rows - 1) * spec.spacing - spec.sphere_radius
 
@@ -84,10 +85,11 @@ def ground_height(spec: ChartSpec) -> float:
 # Looking down this far keeps the floor's horizon above the top of every cell (the vertical
 # field of view is FOV_Y_DEG), so each sphere stands on a seamless floor.
 CELL_ELEVATION_DEG = 24.0
-def frame_cell(spec: ChartSpec) -> Camera:
-    """The camera of every cell: it looks at its sphere, centred at the origin, from above."""
-    grid = cell_grid(spec)
-    aspect = grid.cell_width / grid.cell_height
+def frame_cell(spec: ChartSpec, cell_size: tuple[int, int]) -> Camera:
+    """The camera of every cell, ``cell_size`` (width, height) pixels: it looks at its sphere,
+    centred at the origin, from above."""
+    cell_width, cell_height = cell_size
+    aspect = cell_width / cell_height
     need = spec.sphere_radius / CELL_FILL * max(1.0, 1.0 / aspect)
     elev, azim = math.radians(CELL_ELEVATION_DEG), math.radians(spec.camera_azimuth)
     forward = np.array([-math.sin(azim) * math.cos(elev), -math.sin(elev), -math.cos(azim) * math.cos(elev)])
@@ -95,10 +97,10 @@ def frame_cell(spec: ChartSpec) -> Camera:
     up = np.cross(right, forward)
     if spec.camera == "orthographic":
         position = -forward * 8.0 * spec.sphere_radius * spec.camera_distance_scale
-        return Camera(position, right, up, forward, need, True, grid.cell_width, grid.cell_height)
+        return Camera(position, right, up, forward, need, True, cell_width, cell_height)
     tan_half = math.tan(math.radians(FOV_Y_DEG) / 2)
     distance = need / tan_half * spec.camera_distance_scale
-    return Camera(-forward * distance, right, up, forward, tan_half, False, grid.cell_width, grid.cell_height)
+    return Camera(-forward * distance, right, up, forward, tan_half, False, cell_width, cell_height)
 
 
 def silhouette(cam: Camera, centre, radius: float, points: int = 256) -> np.ndarray:
@@ -121,49 +123,36 @@ def silhouette(cam: Camera, centre, radius: float, points: int = 256) -> np.ndar
     return np.stack([px[:, 0], cam.height - px[:, 1]], axis=-1)
 
 
-def cell_sphere_box(spec: ChartSpec, pad: float = 2.0) -> tuple[int, int, int, int]:
-    """The pixels of a cell (GL frame: x right, y up from the cell's lower-left) whose box
-    comes within ``pad`` px of its sphere's silhouette: (x0, y0, x1, y1), x1 and y1 past the
-    end. The silhouette is projected from 256 of its points, whose polygon's edges pass
-    within ring (1 - cos(pi / 256)) of the circle: far under pad."""
-    px = silhouette(frame_cell(spec), np.zeros(3), spec.sphere_radius)
+def cell_sphere_box(cam: Camera, radius: float, pad: float = 2.0) -> tuple[int, int, int, int]:
+    """The pixels of a cell seen by ``cam`` (GL frame: x right, y up from the cell's lower-left)
+    whose box comes within ``pad`` px of the silhouette of its sphere of ``radius``: (x0, y0,
+    x1, y1), x1 and y1 past the end. The silhouette is projected from 256 of its points, whose
+    polygon's edges pass within ring (1 - cos(pi / 256)) of the circle: far under pad."""
+    px = silhouette(cam, np.zeros(3), radius)
     x0, x1 = px[:, 0].min() - pad, px[:, 0].max() + pad
     y0, y1 = px[:, 1].min() - pad, px[:, 1].max() + pad
     return math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1)
 
 
-def frame(spec: ChartSpec) -> Camera:
-    """The camera a render of ``spec`` uses: the grid's, or each cell's."""
-    return frame_cell(spec) if stage(spec) == "cells" else frame_grid(spec)
+def sphere_discs(cam: Camera, centers: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres of ``radius`` at ``centers`` (..., 3) on ``cam``'s image: (..., 2) centres and
+    (...) radii in pixels (the projection's scale at each centre; <= 0 behind the camera)."""
+    px, scale = cam.project(centers.reshape(-1, 3))
+    return px.reshape(*centers.shape[:-1], 2), (radius * scale).reshape(centers.shape[:-1])
 
 
-def _sphere_discs(spec: ChartSpec) -> tuple[np.ndarray, np.ndarray]:
-    """The shared stage's spheres on the image: (rows, cols, 2) centres and (rows, cols) radii in
-    pixels (the projection's scale at each centre; <= 0 behind the camera)."""
-    px, scale = frame_grid(spec).project(sphere_centers(spec).reshape(-1, 3))
-    return px.reshape(spec.rows, spec.cols, 2), (spec.sphere_radius * scale).reshape(spec.rows, spec.cols)
-
-
-def sphere_radius_px(spec: ChartSpec) -> float:
-    """About how many pixels the smallest sphere's radius spans on the image."""
-    if stage(spec) == "cells":
-        return cell_sphere_radius_px(spec)
-    return float(_sphere_discs(spec)[1].min())
-
-
-def silhouettes_apart(spec: ChartSpec) -> bool:
+def silhouettes_apart(px: np.ndarray, radius: np.ndarray) -> bool:
     """Whether every pixel lies near one sphere's silhouette at most: no two neighbouring
-    spheres come within a pixel of each other on the image (the cells stage's never do; the
+    spheres of a grid, (rows, cols, 2) centres ``px`` and (rows, cols) radii ``radius`` on the
+    image (sphere_discs), come within a pixel of each other (the cells stage's never do; the
     shared stage's may, seen from far round or above). The analytic edge needs it."""
-    if stage(spec) == "cells":
-        return True
-    px, radius = _sphere_discs(spec)
     if np.any(radius <= 0):
         return False
+    rows, cols = radius.shape
     radius = radius * 1.02   # perspective widens
     for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a = (slice(0, spec.rows - dr), slice(max(0, -dc), spec.cols - max(0, dc)))
-        b = (slice(dr, spec.rows), slice(max(0, dc), spec.cols + min(0, dc)))
+        a = (slice(0, rows - dr), slice(max(0, -dc), cols - max(0, dc)))
+        b = (slice(dr, rows), slice(max(0, dc), cols + min(0, dc)))
         gap = np.linalg.norm(px[a] - px[b], axis=-1) - radius[a] - radius[b]
         if gap.size and gap.min() < 1.0:
             return False

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..spec.chart_spec import ChartSpec, make_spec
 from .camera import frame_cell
-from .cells import cell_grid
+from .cells import CellGrid
 
 CATCHER_BAND_MIN = 0.07
 CATCHER_BAND_MAX = 0.25    # the sphere's silhouette starts at 0.19 of a square cell's width
@@ -32,21 +32,20 @@ MAIN_LIGHT_SHARE = 0.25
 SHADOW_GRID = 128          # floor points across the cell's shorter side where the shadows are found
 
 
-def catcher_bands(spec: ChartSpec) -> tuple[float, float, float, float]:
-    """(left, right, top, bottom): each border's fade band as a share of the cell's width (left,
-    right) or height (top, bottom)."""
-    grid = cell_grid(spec)
-    scale = min(SHADOW_GRID / min(grid.cell_width, grid.cell_height), 8 * SHADOW_GRID / max(grid.cell_width, grid.cell_height))
+def catcher_bands(spec: ChartSpec, grid: CellGrid) -> tuple[float, float, float, float]:
+    """(left, right, top, bottom): each border's fade band as a share of the width (left, right)
+    or height (top, bottom) of a cell of ``grid``, ``spec``'s cells."""
+    scale = min(SHADOW_GRID / min(grid.cell_width, grid.cell_height),
+                8 * SHADOW_GRID / max(grid.cell_width, grid.cell_height))
     w, h = max(2, round(grid.cell_width * scale)), max(2, round(grid.cell_height * scale))
     return _bands(spec.camera, spec.camera_azimuth, spec.camera_distance_scale, spec.sphere_radius, w, h,
                   tuple(main_lights(spec)))
 
 
-def catcher_band_pixels(spec: ChartSpec) -> tuple[float, float, float, float]:
+def catcher_band_pixels(spec: ChartSpec, grid: CellGrid) -> tuple[float, float, float, float]:
     """catcher_fade.glsl's u_catcher_band: the bands in pixels, (left, right, bottom, top) in GL
     order (y up)."""
-    grid = cell_grid(spec)
-    left, right, top, bottom = catcher_bands(spec)
+    left, right, top, bottom = catcher_bands(spec, grid)
     return (left * grid.cell_width, right * grid.cell_width, bottom * grid.cell_height, top * grid.cell_height)
 
 
@@ -73,7 +72,7 @@ def _bands(camera: str, azimuth: float, distance_scale: float, radius: float, wi
            lights: tuple) -> tuple[float, float, float, float]:
     spec = make_spec(stage="cells", rows=1, cols=1, width=width, height=height, camera=camera,
                      camera_azimuth=azimuth, camera_distance_scale=distance_scale, sphere_radius=radius)
-    ro, rd = frame_cell(spec).pixel_rays()
+    ro, rd = frame_cell(spec, (width, height)).pixel_rays()
     down = rd[..., 1] < 0
     t = np.where(down, (-radius - ro[..., 1]) / np.where(down, rd[..., 1], -1.0), 0.0)
     points = ro + t[..., None] * rd                       # the floor point of each pixel (the sphere at the origin)
@@ -107,5 +106,6 @@ def band_for_shadow_at(depth: float, margin: float) -> float:
     border: up to ``margin`` short of it, between CATCHER_BAND_MIN and CATCHER_BAND_MAX; a
     shadow inside the narrowest band widens it linearly, to CATCHER_BAND_MAX at depth 0."""
     if depth < CATCHER_BAND_MIN:   # depth >= 0: a share of the cell
-        return float(CATCHER_BAND_MIN + (CATCHER_BAND_MAX - CATCHER_BAND_MIN) * (CATCHER_BAND_MIN - depth) / CATCHER_BAND_MIN)
+        return float(CATCHER_BAND_MIN
+                     + (CATCHER_BAND_MAX - CATCHER_BAND_MIN) * (CATCHER_BAND_MIN - depth) / CATCHER_BAND_MIN)
     return float(min(max(depth - margin, CATCHER_BAND_MIN), CATCHER_BAND_MAX))

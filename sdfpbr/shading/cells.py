@@ -1,6 +1,6 @@
 """The cells stage's layout in the image: rows x cols cells of whole pixels (so cells are
-shifted copies of one another) and how large each cell's sphere appears. Read by the camera,
-the plan (the bounce plate's grid), the renderer and the labels."""
+shifted copies of one another) and how large each cell's sphere appears. The plan resolves a
+spec's grid here once (shading/plan.py chart_frame); everything else takes that grid."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,11 +22,6 @@ FLOOR_RETURN_G = (3.14159, 2.39706, 1.81598, 1.39546, 1.08806, 0.85885, 0.68457,
                   0.35996, 0.29254, 0.23801, 0.19361, 0.15728, 0.12744, 0.10286, 0.0826, 0.0659,
                   0.05214, 0.04084, 0.03159, 0.02407, 0.018, 0.01315, 0.00933, 0.00638, 0.00415,
                   0.00252, 0.00138, 0.00065, 0.00022, 0.00004, 0.0)
-
-
-def stage(spec: ChartSpec) -> str:
-    """The stage a chart renders (one place to ask, as for the other resolved settings)."""
-    return spec.stage
 
 
 @dataclass(frozen=True)
@@ -57,11 +52,10 @@ def cell_grid(spec: ChartSpec) -> CellGrid:
                     (spec.height - spec.rows * h) // 2)
 
 
-def cell_sphere_radius_px(spec: ChartSpec) -> float:
+def cell_sphere_radius_px(grid: CellGrid, distance_scale: float) -> float:
     """About how many pixels the cells stage's sphere's radius spans on the image: CELL_FILL of
-    the cell's half side, less as the camera backs off."""
-    grid = cell_grid(spec)
-    return CELL_FILL * min(grid.cell_width, grid.cell_height) / 2 / spec.camera_distance_scale
+    the cell's half side, less as the camera backs off (``distance_scale``)."""
+    return CELL_FILL * min(grid.cell_width, grid.cell_height) / 2 / distance_scale
 
 
 # Each cell is its own view of the stage, so where one cell's near floor meets the next cell's
@@ -74,25 +68,23 @@ CELL_BORDER_PER_PX = 1 / 100    # border per pixel of a cell's shorter side (>= 
 CELL_BORDER_MIN_CELL = 16       # cells smaller than this get none: it would be much of the cell
 
 
-def cell_border_px(spec: ChartSpec, has_alpha: bool) -> int:
-    """The page-colour border round each cell of ``spec``'s image, in pixels (0: none);
-    ``has_alpha``: the image is transparent or laid onto a backdrop."""
-    grid = cell_grid(spec)
+def cell_border_px(grid: CellGrid, framed: bool) -> int:
+    """The page-colour border round each cell of ``grid``, in pixels (0: none); ``framed``: the
+    chart frames its cells (an opaque cells-stage image whose spec keeps cell_borders)."""
     side = min(grid.cell_width, grid.cell_height)
-    if not spec.cell_borders or has_alpha or stage(spec) != "cells" or side < CELL_BORDER_MIN_CELL:
+    if not framed or side < CELL_BORDER_MIN_CELL:
         return 0
     return max(1, round(side * CELL_BORDER_PER_PX))
 
 
-def cell_border_mask(spec: ChartSpec, has_alpha: bool, rows: slice = slice(None)) -> np.ndarray:
-    """(rows, width) bool, image rows top first: the pixels the border covers, the margins beyond
-    the grid included (what shaders/cell_border.glsl paints), over ``rows`` of the image."""
-    border = cell_border_px(spec, has_alpha)
-    y = np.arange(spec.height)[rows][:, None]
+def cell_border_mask(grid: CellGrid, border: int, width: int, height: int, rows: slice = slice(None)) -> np.ndarray:
+    """(rows, width) bool, image rows top first: the pixels a ``border`` px wide frame round each
+    cell covers, the margins beyond the grid included (what shaders/cell_border.glsl paints),
+    over ``rows`` of the ``width`` x ``height`` image."""
+    y = np.arange(height)[rows][:, None]
     if border == 0:
-        return np.zeros((len(y), spec.width), bool)
-    grid = cell_grid(spec)
-    x = np.arange(spec.width)[None, :] - grid.left
+        return np.zeros((len(y), width), bool)
+    x = np.arange(width)[None, :] - grid.left
     y = y - grid.top
 
     def framed(at, cell, count):
@@ -101,13 +93,12 @@ def cell_border_mask(spec: ChartSpec, has_alpha: bool, rows: slice = slice(None)
     return framed(x, grid.cell_width, grid.cols) | framed(y, grid.cell_height, grid.rows)
 
 
-def plate_frame(spec: ChartSpec) -> tuple[tuple[int, int], tuple[int, int]]:
+def plate_frame(grid: CellGrid, width: int, height: int) -> tuple[tuple[int, int], tuple[int, int]]:
     """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
-    size of one cell plus the image's margins beyond the grid (the outer cells' pixels there
-    see the floor further out)."""
-    grid = cell_grid(spec)
-    bottom = spec.height - grid.top - grid.rows * grid.cell_height
-    right = spec.width - grid.left - grid.cols * grid.cell_width
+    size of one cell of ``grid`` plus the margins of the ``width`` x ``height`` image beyond it
+    (the outer cells' pixels there see the floor further out)."""
+    bottom = height - grid.top - grid.rows * grid.cell_height
+    right = width - grid.left - grid.cols * grid.cell_width
     return (-grid.left, -bottom), (grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top)
 
 
@@ -139,9 +130,10 @@ class SpherePlate:
         return self.tiles_x * self.tile[0], self.tiles_y * self.tile[1]
 
 
-def sphere_plate(spec: ChartSpec) -> SpherePlate | None:
-    """The sphere plate's slots and layout for ``spec``'s cells, or None where it would not
-    save shading or would not fit (then every sphere pixel is shaded where it is drawn)."""
+def sphere_plate(spec: ChartSpec, plate: tuple[tuple[int, int], tuple[int, int]]) -> SpherePlate | None:
+    """The sphere plate's slots and layout for ``spec``'s cells, each tile over ``plate``
+    (plate_frame), or None where it would not save shading or would not fit (then every sphere
+    pixel is shaded where it is drawn)."""
     from .material_table import material_table
     table = material_table(spec.cell_materials())          # (cells, texels, 4) as the GPU reads it
     table[:, 0, 3] = 0.0                                   # metallic aside: the rest picks the slot
@@ -152,7 +144,7 @@ def sphere_plate(spec: ChartSpec) -> SpherePlate | None:
     slots = np.array([order[row.tobytes()] for row in table]).reshape(spec.rows, spec.cols)
     if 2 * len(first) >= spec.rows * spec.cols:
         return None
-    origin, tile = plate_frame(spec)
+    origin, tile = plate
     tiles = 2 * len(first)
     if tiles * tile[0] * tile[1] * 16 > SPHERE_PLATE_MAX_BYTES:
         return None

@@ -1,48 +1,61 @@
-"""The program plan: from a spec to every GL program a render runs, composed, with its options.
+"""The program plan: from a spec to every GL program a render runs, composed, with its options,
+and the frame they draw.
 
-This is the one place that resolves a spec into shader terms: the quality preset, the BRDF
-model it may force, the bugs it implies, tone-map and model names as GLSL words, which
-features are composed in, and which bake programs (environment cubemap, GGX prefilter, SH9
-irradiance, DFG LUT, cache copies) exist. Rendering, the IBL bakes, the build cache key, the
-reference and ``sdfpbr shader`` all read a plan; none decides this again.
+This is the one place that resolves a spec: the quality preset, the BRDF model it may force,
+the bugs it implies, tone-map and model names as GLSL words, which features are composed in,
+which bake programs (environment cubemap, GGX prefilter, SH9 irradiance, DFG LUT, cache
+copies) exist, and the frame (ChartFrame): the cell grid and camera, the floor, the page, the
+cells stage's plates and the chart's passes' shapes. Rendering, the IBL bakes, the build cache
+key, the labels, the reference and ``sdfpbr shader`` all read a plan; none decides this again.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
+import numpy as np
+
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
 from ..spec.material import exposure_axis, spec_lobes, spec_see_through
-from ..spec.presets import PROCEDURAL_MAPS
-from . import camera
-from .camera import sphere_radius_px
-from .cells import FLOOR_RETURN_G, SpherePlate, cell_border_px, cell_sphere_radius_px, sphere_plate, stage
+from ..spec.presets import (BRDF_MODELS, CAMERAS, INTERSECTIONS, NORMAL_METHODS, PROCEDURAL_MAPS, STAGES, TONE_MAPPERS,
+                            glsl_word)
+from .camera import (Camera, cell_sphere_box, frame_cell, frame_grid, ground_height, silhouettes_apart,
+                     sphere_centers, sphere_discs)
+from .catcher import catcher_band_pixels
+from .cells import (FLOOR_RETURN_G, CellGrid, SpherePlate, cell_border_mask, cell_border_px, cell_grid,
+                    cell_sphere_radius_px, plate_frame, sphere_plate)
+from .silhouette import SILHOUETTE_RING_PAD_PX, box_triangles, silhouette_ring
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
 from .sheen import SHEEN_CENTROID_STEPS
+
+# Which shader draws the chart: a fragment shader over each tile, or the same code as a compute
+# shader (gpu/session.py chooses per renderer).
+CHART_SHADERS = ("fragment", "compute")
 
 # Every shader option, the values it may take, and the switches the bug catalog adds (off
 # unless a plan sets them). The composer checks options against this, so a typo in Python or
 # GLSL fails before the driver sees it.
 SCHEMA = OptionSchema(
     choices={
-        "BRDF_MODEL": ("gltf", "schlick_ggx"),
-        "TONEMAP": ("none", "clamp", "reinhard", "reinhard_extended", "aces", "aces_hill", "neutral"),
-        "ENV": ("studio", "sky", "uniform", "black", "file"),
-        "CAMERA": ("perspective", "orthographic"),
-        "NORMAL_METHOD": ("tetrahedron", "central"),
+        "BRDF_MODEL": tuple(glsl_word(m) for m in BRDF_MODELS),
+        "TONEMAP": tuple(t.glsl for t in TONE_MAPPERS),
+        "ENV": (*ENV_PRESETS, "file"),
+        "CAMERA": CAMERAS,
+        "NORMAL_METHOD": NORMAL_METHODS,
         "COPY_DIRECTION": ("to_cube", "from_cube"),
-        "INTERSECT": ("analytic", "march"),
+        "INTERSECT": INTERSECTIONS,
         "AO_METHOD": ("analytic", "sdf"),
         "SCENE_SDF": ("nearest_cell", "all_spheres"),
         "IBL_METHOD": ("split_sum", "sampled"),
         "IBL_DOMINANT_DIR": ("none", "frostbite", "moments"),
         "PREFILTER_KERNEL": ("cosine", "brdf"),
-        "STAGE": ("shared", "cells"),
-        "CHART_STAGE": ("fragment", "compute"),
+        "STAGE": STAGES,
+        "CHART_SHADER": CHART_SHADERS,
         "EXPOSURE_AXIS": ("none", "x", "y"),
         "EDGE_PIXELS": ("inline", "skipped", "only"),
         "SPHERE_PIXELS": ("inline", "skipped", "only"),
@@ -54,7 +67,8 @@ SCHEMA = OptionSchema(
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
             "HIDDEN_SKY_SAMPLES",
-            "SPHERE_SAMPLES", "EDGE_SAMPLES", "FLOOR_RETURN_STEPS", "SHEEN_CENTROID_MU_STEPS", "SHEEN_CENTROID_R_STEPS"),
+            "SPHERE_SAMPLES", "EDGE_SAMPLES", "FLOOR_RETURN_STEPS", "SHEEN_CENTROID_MU_STEPS",
+            "SHEEN_CENTROID_R_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
@@ -66,12 +80,8 @@ SCHEMA = OptionSchema(
 LOBE_OPTIONS = {"clearcoat": "CLEARCOAT", "sheen": "SHEEN", "specular": "KHR_SPECULAR", "emission": "EMISSION"}
 
 
-def glsl_word(name: str) -> str:
-    """A spec value as the GLSL option value: 'aces-hill' -> 'aces_hill'."""
-    return name.replace("-", "_")
-
-
-def compose_program(main: str, options: Mapping[str, Value] | None = None, *, root: Path | None = None) -> ComposedSource:
+def compose_program(main: str, options: Mapping[str, Value] | None = None, *,
+                    root: Path | None = None) -> ComposedSource:
     """Compose ``main`` with ``options`` checked against SCHEMA."""
     return compose(main, options, SCHEMA, root=root)
 
@@ -85,37 +95,6 @@ def quality(spec: ChartSpec) -> Quality:
 def brdf_model(spec: ChartSpec) -> str:
     """The BRDF the chart shades with: the spec's, unless its quality preset forces one."""
     return quality(spec).brdf or spec.brdf
-
-
-def has_alpha(spec: ChartSpec) -> bool:
-    """Whether the chart program renders coverage and a shadow catcher instead of a background
-    and a floor: for a transparent image, or one the display pass lays onto a backdrop colour."""
-    return spec.transparent or bool(spec.backdrop)
-
-
-def has_shadow_catcher(spec: ChartSpec) -> bool:
-    """A render with alpha keeps of its floor only the light its spheres take away."""
-    return has_alpha(spec) and spec.ground
-
-
-def bounce_step(spec: ChartSpec) -> int:
-    """Cell pixels between the bounce plate's texels (stage_bounce_main.glsl): the preset's
-    bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no plate), where the
-    sphere is too small for a coarser grid to save anything."""
-    q = quality(spec)
-    if q.bounce_texels <= 0:
-        return 1
-    return max(1, int(cell_sphere_radius_px(spec) // q.bounce_texels))
-
-
-def sphere_samples(spec: ChartSpec) -> int:
-    """Points per pixel edge a chart averages inside a sphere's silhouette (the cells stage's
-    sphere plate, or the chart where it shades the sphere): more where the spheres are small,
-    as the preset's sphere_samples_radius says."""
-    q = quality(spec)
-    if q.sphere_samples_radius <= 0:
-        return 1
-    return max(1, min(4, round(q.sphere_samples_radius / max(sphere_radius_px(spec), 1e-6))))
 
 
 def active_bugs(spec: ChartSpec) -> tuple[str, ...]:
@@ -143,6 +122,90 @@ def uses_analytic_intersection(spec: ChartSpec) -> bool:
     return forced == "analytic" if forced else spec.intersect in ("auto", "analytic")
 
 
+# ---- the frame -----------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class ChartFrame:
+    """A chart's scene as its image frames it, resolved once from its spec (chart_frame): the
+    quality preset and BRDF model, the stage, the cells on the image and the camera, the floor,
+    the spheres' discs, the page (alpha, cell borders, the shadow catcher's fade) and the cells
+    stage's plates. The options, the renderer, the plates, the labels and the reference read
+    it; none derives these from the spec again."""
+    spec: ChartSpec               # the scene's own values: lights, colours, sizes
+    quality: Quality              # its quality preset
+    brdf_model: str               # spec value ('gltf', 'schlick-ggx') after the preset
+    env: str                      # ENV option: a preset name or 'file'
+    stage: str                    # 'cells' or 'shared'
+    grid: CellGrid                # the image's rows x cols cells (either stage: borders, exposure axis)
+    camera: Camera                # every cell's (cells stage) or the grid's
+    ground_y: float               # the floor's height
+    sphere_discs: tuple[np.ndarray, np.ndarray]   # the spheres on the image: (rows, cols, 2) centres, radii, px
+    sphere_radius_px: float       # about how many pixels the smallest sphere's radius spans
+    silhouettes_apart: bool       # no two spheres within a pixel of each other: the analytic edge needs it
+    has_alpha: bool               # coverage and a shadow catcher instead of a background and a floor
+    shadow_catcher: bool          # and a floor: it keeps only the light its spheres take away
+    cell_border: int              # px of page colour round each cell (0: none)
+    exposure_axis: str | None     # 'x' or 'y' where exposure is an axis
+    plate: tuple[tuple[int, int], tuple[int, int]] | None = None   # cells stage: the plates' origin, size (plate_frame)
+    sphere_box: tuple[int, int, int, int] | None = None            # cells stage: a cell's pixels near its sphere
+    catcher_band: tuple[float, float, float, float] | None = None  # cells stage with a catcher: its fade bands, px
+
+    def border_mask(self, rows: slice = slice(None)) -> np.ndarray:
+        """(rows, width) bool over ``rows`` of the image: the pixels the cell borders cover."""
+        return cell_border_mask(self.grid, self.cell_border, self.spec.width, self.spec.height, rows)
+
+
+def chart_frame(spec: ChartSpec) -> ChartFrame:
+    """``spec``'s frame. A render with alpha (a transparent image, or one the display pass lays
+    onto a backdrop colour) renders coverage and a shadow catcher instead of a background and a
+    floor; an opaque cells-stage image frames its cells in the page colour."""
+    grid = cell_grid(spec)
+    alpha = spec.transparent or bool(spec.backdrop)
+    catcher = alpha and spec.ground
+    cells = spec.stage == "cells"
+    common = dict(spec=spec, quality=quality(spec), brdf_model=brdf_model(spec), env=env_option(spec),
+                  stage=spec.stage, grid=grid, ground_y=ground_height(spec), has_alpha=alpha, shadow_catcher=catcher,
+                  cell_border=cell_border_px(grid, cells and spec.cell_borders and not alpha),
+                  exposure_axis=exposure_axis(spec))
+    if not cells:
+        cam = frame_grid(spec)
+        centers, radii = sphere_discs(cam, sphere_centers(spec), spec.sphere_radius)
+        return ChartFrame(**common, camera=cam, sphere_discs=(centers, radii), sphere_radius_px=float(radii.min()),
+                          silhouettes_apart=silhouettes_apart(centers, radii))
+    # Every cell sees its sphere at its own origin alike: the one disc, shifted to each cell.
+    cam = frame_cell(spec, (grid.cell_width, grid.cell_height))
+    (x, y), scale = (v[0] for v in cam.project(np.zeros((1, 3))))
+    left = grid.left + np.arange(spec.cols) * grid.cell_width
+    top = grid.top + np.arange(spec.rows) * grid.cell_height
+    centers = np.stack(np.broadcast_arrays(left[None, :] + x, top[:, None] + y), axis=-1)
+    radii = np.full((spec.rows, spec.cols), spec.sphere_radius * scale)
+    return ChartFrame(**common, camera=cam, sphere_discs=(centers, radii),
+                      sphere_radius_px=cell_sphere_radius_px(grid, spec.camera_distance_scale),
+                      silhouettes_apart=True, plate=plate_frame(grid, spec.width, spec.height),
+                      sphere_box=cell_sphere_box(cam, spec.sphere_radius),
+                      catcher_band=catcher_band_pixels(spec, grid) if catcher else None)
+
+
+def bounce_step(frame: ChartFrame) -> int:
+    """Cell pixels between the bounce plate's texels (stage_bounce_main.glsl): the preset's
+    bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no plate), where the
+    sphere is too small for a coarser grid to save anything."""
+    q = frame.quality
+    if q.bounce_texels <= 0:
+        return 1
+    return max(1, int(frame.sphere_radius_px // q.bounce_texels))
+
+
+def sphere_samples(frame: ChartFrame) -> int:
+    """Points per pixel edge a chart averages inside a sphere's silhouette (the cells stage's
+    sphere plate, or the chart where it shades the sphere): more where the spheres are small,
+    as the preset's sphere_samples_radius says."""
+    q = frame.quality
+    if q.sphere_samples_radius <= 0:
+        return 1
+    return max(1, min(4, round(q.sphere_samples_radius / max(frame.sphere_radius_px, 1e-6))))
+
+
 def texture_maps(spec: ChartSpec) -> dict[str, bool]:
     """Which maps (shading.maps) the chart composes in: those its procedural set bakes (a PNG
     replacing its part of it) and the PNGs the spec names (a base-colour texture alone adds no
@@ -167,18 +230,19 @@ SPHERE_PASS_MIN_PIXELS = 200_000
 def chart_options(spec: ChartSpec, passes: bool | None = None) -> dict:
     """The chart program's options: every feature the spec leaves out is absent from the
     composed source. ``passes``: as render_plan takes it."""
-    return _chart_options(spec, passes)[0]
+    return _chart_options(chart_frame(spec), passes)[0]
 
 
-def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, SpherePlate | None, tuple[bool, bool]]:
-    """chart_options, the sphere plate's layout where the options use one (worked out once:
-    the render needs it too), and whether the chart has an edge pass and a sphere pass."""
+def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict, SpherePlate | None, tuple[bool, bool]]:
+    """chart_options of ``frame``'s spec, the sphere plate's layout where the options use one
+    (worked out once: the render needs it too), and whether the chart has an edge pass and a
+    sphere pass."""
+    spec, q = frame.spec, frame.quality
     directional = sum(1 for light in spec.lights if light.kind == "directional")
     point = sum(1 for light in spec.lights if light.kind == "point")
-    q = quality(spec)
     opts = {
-        "BRDF_MODEL": glsl_word(brdf_model(spec)),
-        "ENV": env_option(spec),
+        "BRDF_MODEL": glsl_word(frame.brdf_model),
+        "ENV": frame.env,
         "CAMERA": spec.camera,
         "INTERSECT": "analytic" if uses_analytic_intersection(spec) else "march",
         "HAS_GROUND": spec.ground,
@@ -186,10 +250,10 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
         "USE_AO": spec.ibl and spec.ao,
         # The key light (the first directional light) casts shadows onto the ground; on the
         # cells stage point lights do too.
-        "USE_SHADOWS": spec.shadows and spec.ground and (directional > 0 or (point > 0 and stage(spec) == "cells")),
+        "USE_SHADOWS": spec.shadows and spec.ground and (directional > 0 or (point > 0 and frame.stage == "cells")),
         "MULTISCATTER": spec.multiscatter,
-        "TRANSPARENT": has_alpha(spec),
-        "SHADOW_CATCHER": has_shadow_catcher(spec),
+        "TRANSPARENT": frame.has_alpha,
+        "SHADOW_CATCHER": frame.shadow_catcher,
         "NUM_DIR_LIGHTS": directional,
         "NUM_POINT_LIGHTS": point,
         # A supersampled pixel's samples may add up over several draws (gpu/render.py), which a
@@ -199,8 +263,8 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
         # Some sphere shows what lies behind it (glTF alpha modes).
         "SEE_THROUGH": spec_see_through(spec),
         "SCENE_SDF": q.scene_sdf,
-        "STAGE": stage(spec),
-        "CHART_STAGE": "fragment",   # RenderPlan.chart_compute is the compute variant
+        "STAGE": frame.stage,
+        "CHART_SHADER": "fragment",   # RenderPlan.chart_compute is the compute variant
     }
     for lobe in sorted(spec_lobes(spec)):   # only the lobes some cell uses
         opts[LOBE_OPTIONS[lobe]] = True
@@ -217,14 +281,14 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     one_ray = spec.spp == 1 and opts["INTERSECT"] == "analytic"   # a pixel's one ray, in closed form
     opts["ANALYTIC_AA"] = (spec.antialias and one_ray
                            and (opts["STAGE"] == "cells" or opts["SCENE_SDF"] == "nearest_cell")
-                           and camera.silhouettes_apart(spec))
+                           and frame.silhouettes_apart)
     # Rays beyond the pixel's centre (chart_main.glsl), composed in only where there are some.
     opts["SUPERSAMPLE"] = spec.spp > 1
     opts["BOUNCE_PLATE"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
         # The sphere's bounce on a coarser grid beside the floor plate (stage_bounce_main.glsl).
-        opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(spec) > 1
+        opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(frame) > 1
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
         if opts["STAGE"] == "cells":   # read by ao.glsl: the sky a sphere hides from its floor
@@ -257,7 +321,7 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     # is shaded at m_map and at 0 and mixed by m_factor alike; not a glTF asset's, whose maps
     # are each cell's own (the material table does not tell them apart). The few-tap bug's
     # shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
-    layout = (sphere_plate(spec) if one_ray and opts["STAGE"] == "cells" and q.sphere_plate
+    layout = (sphere_plate(spec, frame.plate) if one_ray and opts["STAGE"] == "cells" and q.sphere_plate
               and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
               and not opts.get("BUG_FEWTAP_IBL", False) else None)
     opts["SPHERE_PLATE"] = layout is not None
@@ -279,7 +343,7 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
     # Small spheres average points of the pixel box (the plate's, or the chart's own where it
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
     if opts["ANALYTIC_AA"]:
-        opts["SPHERE_SAMPLES"] = 1 if opts["USE_TEXTURES"] else sphere_samples(spec)
+        opts["SPHERE_SAMPLES"] = 1 if opts["USE_TEXTURES"] else sphere_samples(frame)
         opts["EDGE_SAMPLES"] = max(1, q.edge_samples)
     if opts["USE_IBL"]:   # read by ibl.glsl and shade.glsl's call of it (not by the few-tap bug's)
         opts["IBL_METHOD"] = q.ibl_method
@@ -304,8 +368,14 @@ def _chart_options(spec: ChartSpec, passes: bool | None = None) -> tuple[dict, S
 
 
 def display_options(spec: ChartSpec) -> dict:
-    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": has_alpha(spec), "BACKDROP": bool(spec.backdrop),
-            "EXPOSURE_AXIS": exposure_axis(spec) or "none", "CELL_BORDER": cell_border_px(spec, has_alpha(spec)) > 0}
+    """The display program's options."""
+    return _display_options(chart_frame(spec))
+
+
+def _display_options(frame: ChartFrame) -> dict:
+    spec = frame.spec
+    opts = {"TONEMAP": glsl_word(spec.tonemap), "TRANSPARENT": frame.has_alpha, "BACKDROP": bool(spec.backdrop),
+            "EXPOSURE_AXIS": frame.exposure_axis or "none", "CELL_BORDER": frame.cell_border > 0}
     opts.update(bug_options(spec, "display"))
     return opts
 
@@ -344,13 +414,46 @@ class IBLPlan:
 FRAME_PROGRAMS = ("floor-plate", "bounce-plate", "sphere-plate", "chart", "chart-spheres", "chart-edges", "display")
 
 
+@dataclass(frozen=True, eq=False)
+class GridShapes:
+    """Triangles given in one instance's frame (GL pixels, y up; three a triangle), drawn
+    ``instances`` times: instance i at origin + (i % per_row, i // per_row) * step in the image
+    (grid_instances_vert.glsl)."""
+    triangles: np.ndarray         # float32 (n, 2)
+    instances: int
+    origin: tuple[int, int] = (0, 0)
+    step: tuple[int, int] = (0, 0)
+    per_row: int = 1
+
+
+def _in_each_cell(frame: ChartFrame, triangles: np.ndarray) -> GridShapes:
+    """A cell's triangles, once in each cell of ``frame``'s grid."""
+    grid = frame.grid
+    return GridShapes(triangles, grid.rows * grid.cols, grid.uniforms(frame.spec.height)["u_grid_origin"],
+                      (grid.cell_width, grid.cell_height), grid.cols)
+
+
+def edge_rings(frame: ChartFrame, pad: float = SILHOUETTE_RING_PAD_PX) -> GridShapes:
+    """The edge pass's rings, ``pad`` px to either side of each silhouette: on the cells stage
+    one round a cell's sphere, drawn in every cell (each sees its sphere alike); on the shared
+    stage one round each sphere, in the image's frame."""
+    spec = frame.spec
+    if frame.stage == "cells":
+        return _in_each_cell(frame, silhouette_ring(frame.camera, np.zeros((1, 3)), spec.sphere_radius, pad))
+    return GridShapes(silhouette_ring(frame.camera, sphere_centers(spec).reshape(-1, 3), spec.sphere_radius, pad), 1)
+
+
+def sphere_boxes(frame: ChartFrame, pad: float = SILHOUETTE_RING_PAD_PX) -> GridShapes:
+    """The cells stage's sphere pass's box round each cell's sphere, ``pad`` px beyond its
+    silhouette."""
+    return _in_each_cell(frame, box_triangles(cell_sphere_box(frame.camera, frame.spec.sphere_radius, pad)))
+
+
 @dataclass(frozen=True)
 class RenderPlan:
-    """Every program a chart render runs, composed, and the sizes its bakes use."""
-    spec: ChartSpec
-    quality: Quality
-    brdf_model: str               # spec value ('gltf', 'schlick-ggx') after the preset
-    env: str                      # ENV option: a preset name or 'file'
+    """Every program a chart render runs, composed, the sizes its bakes use, and its frame:
+    what a render needs, resolved once."""
+    frame: ChartFrame
     vertex: ComposedSource
     chart: ComposedSource
     display: ComposedSource
@@ -362,10 +465,19 @@ class RenderPlan:
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
     sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
+    bounce_step: int = 1                        # cell pixels between the bounce plate's texels
     edge_pass: ComposedSource | None = None     # EDGE_PIXELS: the chart's silhouette pixels, drawn
                                                 # over rings round them
     sphere_pass: ComposedSource | None = None   # SPHERE_PIXELS: its spheres' pixels, over their boxes
     instances_vertex: ComposedSource | None = None   # places those rings and boxes (a cell's, once per cell)
+
+    @property
+    def spec(self) -> ChartSpec:
+        return self.frame.spec
+
+    @property
+    def quality(self) -> Quality:
+        return self.frame.quality
 
     @property
     def options(self) -> dict:
@@ -376,10 +488,22 @@ class RenderPlan:
         """The chart program as a compute shader (session.py picks which one draws), composed
         on first use: a software rasterizer never runs it (7 ms of a cold start saved). It
         draws the silhouettes' pixels itself: a GPU's branch skips the edge's work elsewhere."""
-        options = {**self.options, "CHART_STAGE": "compute", "SPHERE_PIXELS": "inline"}
+        options = {**self.options, "CHART_SHADER": "compute", "SPHERE_PIXELS": "inline"}
         if "EDGE_PIXELS" in options:
             options["EDGE_PIXELS"] = "inline"
         return compose_program("chart_main.glsl", options)
+
+    # The passes' shapes are made on first use, like chart_compute: only a fragment-shader
+    # render draws them (a shared stage's rings take ~6 ms at 1024², more than the plan's rest).
+    @functools.cached_property
+    def edge_shapes(self) -> GridShapes | None:
+        """The edge pass's rings (edge_rings); None without an edge pass."""
+        return edge_rings(self.frame) if self.edge_pass else None
+
+    @functools.cached_property
+    def sphere_shapes(self) -> GridShapes | None:
+        """The sphere pass's boxes (sphere_boxes); None without a sphere pass."""
+        return sphere_boxes(self.frame) if self.sphere_pass else None
 
     def frame_programs(self) -> dict[str, ComposedSource]:
         """The programs each frame runs, by the names `sdfpbr shader --program` takes
@@ -508,21 +632,24 @@ def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
     """``passes``: whether the chart draws its silhouettes' and (without the sphere plate) its
     spheres' pixels in passes of their own, where it can (None: where the image is large
     enough to earn their programs back, EDGE_PASS_MIN_PIXELS and SPHERE_PASS_MIN_PIXELS)."""
-    q = quality(spec)
-    chart, layout, (edges, spheres) = _chart_options(spec, passes)
+    frame = chart_frame(spec)
+    q = frame.quality
+    chart, layout, (edges, spheres) = _chart_options(frame, passes)
     chart_source = compose_program("chart_main.glsl", chart)
     edge_pass, sphere_pass = _edge_pass(chart, edges), _sphere_pass(chart, edges, spheres)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
+    bounce_plate = _bounce_plate(chart)
     return RenderPlan(
-        spec=spec, quality=q, brdf_model=brdf_model(spec), env=chart["ENV"],
+        frame=frame,
         vertex=compose_program("fullscreen_vert.glsl"),
         chart=chart_source,
-        display=compose_program("display_main.glsl", display_options(spec)),
-        dfg=dfg_source(brdf_model(spec), bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
+        display=compose_program("display_main.glsl", _display_options(frame)),
+        dfg=dfg_source(frame.brdf_model, bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
-        floor_plate=_floor_plate(chart), bounce_plate=_bounce_plate(chart), sphere_plate=_sphere_plate(chart),
-        sphere_layout=layout, edge_pass=edge_pass, sphere_pass=sphere_pass,
+        floor_plate=_floor_plate(chart), bounce_plate=bounce_plate, sphere_plate=_sphere_plate(chart),
+        sphere_layout=layout, bounce_step=bounce_step(frame) if bounce_plate else 1,
+        edge_pass=edge_pass, sphere_pass=sphere_pass,
         instances_vertex=compose_program("grid_instances_vert.glsl") if edge_pass or sphere_pass else None)
 
 
@@ -539,7 +666,7 @@ def reference_scene(spec: ChartSpec) -> ChartSpec:
 
 @dataclass(frozen=True)
 class ReferencePlan:
-    scene: ChartSpec              # reference_scene(spec)
+    frame: ChartFrame             # the frame of reference_scene(spec)
     options: dict                 # the chart options of the scene (the reference modules
                                   # ignore those for IBL, AO, soft shadows and marching)
     vertex: ComposedSource
@@ -548,16 +675,21 @@ class ReferencePlan:
     env_table: ComposedSource     # reference_env_main: the env function on an equirect grid
     display: ComposedSource       # the chart's display program for the scene
 
+    @property
+    def scene(self) -> ChartSpec:
+        """reference_scene(spec)."""
+        return self.frame.spec
+
     def sources(self) -> list[ComposedSource]:
         return [self.vertex, self.integrator, self.aov, self.env_table, self.display]
 
 
 def reference_plan(spec: ChartSpec) -> ReferencePlan:
-    scene = reference_scene(spec)
-    options = chart_options(scene)
-    return ReferencePlan(scene=scene, options=options,
+    frame = chart_frame(reference_scene(spec))
+    options = _chart_options(frame)[0]
+    return ReferencePlan(frame=frame, options=options,
                          vertex=compose_program("fullscreen_vert.glsl"),
                          integrator=compose_program("reference_main.glsl", options),
                          aov=compose_program("reference_aov_main.glsl", options),
                          env_table=compose_program("reference_env_main.glsl", {"ENV": options["ENV"]}),
-                         display=compose_program("display_main.glsl", display_options(scene)))
+                         display=compose_program("display_main.glsl", _display_options(frame)))

@@ -8,9 +8,7 @@ import math
 
 import numpy as np
 
-from ..spec.chart_spec import ChartSpec
-from .camera import Camera, cell_sphere_box, frame_cell, frame_grid, silhouette, sphere_centers
-from .cells import stage
+from .camera import Camera, silhouette
 
 
 # The edge pass (chart_main.glsl EDGE_PIXELS) draws a ring of triangles this many pixels to
@@ -24,18 +22,14 @@ SILHOUETTE_RING_PAD_PX = 2.0
 SILHOUETTE_CHORD_PX = 0.75
 
 
-def silhouette_ring(spec: ChartSpec, pad: float = SILHOUETTE_RING_PAD_PX) -> tuple[np.ndarray, int]:
-    """The edge pass's triangles: float32 (n, 2) GL pixels, three a triangle, and how many
-    times to draw them. Cells stage: one ring in a cell's frame, drawn once per cell (every
-    cell sees its sphere alike); shared stage: a ring per sphere in the image's frame, drawn
-    once. Each ring spans ``pad`` px to either side of its silhouette (the whole disc where the
-    sphere is smaller than that)."""
-    if stage(spec) == "cells":
-        cam, spheres = frame_cell(spec), [np.zeros(3)]
-    else:
-        cam, spheres = frame_grid(spec), list(sphere_centers(spec).reshape(-1, 3))
-    triangles = [_ring_triangles(*_outline(cam, c, spec.sphere_radius), pad) for c in spheres]
-    return np.concatenate(triangles).astype(np.float32), (spec.rows * spec.cols if stage(spec) == "cells" else 1)
+def silhouette_ring(cam: Camera, centers: np.ndarray, radius: float, pad: float = SILHOUETTE_RING_PAD_PX) -> np.ndarray:
+    """The edge pass's triangles round the silhouettes of the spheres of ``radius`` at
+    ``centers`` (n, 3) seen by ``cam``: float32 (m, 2) GL pixels of its frame, three a triangle
+    (the cells stage: one sphere at the origin in a cell's frame, drawn once per cell; the
+    shared stage: every sphere in the image's frame). Each ring spans ``pad`` px to either side
+    of its silhouette (the whole disc where the sphere is smaller than that)."""
+    triangles = [_ring_triangles(*_outline(cam, c, radius), pad) for c in centers]
+    return np.concatenate(triangles).astype(np.float32)
 
 
 def _outline(cam: Camera, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -63,12 +57,12 @@ def _ring_triangles(p: np.ndarray, normal: np.ndarray, pad: float) -> np.ndarray
     return np.stack([inner, outer, b, inner, b, a], axis=1).reshape(-1, 2)
 
 
-def sphere_boxes(spec: ChartSpec, pad: float = SILHOUETTE_RING_PAD_PX) -> tuple[np.ndarray, int]:
-    """The cells stage's sphere pass's triangles: two, a box round a cell's sphere's silhouette
-    ``pad`` px wider (every pixel whose ray can meet the sphere), in the cell's frame, and the
-    number of cells to draw it in. A box, not a disc: a software rasterizer shades a 4 x 4
-    block once for every triangle that covers part of it, so a disc's many thin triangles cost
-    more than a box's corners."""
-    x0, y0, x1, y1 = cell_sphere_box(spec, pad)
+def box_triangles(box: tuple[int, int, int, int]) -> np.ndarray:
+    """The cells stage's sphere pass's triangles: two, over ``box`` (x0, y0, x1, y1), a box round
+    a cell's sphere's silhouette (camera.cell_sphere_box: every pixel whose ray can meet the
+    sphere), in the cell's frame. A box, not a disc: a software rasterizer shades a 4 x 4 block
+    once for every triangle that covers part of it, so a disc's many thin triangles cost more
+    than a box's corners."""
+    x0, y0, x1, y1 = box
     corners = ((x0, y0), (x1, y0), (x1, y1), (x0, y0), (x1, y1), (x0, y1))
-    return np.array(corners, np.float32), spec.rows * spec.cols
+    return np.array(corners, np.float32)

@@ -98,7 +98,7 @@ BUGS: dict[str, Bug] = {b.name: b for b in (
          "BUG_GAMMA_POW", program="display", exposure=-3.0),
     _bug("double-tonemap", "Reinhard followed by ACES",
          "Flat, low-contrast image with dull highlights: the radiance was compressed by "
-         "Reinhard and then again by ACES (as shared seed 002 does). Fix: one tone mapper.",
+         "Reinhard and then again by ACES (as some Shadertoy-style shaders do). Fix: one tone mapper.",
          "BUG_DOUBLE_TONEMAP", program="display"),
     _bug("ibl-direct-k", "IBL LUT built with the direct-light Schlick k",
          "Environment reflections of metals come out too dark, by up to 15% towards the rims: "
@@ -175,12 +175,3 @@ def get_bug(name: str) -> Bug:
         return BUGS[name]
     raise SpecError(f"unknown bug {quote(name)}{did_you_mean(name, BUGS)}; allowed: {', '.join(BUGS)}")
 
-
-def bug_options(names, program: str) -> dict:
-    """The compile options the named bugs set in one program."""
-    out = {}
-    for name in names:
-        bug = get_bug(name)
-        if bug.program == program:
-            out[bug.option] = bug.value
-    return out

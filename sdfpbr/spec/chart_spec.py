@@ -33,7 +33,9 @@ def _check_gltf_owns(spec) -> None:
 
 
 class _ChartSpecMethods:
-    """What ChartSpec has beyond its fields: validation and derived values."""
+    """What ChartSpec has beyond its fields: validation and derived values. What a render makes
+    of them (the quality preset, the BRDF it forces, the bugs it implies) the plan resolves
+    (shading/plan.py)."""
 
     def __post_init__(self):
         for f in STORED_FIELDS:   # each field's check, from the table; stored normalised
@@ -65,13 +67,6 @@ class _ChartSpecMethods:
         """The values across the columns ('x') or down the rows ('y')."""
         return axis_values(self, axis)
 
-    def quality_settings(self) -> Quality:
-        return QUALITY_PRESETS[self.quality]
-
-    def uses_analytic_intersection(self) -> bool:
-        forced = self.quality_settings().intersect
-        return forced == "analytic" if forced else self.intersect in ("auto", "analytic")
-
     def uses_textures(self) -> bool:
         if self.gltf:
             return any(self.gltf_maps().has_textures.values())
@@ -81,14 +76,6 @@ class _ChartSpecMethods:
         """The glTF asset's materials with their textures (spec.gltf.GltfMaterials)."""
         from .gltf import gltf_materials
         return gltf_materials(self.gltf, self.gltf_materials)
-
-    def brdf_model(self) -> str:
-        return self.quality_settings().brdf or self.brdf
-
-    def active_bugs(self) -> tuple[str, ...]:
-        """The spec's bugs plus those its quality preset takes on purpose."""
-        implied = self.quality_settings().implied_bugs
-        return self.bugs + tuple(b for b in implied if b not in self.bugs)
 
     def to_dict(self) -> dict[str, Any]:
         out = {}
@@ -208,8 +195,8 @@ def bug_requirements(name: str) -> dict[str, Any]:
     return dict(get_bug(name).requires)
 
 
-__all__ = ["ChartSpec", "Light", "Quality", "FIELDS", "SPEC_KEYS", "as_spec", "make_spec", "spec_from_mapping", "load_spec",
-           "parse_range", "parse_size", "parse_color", "MATERIAL_PRESETS", "QUALITY_PRESETS", "ENV_PRESETS",
-           "TONEMAPPERS", "BRDF_MODELS", "CAMERAS", "INTERSECT_METHODS", "BACKENDS", "TEXTURE_MODES",
+__all__ = ["ChartSpec", "Light", "Quality", "FIELDS", "SPEC_KEYS", "as_spec", "make_spec", "spec_from_mapping",
+           "load_spec", "parse_range", "parse_size", "parse_color", "MATERIAL_PRESETS", "QUALITY_PRESETS",
+           "ENV_PRESETS", "TONEMAPPERS", "BRDF_MODELS", "CAMERAS", "INTERSECT_METHODS", "BACKENDS", "TEXTURE_MODES",
            "LIGHT_KINDS", "NORMAL_METHODS", "HDR_PRECISIONS", "DEFAULT_LIGHTS", "KEY_LIGHT", "FILL_LIGHT",
            "MAX_GRID", "MAX_SIZE", "with_bug", "bug_requirements"]

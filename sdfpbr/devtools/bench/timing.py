@@ -155,8 +155,8 @@ def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time
     plan = render_plan(spec)
     source = plan.chart
     with session:
-        chart = ChartDraw(session, plan, stage="fragment")
-        scene = chart_scene(session, spec, plan)
+        chart = ChartDraw(session, plan, shader="fragment")
+        scene = chart_scene(session, plan)
         W, H = spec.width, spec.height
         passes = []
         for x0, y0, tw, th in tiles(W, H, session.tile):

@@ -46,5 +46,5 @@ from .labels import footer_text, label
 from .tables import compensation_choice, compensation_table, environment_cdfs
 
 __all__ = ["DEFAULT_MAX_BOUNCES", "Accumulators", "ReferenceResult", "batch_size", "cell_reach",
-           "compensation_choice", "compensation_table", "environment_cdfs", "footer_text", "label", "relative_error", "render_reference",
-           "run_key", "scene_fields", "validate_arguments"]
+           "compensation_choice", "compensation_table", "environment_cdfs", "footer_text", "label", "relative_error",
+           "render_reference", "run_key", "scene_fields", "validate_arguments"]

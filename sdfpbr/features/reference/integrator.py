@@ -16,8 +16,7 @@ from ...gpu.session import Session, default_session
 from ...progress import Progress
 from ...shading.camera import Camera
 from ...shading.compose import ComposedSource
-from ...shading.cells import stage
-from ...shading.plan import ReferencePlan, quality, reference_plan
+from ...shading.plan import ChartFrame, ReferencePlan, reference_plan
 from ...spec.chart_spec import ChartSpec
 from .tables import compensation_choice, compensation_texture, environment_sampling
 
@@ -79,7 +78,7 @@ class ReferenceResult:
     error: float             # mean relative standard error over sphere pixels (see the package doc)
     image: np.ndarray        # (H, W, 4) uint8 display image through the chart's display program
     aov: dict                # normal, depth, row, col, roughness, metallic, ndotv (chart layout)
-    camera: Camera
+    frame: ChartFrame        # where its spheres lie (its plan's frame)
     source: ComposedSource
     seed: int
     max_bounces: int
@@ -87,11 +86,15 @@ class ReferenceResult:
     timings: dict = field(default_factory=dict)
     accumulators: Accumulators | None = None   # the state to resume from for more samples
 
+    @property
+    def camera(self) -> Camera:
+        return self.frame.camera
+
 
 def cell_reach(spec: ChartSpec) -> int:
     """How many cells away from its own a sphere reaches (0 unless spheres overlap cells; 0
     on the cells stage, where each cell's scene holds its own sphere only)."""
-    if stage(spec) == "cells":
+    if spec.stage == "cells":
         return 0
     return max(0, math.ceil(spec.sphere_radius / spec.spacing - 0.5))
 
@@ -235,7 +238,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
     timings["compile_s"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    scene = scene_bindings(ctx, plan.scene, quality(plan.scene), plan.options["USE_TEXTURES"], session.cache)
+    scene = scene_bindings(ctx, plan.frame, plan.options["USE_TEXTURES"], session.cache)
     owned = []
     try:
         scene.uniforms.update({"u_cell_reach": cell_reach(spec), "u_max_bounces": max_bounces,
@@ -269,7 +272,8 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         sum_tex.bind_to_image(0, read=True, write=True)
         moments_tex.bind_to_image(1, read=True, write=True)
         first = 0 if resume is None else resume.samples
-        next_tex = ctx.texture((w, h), 1, np.full((h, w), first, np.uint32).tobytes(), dtype="u4")   # each pixel's next sample
+        # each pixel's next sample
+        next_tex = ctx.texture((w, h), 1, np.full((h, w), first, np.uint32).tobytes(), dtype="u4")
         guard = LoopGuard(ctx)
         owned += [next_tex, guard]
         next_tex.bind_to_image(3, read=True, write=True)
@@ -302,7 +306,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
         # The mean, as a texture (GL rows bottom-up), through the chart's display program.
         mean_tex = ctx.texture((w, h), 4, np.ascontiguousarray(sums[::-1] / done, np.float32).tobytes(), dtype="f4")
         owned.append(mean_tex)
-        image = display_pass(ctx, session.programs.fragment(plan.display), mean_tex, plan.scene, w, h)
+        image = display_pass(ctx, session.programs.fragment(plan.display), mean_tex, plan.frame, w, h)
         timings["display_s"] = time.perf_counter() - t4
     finally:
         scene.release()
@@ -312,7 +316,7 @@ def _render(session: Session, spec, samples, target_error, seed, max_bounces, pr
     mean, stderr = _statistics(sums, moments, done)
     error = relative_error(_luminance(mean), stderr, sphere) if done >= 2 else float("nan")
     return ReferenceResult(hdr=np.ascontiguousarray(mean[..., :3], np.float32), alpha=mean[..., 3].copy(),
-                           stderr=stderr, samples=done, error=error, image=image.copy(), aov=aov, camera=scene.camera,
+                           stderr=stderr, samples=done, error=error, image=image.copy(), aov=aov, frame=plan.frame,
                            source=plan.integrator, seed=seed, max_bounces=max_bounces,
                            non_finite=int(moments[..., 3].sum()), timings=timings, accumulators=state)
 

@@ -13,9 +13,11 @@ from ...spec.chart_spec import ChartSpec
 from .integrator import ReferenceResult
 
 
-def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
+def footer_text(result: ReferenceResult) -> str:
+    """The chart's scene settings (its frame's: the reference shades with the spec's BRDF),
+    then how the reference was traced."""
     err = f", rel. stderr {result.error:.2%}" if math.isfinite(result.error) else ""
-    parts = footer_scene_parts(spec, spec.brdf) + [
+    parts = footer_scene_parts(result.frame) + [
         f"path-traced reference, {result.samples} spp, {result.max_bounces} bounces{err}"]
     return FOOTER_SEPARATOR.join(parts)
 
@@ -23,4 +25,4 @@ def footer_text(spec: ChartSpec, result: ReferenceResult) -> str:
 def label(spec: ChartSpec, result: ReferenceResult) -> np.ndarray:
     """The chart's labeled layout around the reference render."""
     return chart_label(spec, result, title=f"{default_title(spec)} (reference)",
-                       footer=footer_text(spec, result))
+                       footer=footer_text(result))

@@ -44,8 +44,10 @@ def compensation_table(model: str, cache=None, sheen: bool = False) -> np.ndarra
         _tables[key] = cached["table"]
         return cached["table"]
     grid = np.arange(size, dtype=np.float64) / (size - 1)
-    a, b, c = shading_model.dfg_integrate(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V), grid[:, None], model=model, n=order)
-    e_sheen = lobes.sheen_albedo(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V), grid[:, None]) if sheen else np.ones_like(a)
+    a, b, c = shading_model.dfg_integrate(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V), grid[:, None],
+                                          model=model, n=order)
+    e_sheen = (lobes.sheen_albedo(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V), grid[:, None])
+               if sheen else np.ones_like(a))
     table = np.stack([a, b, c, e_sheen], axis=-1).astype(np.float32)
     if cache is not None:
         cache.put("reference_dfg", key, {"table": table})
