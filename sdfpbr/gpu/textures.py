@@ -14,6 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import SpecError
+from ..image.colour import srgb_eotf, srgb_oetf
 from ..shading.maps import MAPS
 from .gl import upload_levels
 
@@ -223,7 +224,6 @@ def _sample(img: np.ndarray, u: np.ndarray, v: np.ndarray, wrap: tuple[str, str]
 def _linear_codes(img: np.ndarray, srgb: bool) -> np.ndarray:
     """uint8 RGBA as float32 that averages right: an sRGB map's colour in linear light (codes
     0..255 scaled), alpha and a linear map's channels as they are."""
-    from ..oracle.display import srgb_eotf
     if not srgb:
         return img.astype(np.float32)
     out = np.empty(img.shape, np.float32)
@@ -235,7 +235,6 @@ def _linear_codes(img: np.ndarray, srgb: bool) -> np.ndarray:
 
 def _codes(linear: np.ndarray, srgb: bool) -> np.ndarray:
     """_linear_codes' inverse, float64 codes 0..255 (not rounded)."""
-    from ..oracle.display import srgb_oetf
     out = np.array(linear, np.float64)
     if srgb:
         out[..., :3] = 255.0 * srgb_oetf(np.clip(out[..., :3], 0.0, 255.0) / 255.0)
@@ -323,7 +322,8 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
             out = _on_sphere(tex.base_color, size, True)
     elif kind == "orm":
         if tex.occlusion:   # occlusion from R, scaled by its strength: 1 + s (o - 1)
-            out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount * (_on_sphere(tex.occlusion, size, False)[..., 0] / 255.0 - 1.0))
+            out[..., 0] = 255.0 * (1.0 + tex.occlusion.amount
+                                   * (_on_sphere(tex.occlusion, size, False)[..., 0] / 255.0 - 1.0))
         if tex.metallic_roughness:   # roughness in G, metalness in B
             out[..., 1:3] = _on_sphere(tex.metallic_roughness, size, False)[..., 1:3]
     elif kind == "khr":   # glTF's channels: clearcoat R, its roughness G, specular A, sheen roughness A
@@ -335,8 +335,8 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
         ref = tex.normal if kind == "normal" else tex.clearcoat_normal
         if ref:
             out[..., :3] = _normal_layer(ref, size)
-    else:   # colour maps: RGB as the texture holds it
-        ref = {"emissive": tex.emissive, "sheen_color": tex.sheen_color, "specular_color": tex.specular_color}[kind]
+    else:   # colour maps: RGB as the texture holds it (the map's name is the texture's)
+        ref = getattr(tex, kind)
         if ref:
             out[..., :3] = _on_sphere(ref, size, MAPS_BY_NAME[kind].srgb)[..., :3]
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)

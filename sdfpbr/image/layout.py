@@ -30,19 +30,19 @@ import numpy as np
 
 from ..cache import ArrayCache, content_key
 from ..result_cache import ResultCache
-from ..oracle.display import srgb_eotf
+from .colour import BACKGROUND, luminance, srgb_eotf
 from .text import SYSTEM_FONTS, draw_text, drawable_text, font_files, load_font, text_bbox, wrap_text
 
 if TYPE_CHECKING:   # Pillow is imported where text is set: a chart whose labels are kept on disk needs none
     from PIL import ImageFont
 
-__all__ = ["FOOTER_SEPARATOR", "Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset", "label_text", "label_boxes"]
+__all__ = ["FOOTER_SEPARATOR", "Cell", "compose_chart", "chart_canvas", "name_cells", "render_area_offset",
+           "label_text", "label_boxes"]
 
 DEFAULT_COLUMN_AXIS_TITLE = "roughness r (α = r²)"
 DEFAULT_ROW_AXIS_TITLE = "metallic"
 FOOTER_SEPARATOR = "  |  "   # between a footer's parts; a wrapped footer breaks there
 
-BACKGROUND = (24, 24, 24, 255)   # of charts, sheets and heat maps
 _TRANSPARENT = (0, 0, 0, 0)
 _OUTLINE = (16, 16, 16, 255)  # drawn around text only in transparent mode
 # Text colours by style on the chart's dark ground. On a page colour (a chart laid onto a
@@ -85,7 +85,7 @@ def _style(size: int, color: tuple[int, int, int, int]) -> _Style:
 
 
 def _relative_luminance(rgb8) -> float:
-    return float(srgb_eotf(np.asarray(rgb8[:3], float) / 255) @ [0.2126, 0.7152, 0.0722])
+    return float(luminance(srgb_eotf(np.asarray(rgb8[:3], float) / 255)))
 
 
 def _contrast(a, b) -> float:
@@ -124,6 +124,12 @@ def _text_colour(style_name: str, page: tuple[int, int, int, int] | None) -> tup
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if _contrast(_mix(page, extreme, mid), page) < target else (lo, mid)
     return (*_mix(page, extreme, hi), 255)
+
+
+def text_colour(style_name: str, page_srgb: Sequence[float] | None) -> tuple[int, int, int, int]:
+    """A label style's text colour ("title", "label", "axis", "footer") on the chart's ground
+    (None) or on the page colour ``page_srgb`` (sRGB 0..1): what sheets set their text in."""
+    return _text_colour(style_name, page_colour(page_srgb))
 
 
 def _mix(page, extreme: int, share: float) -> tuple[int, int, int]:

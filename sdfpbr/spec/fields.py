@@ -20,10 +20,10 @@ from ..inputs import check_input
 from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
-from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, PARAMS
+from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, LOBES, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
-                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, MAX_TITLE, QUALITY_PRESETS, STAGES, TEXTURE_MODES, TONEMAPPERS,
-                      light_from_mapping)
+                      LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, MAX_TITLE, QUALITY_PRESETS,
+                      STAGES, TEXTURE_MODES, TONE_MAPPERS, TONEMAPPERS, light_from_mapping)
 from .toml_file import read_toml
 
 
@@ -144,7 +144,8 @@ def _color(name: str):
 
 def _backdrop(v) -> tuple:
     """'R,G,B' or [r, g, b] in sRGB; '', 'none' or [] for none."""
-    if v is None or (isinstance(v, str) and v.strip().lower() in ("", "none")) or (isinstance(v, (list, tuple)) and not v):
+    if (v is None or (isinstance(v, str) and v.strip().lower() in ("", "none"))
+            or (isinstance(v, (list, tuple)) and not v)):
         return ()
     return vec3(parse_color(v, "backdrop", "sRGB") if isinstance(v, str) else v, "backdrop", 0.0, 1.0)
 
@@ -171,7 +172,7 @@ def _lights(v) -> tuple:
     return tuple(light_from_mapping(m) for m in given)
 
 
-ENV_FILE_SUFFIXES = (".exr", ".hdr", ".npy")   # what gpu.ibl.load_env_file reads
+ENV_FILE_SUFFIXES = (".exr", ".hdr", ".npy")   # what image.env_file.load_env_file reads
 
 
 def _env(v) -> str:
@@ -244,10 +245,12 @@ def _bool(name, default, help, **kw) -> Field:
                  many="true or false", annotation=bool, **kw)
 
 
-def _choice(name, default, choices, help, **kw) -> Field:
+def _choice(name, default, choices, help, labels=None, **kw) -> Field:
+    """A field that takes one of ``choices``; ``labels`` (choice -> what it is) go into the help."""
     choices = tuple(choices)
+    listed = ", ".join(f"{c} ({labels[c]})" if labels else c for c in choices)
     return Field(name, "choice", default, lambda v: choice(v, name, choices), _identity,
-                 f"{help}: {', '.join(choices)}", kw.pop("metavar", "NAME"), choices=choices, annotation=str, **kw)
+                 f"{help}: {listed}", kw.pop("metavar", "NAME"), choices=choices, annotation=str, **kw)
 
 
 def _other(kind, name, default, check, help, metavar, parse=_identity, **kw) -> Field:
@@ -259,12 +262,14 @@ FIELDS: tuple[Field, ...] = (
     _int("cols", 5, 1, MAX_GRID, "columns of spheres; roughness runs across them"),
     _int("width", 1024, 1, MAX_SIZE, "render width in pixels", metavar="PX"),
     _int("height", 1024, 1, MAX_SIZE, "render height in pixels", metavar="PX"),
-    _other("size", "size", None, _size, "render area in pixels: sets width and height (default: 1024 on the grid's longer side, square cells)",
+    _other("size", "size", None, _size,
+           "render area in pixels: sets width and height (default: 1024 on the grid's longer side, square cells)",
            "WxH", attrs=("width", "height"), many="WxH sizes", bounds=(1, MAX_SIZE)),
     _other("range", "roughness", (0.0, 1.0), _range("roughness"),
-           "perceptual roughness across the columns, inclusive (one value off an axis)", "LO:HI", many="LO:HI pairs", bounds=(0.0, 1.0),
-           annotation=tuple[float, float]),
-    _other("range", "metallic", (0.0, 1.0), _range("metallic"), "metallic down the rows, inclusive (one value off an axis)", "LO:HI",
+           "perceptual roughness across the columns, inclusive (one value off an axis)", "LO:HI", many="LO:HI pairs",
+           bounds=(0.0, 1.0), annotation=tuple[float, float]),
+    _other("range", "metallic", (0.0, 1.0), _range("metallic"),
+           "metallic down the rows, inclusive (one value off an axis)", "LO:HI",
            many="LO:HI pairs", bounds=(0.0, 1.0), annotation=tuple[float, float]),
     _other("color", "base_color", DEFAULT_BASE_COLOR, _color("base_color"), "linear base colour", "R,G,B",
            many="R,G,B colours (separated by ';')", bounds=(0.0, 1.0), annotation=tuple[float, float, float]),
@@ -282,14 +287,16 @@ FIELDS: tuple[Field, ...] = (
     _bool("ao", True, "ambient occlusion"),
     _bool("ground", True, "the ground plane"),
     _bool("ibl", True, "image-based lighting from the environment"),
-    _choice("tonemap", "aces", TONEMAPPERS, "tone mapper", sweep=TONEMAPPERS, display=True),
+    _choice("tonemap", "aces", TONEMAPPERS, "tone mapper", labels={t.name: t.label for t in TONE_MAPPERS},
+            sweep=TONEMAPPERS, display=True),
     _float("exposure", 0.0, -40.0, 40.0, "exposure in EV", metavar="EV", sweep=(-2.0, -1.0, 0.0, 1.0, 2.0),
            display=True),
     _float("reinhard_white", 4.0, 1e-3, 1e6, "white point of reinhard-extended", display=True),
     _int("spp", 1, 1, 1024, "samples per pixel"),
     _bool("antialias", True, "at spp 1 on the cells stage, the spheres' edges covered analytically "
           "(the pixel box the reference integrates)"),
-    _choice("hdr_precision", "float32", HDR_PRECISIONS, "float format of the radiance target (float32 where spp > 1: the samples add up in it)"),
+    _choice("hdr_precision", "float32", HDR_PRECISIONS,
+            "float format of the radiance target (float32 where spp > 1: the samples add up in it)"),
     _bool("multiscatter", True, "multiple-scattering energy compensation", sweep=(True, False)),
     _choice("brdf", "gltf", BRDF_MODELS, "BRDF model", sweep=BRDF_MODELS),
     _choice("stage", "cells", STAGES, "shared: one floor under the whole grid, neighbours in reflections; "
@@ -313,7 +320,8 @@ FIELDS: tuple[Field, ...] = (
            annotation=tuple),
     _other("text", "title", "", lambda v: text(v, "title", MAX_TITLE), "chart title (default: rows x cols)", "TEXT",
            annotation=str),
-    _choice("quality", "default", tuple(QUALITY_PRESETS), "quality preset (seed002: shared seed 002's approach)",
+    _choice("quality", "default", tuple(QUALITY_PRESETS),
+            "quality preset (seed002: a Shadertoy-style raymarcher's approach, the baseline)",
             sweep=tuple(QUALITY_PRESETS)),
     _choice("backend", "auto", BACKENDS, "GL backend (auto: EGL, then OSMesa)"),
     _int("device_index", 0, 0, 64, "EGL device by enumeration order"),
@@ -324,7 +332,8 @@ FIELDS: tuple[Field, ...] = (
     _other("bugs", "bugs", (), _bugs, "catalogued PBR mistakes to switch on (`sdfpbr bugs` lists them)",
            "NAME,...", aliases=("bug",), choices=tuple(BUGS), many="bug lists (names joined by '+')",
            annotation=tuple[str, ...]),
-    _choice("textures", "none", TEXTURE_MODES, "sphere textures (procedural: riveted panels; hammered: a hammered-metal normal map)"),
+    _choice("textures", "none", TEXTURE_MODES,
+            "sphere textures (procedural: riveted panels; hammered: a hammered-metal normal map)"),
     _other("path", "base_color_texture", "", _png("base_color_texture"), "sRGB base colour map (PNG)", "PNG",
            annotation=str),
     _other("path", "orm_texture", "", _png("orm_texture"), "linear occlusion/roughness/metallic map (PNG)", "PNG",
@@ -360,13 +369,18 @@ FIELDS: tuple[Field, ...] = (
            annotation=tuple[str, ...]),
 )
 
+# The KHR lobes' fields, lobe by lobe (spec/material.py): a new lobe's fields join the help's
+# materials group without a change here.
+LOBE_FIELDS = tuple(name for lobe in LOBES
+                    for name in (*(p.name for p in PARAMS if p.lobe == lobe),
+                                 *(c for c, (_, of, _) in COLOR_PARAMS.items() if of == lobe)))
+
 # The chart options by concern, in the order `--help` shows them: every field in one group.
 HELP_GROUPS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("grid and axes", ("rows", "cols", "size", "width", "height", "roughness", "metallic", "x_axis", "y_axis",
                        "x_values", "y_values")),
-    ("materials", ("base_color", "base_colors", "materials", "base_color_hue", "clearcoat", "clearcoat_roughness",
-                   "sheen_color", "sheen_roughness", "specular", "specular_color", "ior", "emissive",
-                   "emissive_strength", "alpha", "alpha_mode", "alpha_cutoff")),
+    ("materials", ("base_color", "base_colors", "materials", "base_color_hue", *LOBE_FIELDS, "alpha", "alpha_mode",
+                   "alpha_cutoff")),
     ("environment and lights", ("env", "env_intensity", "lights", "shadows", "ao", "ibl")),
     ("stage, floor and camera", ("stage", "ground", "ground_color", "ground_roughness", "cell_borders", "camera",
                                  "camera_azimuth", "camera_elevation", "camera_distance_scale", "sphere_radius",

@@ -1,5 +1,9 @@
 """The named things a spec can pick: material and quality presets, environments, tone mappers,
-and the light record. Data only; the field table (fields.py) says which spec field takes which."""
+and the light record. Data only; the field table (fields.py) says which spec field takes which.
+
+Each list of names is written here once. The field table, the CLI help, the shader option
+schema (shading/plan.py), the float64 oracles, the stress cases, the gallery and the tests read
+it from here (docs/extending.md: what to add where)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
@@ -17,15 +21,52 @@ MATERIAL_PRESETS: dict[str, tuple[float, float, float]] = {
     "iron": (0.560, 0.570, 0.580),
     "aluminium": (0.913, 0.922, 0.924),
 }
+
+
+def glsl_word(name: str) -> str:
+    """A spec value as the GLSL option value it selects: 'aces-hill' -> 'aces_hill'."""
+    return name.replace("-", "_")
+
+
+# The procedural environments (env.glsl has a branch for each; a spec's env may also be a file).
 ENV_PRESETS = ("studio", "sky", "uniform", "black")
-TONEMAPPERS = ("none", "clamp", "reinhard", "reinhard-extended", "aces", "aces-hill", "neutral")
+
+
+@dataclass(frozen=True)
+class ToneMapper:
+    """One tone mapper. ``name`` is the spec value; ``glsl`` the word its branch in
+    shaders/tonemap.glsl tests (``#elif TONEMAP == <glsl>``) and the suffix of its functions,
+    ``tonemap_<glsl>`` there (a one-line curve sits in its branch) and in float64 in
+    sdfpbr/oracle/display.py; ``label`` says what it is, for the help and the docs."""
+    name: str
+    label: str
+
+    @property
+    def glsl(self) -> str:
+        return glsl_word(self.name)
+
+
+TONE_MAPPERS = (
+    ToneMapper("none", "no curve; the encode clips at 1"),
+    ToneMapper("clamp", "clipped to 0..1"),
+    ToneMapper("reinhard", "Reinhard's curve"),
+    ToneMapper("reinhard-extended", "Reinhard's curve with reinhard_white mapped to 1"),
+    ToneMapper("aces", "Narkowicz's fit of the ACES filmic curve"),
+    ToneMapper("aces-hill", "Hill's fit of the ACES RRT and ODT"),
+    ToneMapper("neutral", "Khronos PBR Neutral"),
+    ToneMapper("agx", "Blender's AgX base look, by Troy Sobotka"),
+)
+TONEMAPPERS = tuple(t.name for t in TONE_MAPPERS)
 BRDF_MODELS = ("gltf", "schlick-ggx")
 CAMERAS = ("perspective", "orthographic")
 # The stage: "cells" gives every sphere the same studio (its own floor, seen by its own camera),
 # so cells with the same material look the same; "shared" is one scene, a grid of spheres over
 # one floor, where neighbours and the floor appear in reflections.
 STAGES = ("shared", "cells")
-INTERSECT_METHODS = ("auto", "analytic", "march")
+# How a ray meets a sphere: the closed form or marching the SDF. A spec may also say "auto":
+# the closed form, unless the quality preset forces marching.
+INTERSECTIONS = ("analytic", "march")
+INTERSECT_METHODS = ("auto", *INTERSECTIONS)
 BACKENDS = ("auto", "egl", "osmesa")
 # The maps each procedural texture mode bakes (gpu.textures): riveted panels carry colour, ORM
 # and normals; hammered metal only normals, so the chart's own materials stand.
@@ -137,7 +178,8 @@ class Quality:
     floor_parallax_size: int = 16
     floor_parallax_samples: int = 512
     sphere_plate: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
-    sheen_lean: bool = True          # the sheen's environment light read along its lobe's mean direction (shading.sheen)
+    # the sheen's environment light read along its lobe's mean direction (shading.sheen)
+    sheen_lean: bool = True
     neighbour_light: bool = True     # shared stage: the nearest spheres' light in each sphere's (2x the draw)
     # ... averaging n x n points of each pixel's box where the sphere is small: n = round(this /
     # its radius in px), 1 to 4 (0: one point). 40: 3 on the 256² chart's 16-px spheres, where
@@ -148,7 +190,7 @@ class Quality:
     # 1: the part's median point)
     edge_samples: int = 1
     ground_ibl_size: int = 128       # ~64 texels from horizon to zenith, as the DFG LUT's NdotV
-    scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed 002)
+    scene_sdf: str = "nearest_cell"   # all_spheres: the union loops over every sphere (seed002)
     hit_epsilon: float = 0.0         # absolute hit threshold added to hit_scale * pixel footprint
     intersect: str = ""              # forces "march" or "analytic"; "" follows the spec
     brdf: str = ""                   # forces a BRDF model; "" follows the spec
@@ -174,14 +216,18 @@ QUALITY_PRESETS: dict[str, Quality] = {
                     # 0.0143 -> 0.0138 (the floor in front of the polished metals 0.92 -> 0.69 %
                     # dark; 256: 0.66 %); the 1024² frame 790 / 776 ms with 16 / 64 here
                     bounce_mirror_directions=64),
-    # The approach of shared seed 002 on our scene: every sphere in the SDF, 100 steps to a fixed
-    # 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
+    # A Shadertoy-style raymarcher's approach on our scene (docs/model.md): every sphere in the SDF, 100 steps to a
+    # fixed 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
     "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
                        shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
                        intersect="march", brdf="schlick-ggx", ground_ibl_samples=0, floor_plate=False,
                        implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
 }
+
+# The presets that trade time for error, cheapest first (seed002 copies another renderer's
+# approach instead).
+QUALITY_LEVELS = ("draft", "default", "high")
 
 LIGHT_SETTINGS = tuple(f.name for f in fields(Light))
 

@@ -8,7 +8,7 @@ renderer (the checks are plain functions of arrays, tested on their own):
              the HDR within 1 LSB wherever the HDR is finite (a NaN born in the display pass
              shows up here);
 - furnace:   in a uniform environment every sphere and ground pixel matches the float64
-             split-sum expectation (REFERENCE.md section 3), the background the environment;
+             split-sum expectation (docs/model.md, the white furnace), the background the environment;
              the spheres only where there is no floor (with one, they see it below them);
 - firefly:   no pixel is brighter than FIREFLY_RATIO x its brightest neighbour where shading
              must vary smoothly (see ``isolated_outliers`` for why that region is safe);

@@ -9,6 +9,8 @@ import numpy as np
 
 from ...shading.camera import MARGIN
 from ...spec.chart_spec import MATERIAL_PRESETS, ChartSpec, Light, make_spec
+from ...spec.presets import (BRDF_MODELS, CAMERAS, ENV_PRESETS, HDR_PRECISIONS, INTERSECTIONS, QUALITY_LEVELS,
+                             TONEMAPPERS)
 
 EDGE_ROUGHNESS = (0.0, 1e-6, 1e-3, 0.045, 0.5, 1.0)
 EDGE_METALLIC = (0.0, 0.5, 1.0)
@@ -17,7 +19,6 @@ ANGULAR_RADII_DEG = (0.0, 1e-3, 0.5, 2.5, 45.0)
 SMALL_SIDES = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
 MEDIUM_SIDES = (96, 128, 192, 256)
 GRID_SIDES = (1, 2, 3, 5, 8, 16, 32)
-TONEMAPS = ("none", "clamp", "reinhard", "reinhard-extended", "aces", "aces-hill", "neutral")
 # spacing / (2 radius): overlapping, touching, the default, far apart, very far apart.
 GEOMETRY = {"overlapping": 0.5, "touching": 1.0, "default": 1.25, "far apart": 10.0, "very far": 1000.0}
 SPEC_MAX_INTENSITY = 1e12   # the largest light intensity and exposure a spec accepts
@@ -100,13 +101,13 @@ def _family(d: _Draw, kind: str, quick: bool, backends, number: int = 99) -> dic
     backend = d.pick(names, p / p.sum())
     fam = {
         "backend": names[number] if number < len(names) else backend,
-        "brdf": d.pick(("gltf", "schlick-ggx"), (0.75, 0.25)),
-        "camera": d.pick(("perspective", "orthographic"), (0.7, 0.3)),
-        "intersect": d.pick(("analytic", "march"), (0.7, 0.3)),
+        "brdf": d.pick(BRDF_MODELS, (0.75, 0.25)),
+        "camera": d.pick(CAMERAS, (0.7, 0.3)),
+        "intersect": d.pick(INTERSECTIONS, (0.7, 0.3)),
         "multiscatter": d.chance(0.75),
-        "hdr_precision": d.pick(("float32", "float16"), (0.7, 0.3)),
+        "hdr_precision": d.pick(HDR_PRECISIONS, (0.7, 0.3)),
         "rows": d.pick(GRID_SIDES, (0.1, 0.2, 0.25, 0.2, 0.1, 0.1, 0.05)),
-        "quality": d.pick(("draft", "default", "high"), (0.6, 0.4, 0.0) if quick else (0.55, 0.4, 0.05)),
+        "quality": d.pick(QUALITY_LEVELS, (0.6, 0.4, 0.0) if quick else (0.55, 0.4, 0.05)),
         "ground": d.chance(0.5),
         "shadows": d.chance(0.7),
         # A few key-light directions per family: the IBL bake is keyed by the first directional
@@ -117,7 +118,7 @@ def _family(d: _Draw, kind: str, quick: bool, backends, number: int = 99) -> dic
         fam.update(env="uniform", ibl=True, ao=False, transparent=False, n_dir=0, n_point=0,
                    env_intensity=d.pick((1.0, 1e-6, 1e6), (0.7, 0.15, 0.15)))
     else:
-        fam.update(env=d.pick(("studio", "sky", "uniform", "black")), ibl=d.chance(0.8), ao=d.chance(0.6),
+        fam.update(env=d.pick(ENV_PRESETS), ibl=d.chance(0.8), ao=d.chance(0.6),
                    transparent=d.chance(0.12), n_dir=d.pick((0, 1, 2), (0.2, 0.6, 0.2)),
                    n_point=d.pick((0, 1), (0.5, 0.5)),
                    env_intensity=d.pick((1.0, 1e-6, 1e6), (0.8, 0.1, 0.1)))
@@ -172,7 +173,7 @@ def _sweep_case(d: _Draw, index: int, kind: str, fam: dict, size=None) -> Case:
         stage="shared", rows=rows, cols=cols, width=width, height=height, roughness=roughness, metallic=metallic,
         base_color=base, row_materials=materials, env=fam["env"], env_intensity=fam["env_intensity"],
         lights=lights, shadows=fam["shadows"], ao=fam["ao"], ground=fam["ground"], ibl=fam["ibl"],
-        tonemap=d.pick(TONEMAPS), exposure=exposure, reinhard_white=d.pick((1e-3, 1.0, 4.0, 1e6)),
+        tonemap=d.pick(TONEMAPPERS), exposure=exposure, reinhard_white=d.pick((1e-3, 1.0, 4.0, 1e6)),
         spp=1 if kind == "furnace" else d.pick((1, 1, 1, 2, 4)), multiscatter=fam["multiscatter"], brdf=fam["brdf"],
         camera=fam["camera"], camera_azimuth=0.0 if d.chance(0.4) else float(d.rng.uniform(-180, 180)),
         camera_elevation=elevation, camera_distance_scale=distance, intersect=fam["intersect"],
@@ -228,16 +229,18 @@ def _monotonic_case(d: _Draw, index: int, fam: dict) -> Case:
     light = Light("directional", direction=tuple(light_dir), intensity=d.log_edge(1e-6, 1e6),
                   angular_radius_deg=d.pick((0.0, 0.5, 2.5)))
     spec = make_spec(
-        stage="shared", rows=1, cols=cols, width=width, height=height, roughness=(lo, hi), metallic=(metallic, metallic),
+        stage="shared", rows=1, cols=cols, width=width, height=height, roughness=(lo, hi),
+        metallic=(metallic, metallic),
         base_color=(base,) * 3, env="black", lights=(light,), shadows=False, ao=False, ground=False,
         ibl=False, camera="orthographic", camera_azimuth=0.0, camera_elevation=0.0, intersect="analytic",
         spacing=spacing, brdf=fam["brdf"], multiscatter=fam["multiscatter"], quality=fam["quality"],
         hdr_precision=fam["hdr_precision"], backend=fam["backend"].split("-")[0],
-        exposure=float(d.rng.uniform(-20, 20)), tonemap=d.pick(TONEMAPS), antialias=False, labels=False)
+        exposure=float(d.rng.uniform(-20, 20)), tonemap=d.pick(TONEMAPPERS), antialias=False, labels=False)
     labels = {"kind": "monotonic", "backend": fam["backend"], "precision": fam["hdr_precision"],
               "roughness": _edge_hits(spec.axis_values("x"), EDGE_ROUGHNESS),
               "metallic": _edge_hits([metallic], EDGE_METALLIC), "base colour": f"grey {base:g}",
-              "light intensity": [_bucket_decade(light.intensity)], "brdf": spec.brdf + ("" if spec.multiscatter else " single"),
+              "light intensity": [_bucket_decade(light.intensity)],
+              "brdf": spec.brdf + ("" if spec.multiscatter else " single"),
               "quality": spec.quality}
     return Case(index, "monotonic", fam["backend"], spec, labels,
                 probe=(height - 1 - py_gl, px, step, tuple(normal)))

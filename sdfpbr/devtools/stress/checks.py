@@ -9,8 +9,7 @@ import numpy as np
 from ...oracle import display, shading_model
 from ...oracle.furnace import FurnaceTable
 from ...image.layout import BACKGROUND
-from ...shading.cells import cell_border_mask
-from ...shading.plan import has_alpha
+from ...shading.plan import chart_frame
 from ...spec.chart_spec import ChartSpec
 
 FIREFLY_RATIO = 4.0
@@ -62,10 +61,11 @@ def display_error(hdr, alpha, image, spec: ChartSpec, chunk_rows: int | None = N
     H, W = hdr.shape[:2]
     chunk_rows = chunk_rows or max(1, 1_000_000 // max(W, 1))
     worst, bad = 0, 0
+    frame = chart_frame(spec)
     for r0 in range(0, H, chunk_rows):
         sl = slice(r0, r0 + chunk_rows)
         want = expected_display(hdr[sl], alpha[sl], spec).astype(np.int16)
-        want[cell_border_mask(spec, has_alpha(spec), slice(r0, r0 + len(want)))] = BACKGROUND   # the cells' frames
+        want[frame.border_mask(slice(r0, r0 + len(want)))] = BACKGROUND   # the cells' borders
         diff = np.abs(want - image[sl].astype(np.int16)).max(-1)
         finite = np.isfinite(hdr[sl]).all(-1) & np.isfinite(alpha[sl])
         diff = np.where(finite, diff, 0)

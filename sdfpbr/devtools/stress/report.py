@@ -60,11 +60,13 @@ class Report:
                  f"{'furnace':>8s} {'firefly':>8s} {'mirror':>8s}"]
         for r in sorted(self.table(), key=lambda r: (r["dimension"], str(r["value"]))):
             lines.append(f"{r['dimension'][:22]:22s} {str(r['value'])[:16]:16s} {r['configs']:7d} {r['failures']:5d} "
-                         f"{r['display_lsb']:4d} {r['furnace_err']:8.2e} {r['firefly_ratio']:8.3g} {r['mirror_err']:8.2e}")
+                         f"{r['display_lsb']:4d} {r['furnace_err']:8.2e} "
+                         f"{r['firefly_ratio']:8.3g} {r['mirror_err']:8.2e}")
         j = self.to_json()
         w = j["worst"]
         lines.append("")
-        lines.append(f"{j['configs']} configurations (seed {self.seed}), {j['failures']} failing, {self.seconds:.1f} s; "
+        lines.append(f"{j['configs']} configurations (seed {self.seed}), {j['failures']} failing, "
+                     f"{self.seconds:.1f} s; "
                      f"worst: display {w['display_lsb']} LSB, furnace {w['furnace_err']:.2e}, "
                      f"firefly ratio {w['firefly_ratio']:.3g} (limit {FIREFLY_RATIO:g}), "
                      f"monotonic rise {w['monotonic_rise']:.2e}, BRDF mirror {w['mirror_err']:.2e}; "

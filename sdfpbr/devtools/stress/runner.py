@@ -9,7 +9,6 @@ import numpy as np
 
 from ...oracle.furnace import FurnaceTable
 from ...progress import Progress
-from ...shading.camera import frame
 from .cases import TILED_TILE, Case, Outcome
 from .checks import (DISPLAY_LSB, check_finite, display_error, furnace_error, isolated_outliers,
                      monotonic_error, tiles_equal)
@@ -25,8 +24,9 @@ def run_case(case: Case, sessions: dict, table: FurnaceTable) -> Outcome:
     lsb, bad = display_error(result.hdr, result.alpha, result.image, spec)
     metrics["display_lsb"] = lsb
     if bad:
-        failures.append(f"{bad} display pixels differ from the tone-mapped HDR by more than {DISPLAY_LSB} LSB (worst {lsb})")
-    ratio, flagged, tested = isolated_outliers(result.hdr, result.aov, spec, frame(spec))
+        failures.append(f"{bad} display pixels differ from the tone-mapped HDR "
+                        f"by more than {DISPLAY_LSB} LSB (worst {lsb})")
+    ratio, flagged, tested = isolated_outliers(result.hdr, result.aov, spec, result.camera)
     metrics["firefly_ratio"] = ratio
     metrics["firefly_tested"] = tested
     if flagged:
@@ -57,7 +57,8 @@ def make_sessions(cases: list[Case], cache=None) -> tuple[dict, list[str]]:
     from ...gpu.gl import create_context
     from ...gpu.session import Session
     sessions, notes = {}, []
-    for name in sorted({c.backend for c in cases} | ({"egl"} if any(c.backend == "egl-tiled" for c in cases) else set())):
+    for name in sorted({c.backend for c in cases}
+                       | ({"egl"} if any(c.backend == "egl-tiled" for c in cases) else set())):
         base = name.split("-")[0]
         try:
             ctx = sessions[base].ctx if base in sessions else create_context(base)
@@ -83,7 +84,8 @@ def run_sweep(cases: list[Case], sessions: dict, notes: list, seed: int = 0,
             try:
                 outcome = run_case(case, sessions, table)
             except Exception as exc:   # a crash in one configuration is a failure, not the end
-                outcome = Outcome(case, [f"render raised {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"])
+                outcome = Outcome(case, [f"render raised {type(exc).__name__}: "
+                                         f"{str(exc).splitlines()[0] if str(exc) else ''}"])
             outcomes.append(outcome)
             failing += bool(outcome.failures)
             if outcome.failures and failures_dir is not None:
