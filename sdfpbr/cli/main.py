@@ -116,10 +116,13 @@ def add_animation_options(p: Parser, frames_help: str) -> None:
     """--frames, --orbit, --fps and --lossless, for every command that animates."""
     from ..spec.presets import DEFAULT_FPS, ORBITS, WEBP_QUALITY
     p.add_argument("--frames", type=int, metavar="N", help=frames_help)
-    p.add_argument("--orbit", choices=ORBITS, default=ORBITS[0], help=f"what turns in the animation (default {ORBITS[0]})")
-    p.add_argument("--fps", type=float, default=DEFAULT_FPS, help=f"animation frames per second (default {DEFAULT_FPS:g})")
+    p.add_argument("--orbit", choices=ORBITS, default=ORBITS[0],
+                   help=f"what turns in the animation (default {ORBITS[0]})")
+    p.add_argument("--fps", type=float, default=DEFAULT_FPS,
+                   help=f"animation frames per second (default {DEFAULT_FPS:g})")
     p.add_argument("--lossless", action="store_true",
-                   help=f"WebP animation frames stored exactly (about 4x larger than the default quality {WEBP_QUALITY})")
+                   help="WebP animation frames stored exactly "
+                        f"(about 4x larger than the default quality {WEBP_QUALITY})")
 
 
 def check_still_options(args) -> None:
@@ -201,8 +204,12 @@ def cmd_chart(args) -> int:
         for what in gltf_materials(spec.gltf, spec.gltf_materials).ignored:
             print(f"sdfpbr: note: {what} is not charted", file=sys.stderr)
     start = time.perf_counter()
-    result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov))
-    result.save(args.output, hdr=args.hdr, aov=args.aov)
+    from ..gpu.render import check_memory
+    from ..progress import Ticker
+    check_memory(spec, bool(args.aov), bool(args.hdr))   # a refusal is one line, before any progress line
+    with Ticker(f"sdfpbr chart {spec.width}x{spec.height}"):   # silent unless it takes a while
+        result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov))
+        result.save(args.output, hdr=args.hdr, aov=args.aov)
     if args.verbose:
         t = result.result.timings
         print(f"{args.output}: {spec.width}x{spec.height}, render {t['render_s']*1e3:.0f} ms, "
@@ -224,12 +231,12 @@ def cmd_shader(args) -> int:
 
 def cmd_doctor(args) -> int:
     from ..gpu.gl import INSTALL_HINT, doctor
-    from ..gpu.session import chart_stage_for
+    from ..gpu.session import chart_shader_for
     reports = doctor(args.device_index or 0)
     for r in reports:
-        if r.ok:   # and which program draws the chart there (session.chart_stage_for)
+        if r.ok:   # and which program draws the chart there (session.chart_shader_for)
             print(f"{r.backend:7s} ok    {r.vendor} | {r.renderer} | {r.version} | chart: "
-                  f"{chart_stage_for(r.renderer)} shader")
+                  f"{chart_shader_for(r.renderer)} shader")
         else:
             print(f"{r.backend:7s} FAIL  {r.error}")
     if not any(r.ok for r in reports):
@@ -292,7 +299,8 @@ def add_chart_command(sub) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=CHART_EXAMPLES)
     p.add_argument("-o", "--output", default="chart.png", help="PNG path (default chart.png)")
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
-    p.add_argument("--aov", metavar="PATH.npz", help="also write normal, depth, row, col, roughness, metallic, ndotv, coverage")
+    p.add_argument("--aov", metavar="PATH.npz",
+                   help="also write normal, depth, row, col, roughness, metallic, ndotv, coverage")
     p.add_argument("-v", "--verbose", action="store_true", help="print the image's size, render and set-up times")
     add_animation_options(p, "render an N-frame orbit animation instead (-o .gif, .webp or .mp4)")
     add_chart_options(p)

@@ -6,6 +6,7 @@ the same spec. Written as GIF or WebP (Pillow, looping forever) or MP4 (imageio-
 """
 from __future__ import annotations
 
+import importlib
 import math
 import sys
 from contextlib import nullcontext
@@ -25,7 +26,7 @@ from ..spec.chart_spec import ChartSpec, make_spec
 from ..spec.presets import DEFAULT_FPS, ORBITS
 from ..image.chart_labels import label
 from ..spec.chart_spec import as_spec
-from .compare import bug_pair, chart_panel, render_chart
+from .compare import bug_pair, chart_panel, render_chart, sheet_page
 
 __all__ = ["Animation", "animate", "animate_compare", "orbit_specs", "check_animation_output",
            "write_animation", "ANIMATION_SUFFIXES", "ORBITS"]
@@ -63,7 +64,8 @@ MIN_FPS, MAX_FPS = 0.1, 100.0   # a frame per 10 s at the slowest: every encoder
 
 
 def _check_fps(fps) -> float:
-    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
+    if (isinstance(fps, bool) or not isinstance(fps, (int, float))
+            or not (math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS)):
         raise SpecError(f"fps must be a number in [{MIN_FPS:g}, {MAX_FPS:g}], got {fps!r}")
     return float(fps)
 
@@ -78,7 +80,7 @@ def check_animation_output(path: str | Path, fps: float = DEFAULT_FPS, lossless:
                         f"(GIF is always exact to its palette): leave it out or write .webp")
     if p.suffix.lower() == ".mp4":
         try:
-            import imageio_ffmpeg  # noqa: F401
+            importlib.import_module("imageio_ffmpeg")   # only whether it imports matters
         except ImportError:
             from ..extras import missing_extra
             raise missing_extra("video", "writing .mp4", "or write .gif or .webp") from None
@@ -183,13 +185,14 @@ def animate_compare(spec: ChartSpec | str | Path | None, bug_name: str, frames: 
     _check_fps(fps)
     axes = correct.labels if axes is None else axes
     text_size = sheet_text_size(correct.height)
+    page = sheet_page(correct)   # laid onto a backdrop: the frame's page is that colour too
 
     def images():
         for c, b in _frames(pairs, f"{bug.name} orbit {orbit}", progress, orbit):
-            panels = [chart_panel("correct", render_chart(c), axes, text_size),
-                      chart_panel(f"buggy: {bug.name}", render_chart(b), axes, text_size)]
+            panels = [chart_panel("correct", render_chart(c), axes, text_size, page_srgb=page),
+                      chart_panel(f"buggy: {bug.name}", render_chart(b), axes, text_size, page_srgb=page)]
             yield np.array(assemble([panels], title=f"{bug.name}: {bug.summary}", caption=bug.caption,
-                                    text_size=text_size))
+                                    text_size=text_size, page_srgb=page))
     return _stream(images(), output, fps, keep_frames, [s for pair in pairs for s in pair], lossless)
 
 

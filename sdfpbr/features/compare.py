@@ -1,10 +1,10 @@
 """Comparison sheets: two renders and their FLIP difference, bug demos, contact sheets, sweeps.
 
-A sheet is a grid of panels (laid out by ``sdfpbr.image.sheet``). Each panel is a render made at panel size and pasted unresampled
-(the difference panel is the per-pixel FLIP map, pixel-aligned with the renders); all text
-lives in bands around the panels, except the mean FLIP per sphere printed on each sphere of a
-difference panel. FLIP is LDR-FLIP of the unlabeled display images, so it measures what a
-viewer sees, tone mapping and encoding included.
+A sheet is a grid of panels (laid out by ``sdfpbr.image.sheet``). Each panel is a render made at
+panel size and pasted unresampled (the difference panel is the per-pixel FLIP map, pixel-aligned
+with the renders); all text lives in bands around the panels, except the mean FLIP per sphere
+printed on each sphere of a difference panel. FLIP is LDR-FLIP of the unlabeled display images,
+so it measures what a viewer sees, tone mapping and encoding included.
 """
 from __future__ import annotations
 
@@ -25,21 +25,20 @@ from ..progress import Progress
 from ..workers import helper_pool
 from ..image.io import check_writable, png_bytes, write_png
 from ..image.layout import FOOTER_SEPARATOR, Cell
-from ..image.sheet import (Axes, Box, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
-                           sheet_text_size, tile)
+from ..image.layout import label_text
+from ..image.sheet import (Axes, CellValue, Panel, assemble, flatten, number_style, panel, print_numbers,
+                           sheet_text_size)
 from ..image.chart_labels import axis_title, chart_cells, row_names, footer_text
 from ..spec.chart_spec import SPEC_KEYS, ChartSpec, as_spec, make_spec
 from ..spec.bugs import BUG_MEASURE_SIZE
 from ..spec.checks import text as check_text
 from ..spec.presets import MAX_CAPTION, MAX_TITLE
 from ..spec.fields import resolve_field, sweep_defaults
-from ..shading.camera import frame
-from ..shading.cells import cell_border_mask
-from ..shading.plan import has_alpha
+from ..shading.plan import ChartFrame, chart_frame
 
-__all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "sweep",
-           "bug_pair", "spec_differences", "at_panel_size", "check_comparable",
-           "render_chart", "chart_axes", "chart_panel"]
+__all__ = ["Sheet", "Difference", "RenderedChart", "compare_specs", "compare_bug", "bug_contact_sheet", "bug_catalog",
+           "catalog_pages", "sweep", "bug_pair", "spec_differences", "at_panel_size", "check_comparable",
+           "render_chart", "chart_axes", "chart_panel", "sheet_page"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -118,7 +117,7 @@ class RenderedChart:
         return image
 
 
-# Renders a process keeps by spec for the sheets: the catalog's cards and a gallery's per-bug
+# Renders a process keeps by spec for the sheets: the catalog's rows and a gallery's per-bug
 # pages render the same correct chart again and again (renders are deterministic). ResultCache arrays
 # are read-only; the oldest go first past the budget.
 KEPT_RENDER_BYTES = 96 << 20
@@ -215,24 +214,30 @@ def _digests(spec: ChartSpec, result) -> tuple[str, str]:
 # ---------------------------------------------------------------------------------------------
 # Panels.
 
-def chart_axes(spec: ChartSpec, camera) -> Axes:
-    """The roughness / metallic labels of a chart of ``spec``, for a sheet panel."""
-    return Axes(chart_cells(spec, camera), spec.axis_values("x"), spec.axis_values("y"), row_names(spec),
+def chart_axes(frame: ChartFrame) -> Axes:
+    """The roughness / metallic labels of a chart (its frame), for a sheet panel."""
+    spec = frame.spec
+    return Axes(chart_cells(frame), spec.axis_values("x"), spec.axis_values("y"), row_names(spec),
                 axis_title(spec, "x"), axis_title(spec, "y"))
 
 
+def sheet_page(spec: ChartSpec) -> tuple[float, ...] | None:
+    """The page a sheet of ``spec``'s charts lies on: the backdrop they are laid onto (sRGB
+    0..1), so a dark sheet does not frame charts made for a light page; None: the dark ground."""
+    return tuple(spec.backdrop) if spec.backdrop else None
+
+
 def chart_panel(label: str, rendered: RenderedChart, axes: bool, text_size: int,
-                spec_index: int | None = None) -> Panel:
+                spec_index: int | None = None, page_srgb: Sequence[float] | None = None) -> Panel:
     """A render's display image as a sheet panel, with the chart's axis labels when ``axes``."""
-    camera = rendered.result.camera
-    return panel(label, rendered.display, text_size, spec_index=spec_index,
-                 axes=chart_axes(rendered.spec, camera) if axes else None)
+    return panel(label, rendered.display, text_size, spec_index=spec_index, page_srgb=page_srgb,
+                 axes=chart_axes(rendered.result.frame) if axes else None)
 
 
-def _heatmap(error_map: np.ndarray) -> tuple[np.ndarray, tuple[int, int]]:
+def _heatmap(error_map: np.ndarray, page_srgb: Sequence[float] | None) -> tuple[np.ndarray, tuple[int, int]]:
     """metrics.heatmap of the map and where the map's pixels lie inside it."""
     from ..image.metrics import heatmap
-    heat = heatmap(error_map, vmin=0.0, vmax=1.0)
+    heat = heatmap(error_map, vmin=0.0, vmax=1.0, page_srgb=page_srgb)
     image, x, y = heat.image, heat.x, heat.y
     # Trim the plain margin above and left of the map, so the panel's label sits as close to
     # the map as the other panels' labels sit to their renders.
@@ -243,43 +248,46 @@ def _heatmap(error_map: np.ndarray) -> tuple[np.ndarray, tuple[int, int]]:
 
 
 def _difference(reference: RenderedChart, test: RenderedChart, reference_label: str, test_label: str,
-                axes: bool, text_size: int, shown: ChartSpec | None = None) -> Difference:
+                axes: bool, text_size: int, shown: ChartSpec | None = None, short: bool = False) -> Difference:
     """FLIP of ``test`` against ``reference``, measured on the renders; its panel (map, axes and
-    the numbers' cells) at the renders' size, or shrunk to ``shown``'s size (same grid)."""
+    the numbers' cells) at the renders' size, or shrunk to ``shown``'s size (same grid), on the
+    reference's page (sheet_page). ``short``: a short label, for a small panel."""
     from ..image.metrics import flip_ldr, per_cell_mean
     spec = reference.spec
     # Where both renders frame their cells in the page colour, the pixels are the same: left out
     # of the mean, a mean over the cells. Only where both do: a spec without borders (or with
     # another grid) differs from the other there.
-    borders = [cell_border_mask(r.spec, has_alpha(r.spec)) for r in (reference, test)]
+    borders = [r.result.frame.border_mask() for r in (reference, test)]
     framed = borders[0] & borders[1]
     mean, error_map = flip_ldr(test.display, reference.display, mask=~framed if framed.any() else None)
     aov = reference.result.aov
     per_cell = per_cell_mean(error_map, aov["row"], aov["col"], spec.rows, spec.cols)
     shown = shown or spec
     size = (shown.width, shown.height)
-    heat, offset = _heatmap(error_map if shown is spec else _shrunk(error_map, size))
-    label = f"FLIP difference, mean {mean:.3f}"
-    camera = reference.result.camera if shown is spec else frame(shown)
-    heat_panel = panel(label, heat, text_size, axes=chart_axes(shown, camera) if axes else None,
-                       offset=offset, area_size=size)
-    cells = _numbered_cells(per_cell, shown, camera)
+    page = sheet_page(spec)
+    heat, offset = _heatmap(error_map if shown is spec else _shrunk(error_map, size), page)
+    label = f"FLIP, mean {mean:.3f}" if short else f"FLIP difference, mean {mean:.3f}"
+    framed = reference.result.frame if shown is spec else chart_frame(shown)
+    heat_panel = panel(label, heat, text_size, axes=chart_axes(framed) if axes else None,
+                       offset=offset, area_size=size, page_srgb=page)
+    cells = _numbered_cells(per_cell, framed)
     style = number_style([float(per_cell[c.row, c.col]) for c in cells], min(c.radius_px for c in cells)) \
         if cells else None
     return Difference(test_label, reference_label, mean, error_map, per_cell, heat_panel, style)
 
 
-def _numbered_cells(per_cell: np.ndarray, spec: ChartSpec, camera) -> list[Cell]:
+def _numbered_cells(per_cell: np.ndarray, frame: ChartFrame) -> list[Cell]:
     """Spheres with a mean (some pixel visible) whose centre lies inside the render."""
-    return [c for c in chart_cells(spec, camera)
+    spec = frame.spec
+    return [c for c in chart_cells(frame)
             if math.isfinite(per_cell[c.row, c.col]) and 0 <= c.cx < spec.width and 0 <= c.cy < spec.height]
 
 
-def _print_cells(sheet, d: Difference, spec: ChartSpec, camera) -> None:
+def _print_cells(sheet, d: Difference, frame: ChartFrame) -> None:
     """Each visible sphere's mean FLIP, centred on the sphere."""
     if d.number_style is None:
         return
-    cells = _numbered_cells(d.per_cell, spec, camera)
+    cells = _numbered_cells(d.per_cell, frame)
     d.cells += print_numbers(sheet, d.panel.box, cells, [float(d.per_cell[c.row, c.col]) for c in cells],
                              d.number_style)
 
@@ -297,16 +305,17 @@ def _comparison(reference: RenderedChart, test: RenderedChart, labels: tuple[str
     spec = reference.spec
     axes = spec.labels if axes is None else axes
     text_size = sheet_text_size(spec.height)
-    panels = [chart_panel(labels[0], reference, axes, text_size, spec_index=0),
-              chart_panel(labels[1], test, axes, text_size, spec_index=1)]
+    page = sheet_page(spec)
+    panels = [chart_panel(labels[0], reference, axes, text_size, spec_index=0, page_srgb=page),
+              chart_panel(labels[1], test, axes, text_size, spec_index=1, page_srgb=page)]
     diff = _difference(reference, test, labels[0], labels[1], axes, text_size)
     panels.append(diff.panel)
     caption = f"{caption}\n" if caption else ""
     caption += (f"Right: LDR-FLIP of {labels[1]} against {labels[0]} (0 = identical, 1 = maximal), "
                 f"mean {diff.mean:.4f}" + ("; the number on each sphere is that sphere's mean."
                                            if diff.number_style else "."))
-    image = assemble([panels], title=title, caption=caption, text_size=text_size)
-    _print_cells(image, diff, spec, reference.result.camera)
+    image = assemble([panels], title=title, caption=caption, text_size=text_size, page_srgb=page)
+    _print_cells(image, diff, reference.result.frame)
     return Sheet(np.array(image), caption, [reference.spec, test.spec], title, kind, panels, [diff],
                  [_digests(r.spec, r.result) for r in (reference, test)], _sheet_renderer([reference, test]))
 
@@ -328,7 +337,7 @@ def check_comparable(a: ChartSpec, b: ChartSpec) -> None:
         raise SpecError(f"cannot compare a {a.rows}x{a.cols} grid of spheres (rows x cols) with a {b.rows}x{b.cols} "
                         f"one: each sphere is measured against the sphere at the same row and column; "
                         f"give both specs the same rows and cols")
-    cells = [chart_cells(s, frame(s)) for s in (a, b)]
+    cells = [chart_cells(chart_frame(s)) for s in (a, b)]
     for ca, cb in zip(*cells):
         if max(abs(ca.cx - cb.cx), abs(ca.cy - cb.cy), abs(ca.radius_px - cb.radius_px)) > SPHERE_TOLERANCE_PX:
             moved = [f for f in ("camera", "camera_azimuth", "camera_elevation", "camera_distance_scale",
@@ -441,40 +450,61 @@ def _shrunk(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.array(Image.fromarray(image.astype(np.float32), "F").resize(size, Image.Resampling.BOX))
 
 
-def _bug_panels(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int) -> list[Panel]:
-    """The correct and buggy panels of a bug's card, shown at ``panel_size`` with their axes."""
+# A catalog page: one bug a row (correct | buggy | FLIP map, then its name, summary and caption),
+# BUGS_PER_PAGE rows at CATALOG_PANEL px with CATALOG_TEXT px text: about 1030 x 1600 px, read at
+# its own size on a docs page (the whole catalog on one sheet was 2244 x 5900 px in 14 px text).
+BUGS_PER_PAGE = 8
+CATALOG_PANEL = 144
+CATALOG_TEXT = 16
+
+
+def catalog_pages(names: Sequence[str], per_page: int = BUGS_PER_PAGE) -> list[list[str]]:
+    """``names`` in pages of at most ``per_page``, as even as they can be (22 bugs: 8, 7, 7)."""
+    if isinstance(per_page, bool) or not isinstance(per_page, int) or per_page < 1:
+        raise SpecError(f"bugs per page must be a positive whole number, got {per_page!r}")
+    count = math.ceil(len(names) / per_page)
+    size, longer = divmod(len(names), count) if count else (0, 0)
+    pages, start = [], 0
+    for i in range(count):
+        end = start + size + (1 if i < longer else 0)
+        pages.append(list(names[start:end]))
+        start = end
+    return pages
+
+
+def _bug_panels(rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int) -> list[Panel]:
+    """The correct and buggy panels of a bug's row, shown at ``panel_size`` (no axes: the
+    page's caption names them once)."""
+    page = sheet_page(rc.spec)
     shown = [at_panel_size(r.spec, panel_size) for r in (rc, rb)]
-    return [panel(label, _shrunk(r.display, (s.width, s.height)), text_size, axes=chart_axes(s, frame(s)))
-            for label, r, s in (("correct", rc, shown[0]), (f"buggy: {bug.name}", rb, shown[1]))]
+    return [panel(label, _shrunk(r.display, (s.width, s.height)), text_size, page_srgb=page)
+            for label, r, s in (("correct", rc, shown[0]), ("buggy", rb, shown[1]))]
 
 
-def _bug_card(bug, rc: RenderedChart, rb: RenderedChart, panels: list[Panel], panel_size: int, text_size: int):
-    """correct | buggy | FLIP map of one bug (``panels``: _bug_panels'), measured on the renders
-    and shown at ``panel_size``, its name and summary above and the caption below."""
-    shown = [at_panel_size(r.spec, panel_size) for r in (rc, rb)]
-    diff = _difference(rc, rb, "correct", f"buggy: {bug.name}", True, text_size, shown=shown[0])
-    card = assemble([panels + [diff.panel]], title=f"{bug.name}: {bug.summary}",
-                    caption=f"{bug.caption} Mean FLIP {diff.mean:.3f}.", text_size=text_size)
-    _print_cells(card, diff, shown[0], frame(shown[0]))
-    return card, panels + [diff.panel], diff
+def _bug_row(bug, rc: RenderedChart, rb: RenderedChart, panels: list[Panel], panel_size: int, text_size: int):
+    """A bug's row of a catalog page: ``panels`` (_bug_panels') and its FLIP map, measured on the
+    renders and shown at ``panel_size``; returns (the three panels, the Difference)."""
+    shown = at_panel_size(rc.spec, panel_size)
+    diff = _difference(rc, rb, "correct", f"buggy: {bug.name}", False, text_size, shown=shown, short=True)
+    return panels + [diff.panel], diff
 
 
-# What a helper composing comparisons imports (workers.helper_pool): the cards here, a
+# What a helper composing comparisons imports (workers.helper_pool): the rows here, a
 # gallery's pages (tools.gallery.images).
 HELPER_IMPORTS = ("sdfpbr.features.compare", "sdfpbr.image.metrics", "sdfpbr.image.flip")
 
 
-def _whole_card(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
-    """A bug's card, its panels included (_bug_panels, _bug_card)."""
-    return _bug_card(bug, rc, rb, _bug_panels(bug, rc, rb, panel_size, text_size), panel_size, text_size)
+def _whole_row(bug, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
+    """A bug's row, its panels included (_bug_panels, _bug_row)."""
+    return _bug_row(bug, rc, rb, _bug_panels(rc, rb, panel_size, text_size), panel_size, text_size)
 
 
-def _helper_card(name: str, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
-    """A helper's part (module level, for the pool): the card, from renders made in the parent;
+def _helper_row(name: str, rc: RenderedChart, rb: RenderedChart, panel_size: int, text_size: int):
+    """A helper's part (module level, for the pool): the row, from renders made in the parent;
     its FLIP measured here."""
     from ..spec.bugs import get_bug
     keep_renders([rc, rb])
-    return _whole_card(get_bug(name), rc, rb, panel_size, text_size)
+    return _whole_row(get_bug(name), rc, rb, panel_size, text_size)
 
 
 def _helped(future):
@@ -486,83 +516,120 @@ def _helped(future):
         return None
 
 
-def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
-                      panel_size: int = 256, per_row: int = 2, measure_size: int | None = BUG_MEASURE_SIZE,
-                      progress: bool = False) -> Sheet:
-    """The bug catalog (or ``names`` from it) as one sheet: a grid of cards, ``per_row`` across,
-    each a bug's correct | buggy | FLIP difference with axes at ``panel_size`` px, its name,
+def _axes_text(spec: ChartSpec) -> str:
+    """"roughness r (α = r²) 0 to 1 across, metallic 0 to 1 down": what a panel without axis
+    labels shows."""
+    def axis(name: str) -> str:
+        values = spec.axis_values(name)
+        return f"{axis_title(spec, name)} {label_text(values[0])} to {label_text(values[-1])}"
+    return f"{axis('x')} across, {axis('y')} down"
+
+
+def _catalog_caption(spec: ChartSpec, numbered: bool) -> str:
+    return ("Each row: the correct chart, the same chart with one bug switched on, and their LDR-FLIP "
+            "difference (0 = identical, 1 = maximal)" + (", each sphere's mean printed on it" if numbered else "")
+            + f". Charts: {_axes_text(spec)}, unless a row says otherwise; figures measured at "
+              f"{spec.width}x{spec.height}.")
+
+
+def bug_catalog(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
+                per_page: int = BUGS_PER_PAGE, panel_size: int = CATALOG_PANEL,
+                measure_size: int | None = BUG_MEASURE_SIZE, progress: bool = False,
+                pages: Sequence[int] | None = None) -> list[Sheet]:
+    """The bug catalog (or ``names`` from it) as page-sized sheets (catalog_pages): each page a
+    row per bug, its correct | buggy | FLIP difference at ``panel_size`` px beside its name,
     summary and caption. The figures are measured on renders at ``measure_size`` (the size
-    ``compare --bug`` uses, so both quote the same figure; None: the spec's own size).
-    ``progress``: say on stderr how many bugs are drawn (sdfpbr.progress)."""
+    ``compare --bug`` uses, so both quote the same figure; None: the spec's own size). Only
+    the ``pages`` listed (numbered from 1) are drawn (default: all). ``progress``: say on
+    stderr how many bugs are drawn (sdfpbr.progress)."""
     from concurrent.futures.process import BrokenProcessPool
     from ..image.metrics import FlipBatch
     from ..spec.bugs import BUGS, get_bug
     spec = at_panel_size(as_spec(spec, "spec"), measure_size)
     at_panel_size(spec, panel_size)   # checks panel_size
-    if isinstance(per_row, bool) or not isinstance(per_row, int) or not 1 <= per_row <= 8:
-        raise SpecError(f"cards per row must be a whole number in [1, 8], got {per_row!r}")
     names = list(BUGS) if names is None else [get_bug(n).name for n in names]   # all checked first
     if not names:
         raise SpecError(f"no bugs named; allowed: {', '.join(BUGS)}")
-    pairs = [bug_pair(spec, n) for n in names]
-    text_size = sheet_text_size(panel_size)
+    paged = catalog_pages(names, per_page)
+    wanted = range(1, len(paged) + 1) if pages is None else list(pages)
+    if any(isinstance(i, bool) or not isinstance(i, int) or not 1 <= i <= len(paged) for i in wanted):
+        raise SpecError(f"pages are numbered 1 to {len(paged)}, got {list(wanted)!r}")
+    drawn_names = [n for i in wanted for n in paged[i - 1]]
+    pairs = {n: bug_pair(spec, n) for n in drawn_names}
+    text_size = CATALOG_TEXT
     rendered: dict[ChartSpec, RenderedChart] = {}     # the correct chart is shared by most bugs
-    specs: list[ChartSpec] = []
 
-    def render(s: ChartSpec, aovs: bool) -> tuple[RenderedChart, int]:
+    def render(s: ChartSpec, aovs: bool) -> RenderedChart:
         if s not in rendered:
             rendered[s] = render_chart(s, aovs, keep=True)
-            specs.append(s)
-        return rendered[s], specs.index(s)
+        return rendered[s]
 
     with helper_pool(len(pairs), HELPER_IMPORTS) as pool, \
             Progress(len(pairs), "bug catalog", "bugs drawn", enabled=progress) as bar:
-        if pool is not None:   # each card made by a helper process as soon as its pair is drawn
+        if pool is not None:   # each row made by a helper process as soon as its pair is drawn
             futures = []
-            for bug, correct, buggy in pairs:
+            for bug, correct, buggy in pairs.values():
                 render_chart(correct, aovs=True, keep=True)   # drawn first: its radiance serves display bugs
-                rb, rc = render(buggy, False)[0], render(correct, True)[0]   # the sheet's specs in this order
+                rc, rb = render(correct, True), render(buggy, False)
                 try:
-                    futures.append(pool.submit(_helper_card, bug.name, rc, rb, panel_size, text_size))
+                    futures.append(pool.submit(_helper_row, bug.name, rc, rb, panel_size, text_size))
                 except BrokenProcessPool:
                     futures.append(None)
                 bar.update(note=bug.name)
-            made = [_helped(future) or _whole_card(bug, render(correct, True)[0], render(buggy, False)[0],
-                                                   panel_size, text_size)
-                    for (bug, correct, buggy), future in zip(pairs, futures)]
+            made = [_helped(future) or _whole_row(bug, render(correct, True), render(buggy, False),
+                                                  panel_size, text_size)
+                    for (bug, correct, buggy), future in zip(pairs.values(), futures)]
         else:
             # Every pair rendered first, each measured (in worker processes) while the next
-            # renders and the cards' chart panels are drawn.
+            # renders and the rows' chart panels are drawn.
             with FlipBatch(len(pairs)) as batch:
-                submit_bug_pairs(spec, names, batch)
-                for bug, correct, buggy in pairs:   # the sheet's specs in this order
-                    render(buggy, False), render(correct, True)
+                submit_bug_pairs(spec, list(pairs), batch)
+                for bug, correct, buggy in pairs.values():
+                    render(correct, True), render(buggy, False)
                     bar.update(note=bug.name)
-                chart_panels = [_bug_panels(bug, render(correct, True)[0], render(buggy, False)[0], panel_size,
-                                            text_size) for bug, correct, buggy in pairs]
-            made = [_bug_card(bug, render(correct, True)[0], render(buggy, False)[0], drawn, panel_size, text_size)
-                    for (bug, correct, buggy), drawn in zip(pairs, chart_panels)]
-    cards, card_panels, diffs = [], [], []
-    for (bug, correct, buggy), (card, panels, diff) in zip(pairs, made):
-        panels[0].spec_index, panels[1].spec_index = render(correct, True)[1], render(buggy, False)[1]
-        cards.append(card)
-        card_panels.append(panels)
-        diffs.append(diff)
-    title = f"PBR bug catalog: {len(names)} bugs"
-    caption = ("Each card: the correct chart, the same chart with one bug switched on, and the LDR-FLIP "
-               "difference (0 = identical, 1 = maximal)"
-               + (" with each sphere's mean printed on it" if any(d.number_style for d in diffs) else "")
-               + f"; figures measured at {spec.width}x{spec.height}.")
-    image, corners = tile(cards, per_row, title=title, caption=caption, text_size=text_size)
-    panels = []
-    for (x, y), row, diff in zip(corners, card_panels, diffs):
-        for p in row:
-            p.box = Box(p.box.x + x, p.box.y + y, p.box.w, p.box.h)
-        diff.cells = [dc_replace(c, x=c.x + x, y=c.y + y) for c in diff.cells]
-        panels += row
+                chart_panels = [_bug_panels(render(correct, True), render(buggy, False), panel_size, text_size)
+                                for bug, correct, buggy in pairs.values()]
+            made = [_bug_row(bug, render(correct, True), render(buggy, False), drawn, panel_size, text_size)
+                    for (bug, correct, buggy), drawn in zip(pairs.values(), chart_panels)]
+    rows = dict(zip(pairs, made))
+    return [_catalog_page(spec, [(pairs[n], *rows[n]) for n in paged[i - 1]], rendered, panel_size,
+                          f"PBR bug catalog: {len(names)} bugs"
+                          + (f", page {i} of {len(paged)}" if len(paged) > 1 else ""))
+            for i in wanted]
+
+
+def _catalog_page(spec: ChartSpec, rows: list, rendered: dict, panel_size: int, title: str) -> Sheet:
+    """One page of the catalog from its rows: ((bug, correct, buggy), panels, Difference) each."""
+    specs: list[ChartSpec] = []
+    for (_, correct, buggy), panels, _ in rows:   # the page's specs: each bug's buggy, then its correct
+        for s, p in ((buggy, panels[1]), (correct, panels[0])):
+            if s not in specs:
+                specs.append(s)
+        panels[0].spec_index, panels[1].spec_index = specs.index(correct), specs.index(buggy)
+    diffs = [diff for _, _, diff in rows]
+    # The mean is over its map; a bug shown on other axes (its correct chart's) says which.
+    notes = [(f"{bug.name}: {bug.summary}", bug.caption + ("" if _axes_text(correct) == _axes_text(spec)
+                                                           else f" Chart: {_axes_text(correct)}."))
+             for (bug, correct, _), _, _ in rows]
+    caption = _catalog_caption(spec, any(d.number_style for d in diffs))
+    image = assemble([panels for _, panels, _ in rows], title=title, caption=caption, text_size=CATALOG_TEXT,
+                     notes=notes, page_srgb=sheet_page(spec))
+    shown = chart_frame(at_panel_size(spec, panel_size))
+    for diff in diffs:
+        _print_cells(image, diff, shown)
     ordered = [rendered[s] for s in specs]
-    return Sheet(np.array(image), caption, specs, title, "bugs", panels, diffs,
+    return Sheet(np.array(image), caption, specs, title, "bugs", [p for _, panels, _ in rows for p in panels], diffs,
                  [_digests(r.spec, r.result) for r in ordered], _sheet_renderer(ordered))
+
+
+def bug_contact_sheet(spec: ChartSpec | str | Path | None = None, names: Sequence[str] | None = None, *,
+                      panel_size: int = CATALOG_PANEL, measure_size: int | None = BUG_MEASURE_SIZE,
+                      progress: bool = False) -> Sheet:
+    """``names`` of the catalog (default: all) on one sheet, however many: bug_catalog's rows."""
+    from ..spec.bugs import BUGS
+    count = len(BUGS) if names is None else max(1, len(names))
+    return bug_catalog(spec, names, per_page=count, panel_size=panel_size, measure_size=measure_size,
+                       progress=progress)[0]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -604,13 +671,15 @@ def sweep(spec: ChartSpec | str | Path | None, name: str, values: Sequence | Non
     text_size = sheet_text_size(max(s.height for s in specs))
     with Progress(len(specs), f"{field_name} sweep", "charts drawn", enabled=progress) as bar:
         rendered = render_charts(specs, bar)
-    panels = [chart_panel(_sweep_label(field_name, v), r, axes, text_size, spec_index=i)
+    page = sheet_page(base)
+    panels = [chart_panel(_sweep_label(field_name, v), r, axes, text_size, spec_index=i, page_srgb=page)
               for i, (v, r) in enumerate(zip(values, rendered))]
     grid = [panels[i:i + columns] for i in range(0, len(panels), columns)]
     part = _FOOTER_PART.get(field_name)
-    fixed = FOOTER_SEPARATOR.join(p for p in footer_text(base).split(FOOTER_SEPARATOR) if not (part and p.startswith(part)))
+    parts = footer_text(chart_frame(base)).split(FOOTER_SEPARATOR)
+    fixed = FOOTER_SEPARATOR.join(p for p in parts if not (part and p.startswith(part)))
     caption = f"The same chart across {field_name}. Everything else: {fixed}."
     title = title or f"{field_name} sweep"
-    image = assemble(grid, title=title, caption=caption, text_size=text_size)
+    image = assemble(grid, title=title, caption=caption, text_size=text_size, page_srgb=page)
     return Sheet(np.array(image), caption, specs, title, "sweep", panels, [],
                  [_digests(r.spec, r.result) for r in rendered], _sheet_renderer(rendered))

@@ -213,7 +213,8 @@ def _known_key(test, ref, ppd: float) -> str | None:
 
 
 def _remember_key(test, ref, ppd: float, key: str) -> None:
-    if isinstance(test, np.ndarray) and isinstance(ref, np.ndarray) and not (test.flags.writeable or ref.flags.writeable):
+    if (isinstance(test, np.ndarray) and isinstance(ref, np.ndarray)
+            and not (test.flags.writeable or ref.flags.writeable)):
         if len(_keys_of_arrays) >= 256:
             for k in [k for k, (t, r, _) in _keys_of_arrays.items() if t() is None or r() is None]:
                 del _keys_of_arrays[k]
@@ -402,6 +403,9 @@ _COLORMAPS = {
                 (63, 188, 115), (94, 201, 98), (132, 212, 75), (173, 220, 48), (216, 226, 25),
                 (253, 231, 37)],
     "gray": [(0, 0, 0), (255, 255, 255)],
+    # Signed errors (a bias map): blue below zero, light grey at zero, red above (Moreland's
+    # cool-warm end points).
+    "coolwarm": [(59, 76, 192), (221, 221, 221), (180, 4, 38)],
 }
 COLORMAPS = tuple(_COLORMAPS)
 
@@ -452,11 +456,12 @@ def heatmap_image(error_map, title: str | None = None, vmin: float = 0.0, vmax: 
 
 
 def heatmap(error_map, title: str | None = None, vmin: float = 0.0, vmax: float = 1.0,
-            colormap: str = "magma", ticks: int = 5) -> HeatMap:
-    """heatmap_image, and where in it the map's pixels lie (unscaled)."""
+            colormap: str = "magma", ticks: int = 5, page_srgb=None) -> HeatMap:
+    """heatmap_image, and where in it the map's pixels lie (unscaled). ``page_srgb``: a page
+    colour (sRGB 0..1) to lay it on, its text set to contrast (default: the charts' dark ground)."""
     from PIL import Image, ImageDraw
 
-    from .layout import BACKGROUND
+    from .layout import BACKGROUND, page_colour, text_colour
     from .text import load_font
 
     e = np.asarray(error_map, dtype=np.float64)
@@ -492,17 +497,19 @@ def heatmap(error_map, title: str | None = None, vmin: float = 0.0, vmax: float 
         width = max(width, tb[2] + 2 * pad)
     height = top + H + bottom
 
-    canvas = Image.new("RGBA", (width, height), BACKGROUND)
+    ground = BACKGROUND if page_srgb is None else page_colour(page_srgb)
+    line = (200, 200, 200, 255) if page_srgb is None else text_colour("axis", page_srgb)
+    canvas = Image.new("RGBA", (width, height), ground)
     canvas.paste(Image.fromarray(heat, "RGB"), (pad, top))
     bar_x = pad + W + 2 * pad
     ramp = apply_colormap(np.linspace(1.0, 0.0, H)[:, None].repeat(bar_w, axis=1), colormap)
     canvas.paste(Image.fromarray(ramp, "RGB"), (bar_x, top))
     draw = ImageDraw.Draw(canvas)
-    draw.rectangle((bar_x - 1, top - 1, bar_x + bar_w, top + H), outline=(200, 200, 200, 255))
+    draw.rectangle((bar_x - 1, top - 1, bar_x + bar_w, top + H), outline=line)
     for i, text in enumerate(labels):
         y = top + (H - 1) * (1.0 - i / (ticks - 1))
-        draw.line((bar_x + bar_w, y, bar_x + bar_w + 4, y), fill=(200, 200, 200, 255))
-        draw.text((bar_x + bar_w + pad // 2 + 4, y), text, font=font, fill=(225, 225, 225, 255), anchor="lm")
+        draw.line((bar_x + bar_w, y, bar_x + bar_w + 4, y), fill=line)
+        draw.text((bar_x + bar_w + pad // 2 + 4, y), text, font=font, fill=text_colour("label", page_srgb), anchor="lm")
     if title:
-        draw.text((pad, pad), title, font=font, fill=(240, 240, 240, 255))
+        draw.text((pad, pad), title, font=font, fill=text_colour("title", page_srgb))
     return HeatMap(np.asarray(canvas, np.uint8), pad, top)

@@ -2,6 +2,9 @@
 out in a grid with a title, an optional notes column and a wrapped caption, and numbers
 printed on the cells of a panel. Pure image layout: what the panels show is the caller's.
 
+A sheet is on the charts' dark ground, or on a page colour (``page_srgb``: sRGB 0..1, the
+backdrop the charts were laid onto), with text that contrasts with it as a chart's labels do.
+
 A panel's image is pasted unresampled; ``Panel.area`` is where its render (or map) lies inside
 it, and ``assemble`` sets ``Panel.box``, where that area landed on the sheet."""
 from __future__ import annotations
@@ -14,13 +17,20 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from .layout import (BACKGROUND, DEFAULT_COLUMN_AXIS_TITLE, DEFAULT_ROW_AXIS_TITLE, Cell, compose_chart,
-                     render_area_offset)
+                     page_colour, render_area_offset, text_colour)
 from .text import draw_text, drawable_text, load_font, text_length, wrap_text
 
 TITLE_COLOR = (240, 240, 240, 255)
 TEXT_COLOR = (215, 215, 215, 255)
 CELL_TEXT = (255, 255, 255, 255)
 CELL_OUTLINE = (0, 0, 0, 255)
+
+
+def _inks(page_srgb: Sequence[float] | None) -> tuple[tuple, tuple, tuple]:
+    """(ground, title colour, text colour) of a sheet on the dark ground or on a page colour."""
+    if page_srgb is None:
+        return BACKGROUND, TITLE_COLOR, TEXT_COLOR
+    return page_colour(page_srgb), text_colour("title", page_srgb), text_colour("label", page_srgb)
 
 
 @dataclass(frozen=True)
@@ -93,10 +103,11 @@ def line_height(font) -> int:
 
 def panel(label: str, image: np.ndarray, text_size: int, *, axes: Axes | None = None,
           offset: tuple[int, int] = (0, 0), area_size: tuple[int, int] | None = None,
-          spec_index: int | None = None) -> Panel:
+          spec_index: int | None = None, page_srgb: Sequence[float] | None = None) -> Panel:
     """``image`` with a label above; with ``axes`` also the column / row values, laid out by
     layout.compose_chart exactly as on a chart. ``offset``/``area_size``: where the render (or
-    map) sits inside ``image`` when the image has more than the render (a colour bar)."""
+    map) sits inside ``image`` when the image has more than the render (a colour bar).
+    ``page_srgb``: the sheet's page colour (module docstring)."""
     h, w = image.shape[:2]
     aw, ah = area_size or (w, h)
     ox, oy = offset
@@ -105,7 +116,8 @@ def panel(label: str, image: np.ndarray, text_size: int, *, axes: Axes | None = 
         names = list(axes.row_names) if axes.row_names else None
         rows = axes.row_values
         titles = dict(column_axis_title=axes.column_axis_title, row_axis_title=axes.row_axis_title)
-        out = compose_chart(image, cells, axes.column_values, rows, label, "", row_names=names, **titles)
+        out = compose_chart(image, cells, axes.column_values, rows, label, "", row_names=names,
+                            page_srgb=page_srgb, **titles)
         x0, y0 = render_area_offset(image.shape, len(rows), len(axes.column_values), label, "",
                                     row_values=rows, row_names=names, **titles)
         return Panel(label, out, Box(x0 + ox, y0 + oy, aw, ah), spec_index)
@@ -114,8 +126,9 @@ def panel(label: str, image: np.ndarray, text_size: int, *, axes: Axes | None = 
     text = drawable_text(label, font)
     width = max(w, math.ceil(text_length(font, text)) + 2 * pad)
     header = line_height(font) + pad
-    out = Image.new("RGBA", (width, header + h), BACKGROUND)
-    draw_text(ImageDraw.Draw(out), (width / 2, pad + font.getmetrics()[0]), text, font, TITLE_COLOR, anchor="ms")
+    ground, title_ink, _ = _inks(page_srgb)
+    out = Image.new("RGBA", (width, header + h), ground)
+    draw_text(ImageDraw.Draw(out), (width / 2, pad + font.getmetrics()[0]), text, font, title_ink, anchor="ms")
     arr = np.array(out)
     x0 = (width - w) // 2
     arr[header:, x0:x0 + w] = image
@@ -164,10 +177,13 @@ def print_numbers(sheet: Image.Image, box: Box, cells: Sequence[Cell], values: S
 # Assembly.
 
 def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str, text_size: int,
-             notes: Sequence[tuple[str, str]] | None = None) -> Image.Image:
+             notes: Sequence[tuple[str, str]] | None = None,
+             page_srgb: Sequence[float] | None = None) -> Image.Image:
     """Place panels in a grid (render areas of one row top-aligned, each centred in its column),
     with an optional notes column at the right (heading + wrapped text per row),
-    a title above and a wrapped caption below. Sets each panel's ``box``."""
+    a title above and a wrapped caption below, on the page ``page_srgb`` (module docstring).
+    Sets each panel's ``box``."""
+    ground, title_ink, text_ink = _inks(page_srgb)
     title_font, head_font = load_font(round(text_size * 1.3)), load_font(round(text_size * 1.1))
     text_font = load_font(text_size)
     pad, gap = text_size, max(8, text_size // 2)
@@ -188,8 +204,8 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
         lines = []
         if notes:
             heading, body = notes[i]
-            lines = [(head_font, TITLE_COLOR, line) for line in wrap_text(heading, head_font, notes_w)]
-            lines += [(text_font, TEXT_COLOR, line) for line in wrap_text(body, text_font, notes_w)]
+            lines = [(head_font, title_ink, line) for line in wrap_text(heading, head_font, notes_w)]
+            lines += [(text_font, text_ink, line) for line in wrap_text(body, text_font, notes_w)]
             h = max(h, sum(line_height(f) for f, _, _ in lines) + pad)
         row_tops.append(top)
         row_h.append(h)
@@ -203,11 +219,11 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
     caption_h = (gap + len(caption_lines) * line_height(text_font)) if caption_lines else 0
     height = pad + title_h + body_h + caption_h + pad
 
-    sheet = Image.new("RGBA", (width, height), BACKGROUND)
+    sheet = Image.new("RGBA", (width, height), ground)
     draw = ImageDraw.Draw(sheet)
     x_panels = pad + (content_w - panels_w - (gap * 2 + notes_w if notes else 0)) // 2
     col_x = [x_panels + sum(col_w[:j]) + gap * j for j in range(n_cols)]
-    y = _draw_lines(draw, title_lines, title_font, width / 2, y, TITLE_COLOR, "ms")
+    y = _draw_lines(draw, title_lines, title_font, width / 2, y, title_ink, "ms")
     y += gap if title_lines else 0
     canvas = np.array(sheet)
     for i, row in enumerate(grid):
@@ -229,7 +245,7 @@ def assemble(grid: Sequence[Sequence[Panel | None]], *, title: str, caption: str
             draw_text(draw, (nx, ny + font.getmetrics()[0]), line, font, color, anchor="ls")
             ny += line_height(font)
         y += row_h[i] + gap
-    _draw_lines(draw, caption_lines, text_font, pad, pad + title_h + body_h + gap, TEXT_COLOR, "ls")
+    _draw_lines(draw, caption_lines, text_font, pad, pad + title_h + body_h + gap, text_ink, "ls")
     return sheet
 
 
@@ -241,34 +257,3 @@ def _draw_lines(draw, lines: Sequence[str], font, x: float, y: float, color, anc
         y += line_height(font)
     return y
 
-
-def tile(cards: Sequence[Image.Image], per_row: int, *, title: str, caption: str,
-         text_size: int) -> tuple[Image.Image, list[tuple[int, int]]]:
-    """Cards (each a small sheet of its own) in a grid of ``per_row`` columns, tops aligned in a
-    row and each centred in its column, with a title above and a wrapped caption below; returns
-    the sheet and each card's top-left corner in it."""
-    title_font, text_font = load_font(round(text_size * 1.3)), load_font(text_size)
-    pad, gap = text_size, 2 * text_size
-    rows = [cards[i:i + per_row] for i in range(0, len(cards), per_row)]
-    col_w = [max(r[j].width for r in rows if j < len(r)) for j in range(min(per_row, len(cards)))]
-    row_h = [max(c.height for c in r) for r in rows]
-    content_w = max(sum(col_w) + gap * (len(col_w) - 1), text_size * 32)
-    title_lines = wrap_text(title, title_font, content_w) if title else []
-    caption_lines = wrap_text(caption, text_font, content_w) if caption else []
-    title_h = len(title_lines) * line_height(title_font) + (gap if title_lines else 0)
-    caption_h = (gap + len(caption_lines) * line_height(text_font)) if caption_lines else 0
-    width = content_w + 2 * pad
-    height = pad + title_h + sum(row_h) + gap * (len(rows) - 1) + caption_h + pad
-    sheet = Image.new("RGBA", (width, height), BACKGROUND)
-    draw = ImageDraw.Draw(sheet)
-    y = _draw_lines(draw, title_lines, title_font, width / 2, pad, TITLE_COLOR, "ms") + (gap if title_lines else 0)
-    x_grid = pad + (content_w - sum(col_w) - gap * (len(col_w) - 1)) // 2
-    corners = []
-    for r, row in enumerate(rows):
-        for j, card in enumerate(row):
-            x = x_grid + sum(col_w[:j]) + gap * j + (col_w[j] - card.width) // 2
-            sheet.paste(card, (x, y))
-            corners.append((x, y))
-        y += row_h[r] + gap
-    _draw_lines(draw, caption_lines, text_font, pad, y, TEXT_COLOR, "ls")
-    return sheet, corners

@@ -3,7 +3,7 @@
     sdfpbr compare A.toml B.toml -o out.png        A | B | FLIP difference
     sdfpbr compare --bug NAME -o cmp.png           correct | buggy | FLIP difference
     sdfpbr compare --bug NAME --frames 36 -o cmp.gif   the pair, orbiting
-    sdfpbr compare --bugs all -o bugs.png          contact sheet (or --bugs NAME,NAME)
+    sdfpbr compare --bugs all -o bugs.png          the catalog, pages bugs-1.png ... (or --bugs NAME,NAME)
 """
 from __future__ import annotations
 
@@ -11,10 +11,9 @@ import argparse
 
 from ...spec.bugs import BUG_MEASURE_SIZE as DEFAULT_PANEL   # --bug: three panels at the bug figures' size
 
-DEFAULT_CONTACT_PANEL = 256  # --bugs: the panels of each bug's card
-
 
 def register(subparsers) -> None:
+    from ...features.compare import BUGS_PER_PAGE, CATALOG_PANEL
     from ..main import add_animation_options, add_chart_options
     p = subparsers.add_parser(
         "compare", help="compare two specs, or a catalogued bug with the correct chart (FLIP difference)",
@@ -24,14 +23,17 @@ def register(subparsers) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("\n", 1)[1])
     p.add_argument("specs", nargs="*", metavar="SPEC.toml", help="two spec files: A (reference) and B")
     p.add_argument("--bugs", dest="bugs_sheet", metavar="all|NAME,...",
-                   help="contact sheet of the whole catalog or of these bugs")
+                   help="contact sheet of the whole catalog or of these bugs, a row per bug")
+    p.add_argument("--per-page", type=int, metavar="N", default=BUGS_PER_PAGE,
+                   help=f"--bugs: at most N bugs a page; more make pages OUT-1.png, OUT-2.png, ... "
+                        f"(default {BUGS_PER_PAGE}; 0: every bug on one sheet)")
     p.add_argument("-o", "--output", help="PNG (or .gif/.webp/.mp4 with --frames); "
                                           "default compare.png, compare-NAME.png or bugs.png")
     p.add_argument("--labels", metavar="A,B", help="panel labels for two spec files (default: the file names)")
     p.add_argument("--caption", help="caption for two spec files (default: the fields that differ)")
     p.add_argument("--panel-size", type=int, metavar="PX",
                    help=f"render each panel with this longer edge (--bug default {DEFAULT_PANEL} unless "
-                        f"--size/--spec give one; --bugs default {DEFAULT_CONTACT_PANEL})")
+                        f"--size/--spec give one; --bugs default {CATALOG_PANEL})")
     add_animation_options(p, "with --bug: an N-frame orbit animation of the pair")
     p.add_argument("-v", "--verbose", action="store_true", help="print the mean and per-sphere FLIP")
     add_chart_options(p)   # its --bug NAME (repeatable) names the bug to compare
@@ -75,9 +77,13 @@ def run(args) -> int:
     if mode == "bug" and args.frames is not None:
         return _animate_bug(args, start)
     with modules_fixed():   # a catalog composes each of its ~50 charts' programs several times
-        sheet, output = {"files": _files, "bug": _bug, "bugs": _contact_sheet}[mode](args)
-    sheet.save(output)
-    if args.verbose:
+        sheets = {"files": _files, "bug": _bug, "bugs": _contact_sheet}[mode](args)
+    for sheet, output in sheets:
+        sheet.save(output)
+    if len(sheets) > 1:   # the outputs are not the -o name: say what they are
+        import sys
+        print(f"sdfpbr: note: {len(sheets)} pages: {', '.join(str(o) for _, o in sheets)}", file=sys.stderr)
+    for sheet, output in sheets if args.verbose else ():
         h, w = sheet.image.shape[:2]
         print(f"{output}: {w}x{h}, {len(sheet.specs)} renders, {time.perf_counter() - start:.2f} s "
               f"on {sheet.renderer}")
@@ -104,7 +110,7 @@ def _files(args):
         specs.append(at_panel_size(spec_from_args(args), args.panel_size))
     output = args.output or "compare.png"
     check_writable(output, (".png",), "output")
-    return compare_specs(specs[0], specs[1], labels, args.caption or ""), output
+    return [(compare_specs(specs[0], specs[1], labels, args.caption or ""), output)]
 
 
 def _bug_spec(args):
@@ -123,25 +129,37 @@ def _bug(args):
     name, spec = _bug_spec(args)
     output = args.output or f"compare-{name}.png"
     check_writable(output, (".png",), "output")
-    return compare_bug(spec, name), output
+    return [(compare_bug(spec, name), output)]
 
 
 def _contact_sheet(args):
+    """The catalog's pages: OUT itself for one page, else OUT-1.png, OUT-2.png, ..."""
+    from pathlib import Path
+
     from ...spec.bugs import BUGS, get_bug
     from ..main import spec_from_args
-    from ...features.compare import bug_contact_sheet
+    from ...features.compare import CATALOG_PANEL, bug_catalog, catalog_pages
     from ...errors import SpecError
     from ...image.io import check_writable
-    names = None if args.bugs_sheet.strip() == "all" else \
+    names = list(BUGS) if args.bugs_sheet.strip() == "all" else \
         [get_bug(n.strip()).name for n in args.bugs_sheet.split(",") if n.strip()]
     if names == []:
         raise SpecError(f"--bugs needs 'all' or bug names; allowed: {', '.join(BUGS)}")
+    if args.per_page is None or args.per_page < 0:
+        raise SpecError(f"--per-page must be 0 (one sheet) or a positive whole number, got {args.per_page}")
+    per_page = args.per_page or len(names)
     spec = spec_from_args(args)
-    output = args.output or "bugs.png"
+    output = Path(args.output or "bugs.png")
     check_writable(output, (".png",), "output")
+    count = len(catalog_pages(names, per_page))
+    outputs = [output] if count == 1 else [output.with_name(f"{output.stem}-{i}{output.suffix}")
+                                           for i in range(1, count + 1)]
+    for path in outputs[1:]:
+        check_writable(path, (".png",), "output")
     # Measured where --bug measures: at the size --size/--spec chose, else at the bug figures' size.
-    return bug_contact_sheet(spec, names, panel_size=args.panel_size or DEFAULT_CONTACT_PANEL,
-                             measure_size=None if (args.size or args.spec) else DEFAULT_PANEL, progress=True), output
+    pages = bug_catalog(spec, names, per_page=per_page, panel_size=args.panel_size or CATALOG_PANEL,
+                        measure_size=None if (args.size or args.spec) else DEFAULT_PANEL, progress=True)
+    return list(zip(pages, outputs))
 
 
 def _animate_bug(args, start: float) -> int:

@@ -19,13 +19,16 @@ scanned, so they can hold specs that entries refer to). ``OUT/<file stem>.png`` 
   keys of a chart entry) and an optional ``caption``. ``[compare]`` holds exactly one of
 
   - ``bug = "unsquared-roughness"``: correct | buggy | FLIP difference of one catalog bug;
-  - ``bugs = "all"`` or ``bugs = ["name", ...]``: one contact sheet of those bugs;
+  - ``bugs = "all"`` or ``bugs = ["name", ...]``: a contact sheet of those bugs, a row each; more
+    than a page holds (``compare.BUGS_PER_PAGE``) make pages ``<stem>-1.png``, ``<stem>-2.png``, ...
+    (``page = N`` makes page N alone, as ``<stem>.png``);
   - ``bugs = "each"``: one comparison per catalog bug, written as ``<stem>-<bug>.png``;
   - ``a = "x.toml"`` and ``b = "y.toml"`` (paths relative to the entry; ``[spec]`` is the base
     both files are read over), with optional ``labels = ["A", "B"]``.
 
 * **Sweep**: ``[sweep] field = "tonemap"`` and ``values = [...]`` (any spec key; each value as it
-  would be written in a chart entry), with an optional ``[spec]`` base and ``caption``.
+  would be written in a chart entry; without values, those ``sdfpbr sweep`` takes for the field),
+  with an optional ``[spec]`` base and ``caption``.
 
 A file named in an entry (``env``, a texture, ``gltf``, an a/b file) is found relative to the entry's
 directory (a file an a/b file names: relative to that file's directory), and must lie inside the
@@ -42,8 +45,9 @@ GL program those renders run (chart, display, vertex, DFG and IBL bakes; pure Py
 sdfpbr version, the Python sources that make images (``image_modules()``: chart, compare and
 every sdfpbr module they import) and the GL renderer string. Images live in
 ``<cache>/build/<key>.png`` (``$SDFPBR_CACHE_DIR`` or ~/.cache/sdfpbr; the cache counts and
-deletes only its own entries there, ``sdfpbr.cache``) with the key in their PNG metadata; a rebuild renders only the images no valid entry exists for, so editing one
-shader module re-renders exactly the images whose programs include it.
+deletes only its own entries there, ``sdfpbr.cache``) with the key in their PNG metadata; a
+rebuild renders only the images no valid entry exists for, so editing one shader module
+re-renders exactly the images whose programs include it.
 
 Output
 ------
@@ -59,13 +63,14 @@ Interruption and concurrency
 ----------------------------
 Every file (cache entry, image, manifest, index) is written through ``sdfpbr.files``: to a
 temporary name carrying the writer's pid in the destination directory, fsynced (images,
-manifest and index; not cache entries, verified on read below), and renamed into place. A rename is atomic on one filesystem, so a reader sees either no file or a complete
-one, never a torn one; a build killed at any point leaves at most temporary files, which the
-next build removes once their writer's process is gone. A cache entry is also verified on read (it must decode and carry its
-own key), so even a damaged file only costs a re-render. Two builds sharing a cache may render
+manifest and index; not cache entries, verified on read below), and renamed into place. A rename
+is atomic on one filesystem, so a reader sees either no file or a complete one, never a torn one;
+a build killed at any point leaves at most temporary files, which the next build removes once
+their writer's process is gone. A cache entry is also verified on read (it must decode and carry
+its own key), so even a damaged file only costs a re-render. Two builds sharing a cache may render
 the same key at the same time: both write identical bytes (renders are deterministic) and
-whichever rename lands last wins, so every reader still gets a valid entry. Builds writing to
-one output directory at the same time are not coordinated beyond that (the last manifest wins).
+whichever rename lands last wins, so every reader still gets a valid entry. Builds writing to one
+output directory at the same time are not coordinated beyond that (the last manifest wins).
 
 Modules
 -------

@@ -35,6 +35,7 @@ from ...cache import HEX_KEY, claim, remove_stale_temporaries, touch
 from ...errors import OutputError, SdfpbrError, SpecError
 from ...files import remove_stale_temps
 from ...inputs import parse_json, read_input, read_json
+from ...progress import Ticker
 from ...workers import cores, process_pool
 from .images import ImageCache, Rendered, checkpoint, png_key, prepare_helpers, render_items, write_file
 from .page import gallery_html
@@ -202,13 +203,16 @@ def _full_build(chart_dir, out: Path, force: bool, jobs: int, say, verbose: bool
         results[item.name] = Result(item, key, False, rendered.png, rendered.seconds, rendered.timings)
         say(progress_line(len(results), total, f"{item.name}.png", f"rendered in {rendered.seconds:.2f} s",
                           key if verbose else ""))
+        still.restart()
 
     groups = work_groups(todo)
     workers = min(jobs, len(groups))
-    if workers <= 1:
-        render_items(todo, keys, done)
-    else:
-        _render_parallel(groups, keys, workers, done)
+    # A line every few seconds while an image takes long (the catalog's: minutes on a CPU).
+    with Ticker("[...] still drawing", enabled=bool(todo), say=say, end=False) as still:
+        if workers <= 1:
+            render_items(todo, keys, done)
+        else:
+            _render_parallel(groups, keys, workers, done)
 
     # The images go in only when every entry has rendered: an entry that fails (a file it names
     # turned out unreadable) leaves the folder as the last build left it, images and manifest

@@ -23,7 +23,8 @@ from ...inputs import check_input, confined
 from ...spec.chart_spec import ChartSpec, entry_refusal, spec_from_mapping
 from ...spec.checks import text
 from ...spec.presets import MAX_CAPTION
-from ...spec.fields import ENTRY_SECTIONS, field_value, names_file, read_entry_document, resolve_field, split_entry
+from ...spec.fields import (ENTRY_SECTIONS, field_value, names_file, read_entry_document, resolve_field, split_entry,
+                            sweep_defaults)
 from ...spec.toml_file import read_toml
 
 
@@ -40,6 +41,7 @@ class Item:
     base: ChartSpec | None = None   # comparisons and sweeps: the [spec] base
     bug: str = ""                   # compare: the bug
     bug_names: tuple[str, ...] = ()
+    page: int = 0                   # bug-sheet: its page of the catalog of bug_names (compare.catalog_pages)
     labels: tuple[str, ...] = ()
     sweep_field: str = ""
     sweep_values: tuple = ()
@@ -136,6 +138,13 @@ def parse_entry(data: dict, where: str, base_dir: Path, stem: str, root: str | P
     return _compare_items(data, table, base, caption, where, base_dir, stem, root)
 
 
+def _sweep_defaults(attr: str, where: str) -> list:
+    try:
+        return list(sweep_defaults(attr))
+    except SpecError:
+        raise SpecError(f"{where}: [sweep] over {attr} needs values") from None
+
+
 def _sweep_item(data, table, base, caption, where, stem, base_dir, root) -> Item:
     unknown = sorted(set(table) - {"field", "values"})
     if unknown:
@@ -145,7 +154,8 @@ def _sweep_item(data, table, base, caption, where, stem, base_dir, root) -> Item
         attr = resolve_field(name).name
     except SpecError as exc:
         raise SpecError(f"{where}: [sweep] {exc}") from None
-    values = table.get("values")
+    # No values: the field's own (a tone mapper added to the table joins the gallery's sweep).
+    values = table["values"] if "values" in table else _sweep_defaults(attr, where)
     if not isinstance(values, list) or not values:
         raise SpecError(f"{where}: [sweep] values must be a non-empty list, got {values!r}")
     if attr == "size":
@@ -164,9 +174,11 @@ def _sweep_item(data, table, base, caption, where, stem, base_dir, root) -> Item
 
 
 def _compare_items(data, table, base, caption, where, base_dir, stem, root) -> list[Item]:
-    unknown = sorted(set(table) - {"bug", "bugs", "a", "b", "labels"})
+    unknown = sorted(set(table) - {"bug", "bugs", "a", "b", "labels", "page"})
     if unknown:
-        raise SpecError(f"{where}: unknown [compare] key {unknown[0]!r}; allowed: bug, bugs, a, b, labels")
+        raise SpecError(f"{where}: unknown [compare] key {unknown[0]!r}; allowed: bug, bugs, a, b, labels, page")
+    if "page" in table and (table.get("bugs") in (None, "each")):
+        raise SpecError(f"{where}: [compare] page goes with bugs = \"all\" or a list of bug names")
     forms = [k for k in ("bug", "bugs", "a") if k in table]
     if len(forms) != 1 or (("a" in table) != ("b" in table)):
         raise SpecError(f"{where}: [compare] needs exactly one of bug = NAME, bugs = \"all\"|\"each\"|[NAMES], "
@@ -205,12 +217,24 @@ def _compare_items(data, table, base, caption, where, base_dir, stem, root) -> l
         chosen = [_bug(bugs, n, where) for n in names]
     else:
         raise SpecError(f"{where}: [compare] bugs must be \"all\", \"each\" or a list of bug names, got {names!r}")
-    specs = [s for bug in chosen for s in _bug_specs(base, bug.name)]
-    unique = tuple({spec_identity(s): s for s in specs}.values())
+    from ..compare import catalog_pages   # here: its renders need not load to collect charts
+    names = tuple(b.name for b in chosen)
+    pages = catalog_pages(names)
     default = caption or "Every bug of the catalog against the correct chart."
-    return [Item(stem, where, "bug-sheet", data, unique, default,
-                 {"bugs": [b.name for b in chosen], "spec": overrides}, base,
-                 bug_names=tuple(b.name for b in chosen))]
+    chosen_page = table.get("page")
+    if chosen_page is not None and (isinstance(chosen_page, bool) or chosen_page not in range(1, len(pages) + 1)):
+        raise SpecError(f"{where}: [compare] page must be a whole number from 1 to {len(pages)}, got {chosen_page!r}")
+    items = []
+    for i, page in enumerate(pages, 1):   # a page-sized sheet each: STEM.png, or STEM-1.png, STEM-2.png, ...
+        if chosen_page is not None and i != chosen_page:
+            continue
+        specs = [s for name in page for s in _bug_specs(base, name)]
+        unique = tuple({spec_identity(s): s for s in specs}.values())
+        doc = data if len(pages) == 1 or chosen_page else {**data, "compare": {**table, "page": i}}
+        one = len(pages) == 1 or chosen_page
+        items.append(Item(stem if one else f"{stem}-{i}", where, "bug-sheet", doc, unique, default,
+                          {"bugs": page, "spec": overrides}, base, bug_names=names, page=i))
+    return items
 
 
 def _bug(bugs, name, where):

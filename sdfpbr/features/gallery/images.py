@@ -16,6 +16,7 @@ from ...cache import HEX_KEY, after_write, cache_max, claim, default_cache_dir, 
 from ...errors import OutputError, SpecError
 from ...files import write_bytes
 from ...inputs import read_input
+from ...progress import Ticker
 
 if TYPE_CHECKING:     # the cache and the writes load without the specs (a build answered by its stamp)
     from ...spec.chart_spec import ChartSpec
@@ -64,7 +65,8 @@ def png_key(data: bytes) -> str | None:
         length = int.from_bytes(data[pos:pos + 4], "big")
         kind = data[pos + 4:pos + 8]
         body_end = pos + 8 + length
-        if body_end + 4 > end or zlib.crc32(data[pos + 4:body_end]) != int.from_bytes(data[body_end:body_end + 4], "big"):
+        if (body_end + 4 > end
+                or zlib.crc32(data[pos + 4:body_end]) != int.from_bytes(data[body_end:body_end + 4], "big")):
             return None
         if kind == b"iTXt":
             keyword, _, rest = data[pos + 8:body_end].partition(b"\0")
@@ -148,7 +150,7 @@ def render_item(item: Item, key: str) -> Rendered:
             sheet = compare.compare_bug(item.base, item.bug)
         elif item.kind == "bug-sheet":
             # Measured at the base's own size: the entry's [spec] decides the figures.
-            sheet = compare.bug_contact_sheet(item.base, list(item.bug_names), measure_size=None)
+            sheet = compare.bug_catalog(item.base, list(item.bug_names), measure_size=None, pages=[item.page])[0]
         elif item.kind == "compare-specs":
             sheet = compare.compare_specs(item.specs[0], item.specs[1], labels=item.labels, caption=item.caption)
         else:
@@ -164,7 +166,8 @@ def flip_pairs(item: Item) -> list[tuple[ChartSpec, str]]:
     if item.kind == "compare":
         return [(item.base, item.bug)]
     if item.kind == "bug-sheet":
-        return [(item.base, name) for name in item.bug_names]
+        from ..compare import catalog_pages
+        return [(item.base, name) for name in catalog_pages(item.bug_names)[item.page - 1]]
     return []
 
 
@@ -294,7 +297,8 @@ def ensure_image(item: Item, cache: ImageCache | None = None, force: bool = Fals
     start = time.perf_counter()
     if log is not None:
         log(f"drawing {item.entry} ({item.name}.png) ...")
-    rendered = render_item(item, key)
+    with Ticker(f"still drawing {item.name}.png", enabled=log is not None, say=log, end=False):
+        rendered = render_item(item, key)
     if log is not None:
         log(f"drew {item.entry} in {time.perf_counter() - start:.1f} s")
     cache.put(key, rendered.png)
