@@ -18,6 +18,7 @@ EXTRAS = {
     "metrics": ("matplotlib", "matplotlib"),
     "video": ("imageio_ffmpeg", "imageio-ffmpeg"),
     "docs": ("sphinx", "sphinx"),
+    "peer": ("mitsuba", "mitsuba"),
 }
 
 
