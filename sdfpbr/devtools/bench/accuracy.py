@@ -47,7 +47,8 @@ def reference_samples_cap() -> int | None:
 # display), the camera and the stage's geometry. The float64 BRDF its compensation table comes
 # from (sdfpbr.oracle) enters by the table's values, not its code: an oracle edit that leaves
 # the table as it was leaves the references too.
-REFERENCE_DEPENDENCIES = ("sdfpbr.gpu.frame", "sdfpbr.shading.camera", "sdfpbr.shading.cells")
+REFERENCE_DEPENDENCIES = ("sdfpbr.gpu.frame", "sdfpbr.shading.plan", "sdfpbr.shading.camera", "sdfpbr.shading.cells",
+                          "sdfpbr.shading.catcher")
 
 
 # The reference package's modules no pixel depends on (its labels), left out of the key.
@@ -187,10 +188,38 @@ def noise_floor(a: Reference, b: Reference) -> float:
     return metrics.flip_ldr(a.image, b.image)[0]
 
 
+def cell_luminance(hdr: np.ndarray, ref: Reference, spec: ChartSpec) -> np.ndarray:
+    """(rows, cols) mean Rec. 709 luminance of each sphere's pixels (the reference's AOVs)."""
+    from ...image import metrics
+    from ...image.colour import luminance
+    lum = luminance(np.asarray(hdr, np.float64)[..., :3])
+    return metrics.per_cell_mean(lum, ref.row, ref.col, spec.rows, spec.cols)
+
+
+def cell_bias_columns(result, ref: Reference, other: Reference, spec: ChartSpec) -> dict:
+    """The chart's error as its spheres' mean luminance over the reference's, minus 1: the worst
+    cell's |bias|, and the two-seed noise of those means (over the
+    cells' root mean square of |a - b| / mean). Region means converge far faster than per-pixel
+    FLIP, so a small reference judges them: ``bias_judged`` when the noise is at most
+    NOISE_MARGIN times under the figure."""
+    a, b = cell_luminance(ref.hdr, ref, spec), cell_luminance(other.hdr, ref, spec)
+    mean = 0.5 * (a + b)
+    ok = np.isfinite(mean) & (mean > 0)
+    if not ok.any():
+        return {}
+    chart = cell_luminance(result.hdr, ref, spec)
+    bias = np.where(ok, chart / np.where(ok, mean, 1.0) - 1.0, np.nan)
+    noise = float(np.sqrt(np.mean(((a - b)[ok] / mean[ok]) ** 2)))
+    worst = float(np.nanmax(np.abs(bias)))
+    return {"bias_cells": bias.tolist(), "bias_worst": worst, "bias_noise": noise,
+            "bias_judged": bool(worst >= NOISE_MARGIN * noise)}
+
+
 def error_columns(result, ref: Reference, spec: ChartSpec, heatmap_path: Path | None = None,
-                  heatmap_title: str = "", noise: float | None = None) -> dict:
+                  heatmap_title: str = "", noise: float | None = None, other: Reference | None = None) -> dict:
     """Error of a chart render against its reference; ``noise``: the reference's noise floor
-    (noise_floor), reported beside the figures with whether the reference can judge them."""
+    (noise_floor), reported beside the figures with whether the reference can judge them;
+    ``other``: the reference of another seed, for the cells' bias and its noise."""
     from ...image import metrics
     mask = (ref.row >= 0) & (ref.col >= 0)
     flip_mean, flip_map = metrics.flip_ldr(result.image, ref.image)
@@ -209,6 +238,8 @@ def error_columns(result, ref: Reference, spec: ChartSpec, heatmap_path: Path | 
     if noise is not None:
         cols["ref_noise_flip"] = noise
         cols["ref_judges"] = bool(flip_mean >= NOISE_MARGIN * noise)
+    if other is not None:
+        cols.update(cell_bias_columns(result, ref, other, spec))
     # The reference's own noise: its mean standard error and the rel RMSE that noise alone gives.
     err = ref.stderr if ref.stderr.ndim == 3 else ref.stderr[..., None]
     if err.shape[:2] == ref.hdr.shape[:2] and mask.any():

@@ -19,7 +19,8 @@ COLUMNS = (
     ("compile_ms", "compile ms", "{:>10.1f}"), ("source_bytes", "src kB", "{:>7.1f}"),
     ("cold_s", "cold s", "{:>7.2f}"), ("cold_warm_cache_s", "cold* s", "{:>7.2f}"), ("start_s", "start s", "{:>7.2f}"),
     ("flip_mean", "FLIP", "{:>7.4f}"), ("flip_sphere_mean", "FLIPsph", "{:>7.4f}"),
-    ("rel_rmse", "relRMSE", "{:>8.4f}"), ("ref_noise_flip", "noise", "{:>7.4f}"), ("extra", "", "{}"),
+    ("rel_rmse", "relRMSE", "{:>8.4f}"), ("ref_noise_flip", "noise", "{:>7.4f}"),
+    ("bias_worst", "bias%", "{:>6.2f}"), ("bias_noise", "±", "{:>5.2f}"), ("extra", "", "{}"),
 )
 
 
@@ -27,6 +28,8 @@ def _cell(row: dict, key: str, fmt: str) -> str:
     width = int(re.search(r"(\d+)", fmt).group(1)) if re.search(r"\d", fmt) else 0
     if key == "size":
         v = f"{row['width']}x{row['height']}"
+    elif key in ("bias_worst", "bias_noise"):
+        v = 100 * row[key] if row.get(key) is not None else None
     elif key == "source_bytes":
         v = row.get(key) / 1024 if row.get(key) is not None else None
     elif key == "extra":
@@ -34,7 +37,8 @@ def _cell(row: dict, key: str, fmt: str) -> str:
         if row.get("shader"):
             bits.append(Path(row["shader"]).name)
         if row.get("ref_judges") is False:
-            bits.append("reference too noisy to judge")
+            bits.append("FLIP: reference too noisy to judge" + ("" if row.get("bias_judged") is not True
+                                                                  else "; bias judged"))
         if row.get("settled") is False:
             bits.append("draw times not settled")
         if "ratio" in row:
@@ -100,6 +104,24 @@ def write_json(path: str | Path, report: dict) -> None:
         f.write(data)
 
 
+# Noise floors within this factor of each other share a label (two labels on one line overlap).
+NOISE_LABEL_MERGE = 1.15
+
+
+def plain_log_ticks(axis) -> None:
+    """Ticks of a log axis as plain numbers (20, 0.05): 1, 2, 3 and 5 per decade over a short
+    range, fewer over a long one, and no labelled minor ticks: matplotlib's default labels
+    minor ticks in a range under a decade ("2x10^1 3x10^1 4x10^1 ..."), and they overlapped."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    lo, hi = axis.get_view_interval()
+    decades = math.log10(max(hi, lo * 1.0001) / lo) if lo > 0 else 9.0
+    subs = ((1.0, 2.0, 3.0, 5.0) if decades <= 1.5 else (1.0, 2.0, 5.0) if decades <= 2.5
+            else (1.0, 3.0) if decades <= 4 else (1.0,))
+    axis.set_major_locator(LogLocator(base=10, subs=subs))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def write_plot(path: str | Path, report: dict) -> None:
     """Render time vs mean LDR FLIP, one point per scene x preset (log-log)."""
     try:
@@ -134,23 +156,34 @@ def write_plot(path: str | Path, report: dict) -> None:
                if r["scene"] == s and r["preset"] == p and r.get("flip_mean") is not None and r.get("render_ms")]
         if len(pts) > 1:
             ax.plot(*zip(*pts), color="0.55", lw=1, zorder=2)
-        noise = [r["ref_noise_flip"] for r in rows if r["scene"] == s and r.get("ref_noise_flip") is not None]
-        if noise:
-            ax.axhline(max(noise[0], 1e-4), color="0.7", ls=":", lw=1)
-            ax.text(0.01, max(noise[0], 1e-4), f" {s}: reference noise", transform=ax.get_yaxis_transform(),
-                    fontsize=6, va="bottom", color="0.45")
+    # Each scene's reference noise floor; scenes whose floors nearly meet share one label.
+    floors = sorted((max(noise[0], 1e-4), s) for s in scenes
+                    if (noise := [r["ref_noise_flip"] for r in rows
+                                  if r["scene"] == s and r.get("ref_noise_flip") is not None]))
+    groups: list[list] = []
+    for level, s in floors:
+        if groups and level <= groups[-1][0] * NOISE_LABEL_MERGE:
+            groups[-1][1].append(s)
+        else:
+            groups.append([level, [s]])
+        ax.axhline(level, color="0.7", ls=":", lw=1)
+    for level, names in groups:
+        ax.text(0.01, level, f" {', '.join(names)}: reference noise", transform=ax.get_yaxis_transform(),
+                fontsize=7, va="bottom", color="0.45")
     for r in report["rows"]:
-        if r["preset"] == "baseline":
+        if r["preset"] == "baseline":   # its label runs up the line, clear of the points' labels
             ax.axvline(r["render_ms"], color="0.4", ls="--", lw=1)
-            ax.text(r["render_ms"], 0.98, f" baseline {Path(r.get('shader') or '').name}", transform=ax.get_xaxis_transform(),
-                    fontsize=7, va="top", color="0.3")
+            ax.text(r["render_ms"], 0.02, f"baseline {Path(r.get('shader') or '').name} ",
+                    transform=ax.get_xaxis_transform(), fontsize=7, rotation=90, ha="right", va="bottom", color="0.3")
     for p in presets:
         ax.scatter([], [], color=colors[presets.index(p) % len(colors)], marker="o", label=f"preset {p}")
     for s in scenes:
         ax.scatter([], [], color="0.5", marker=markers[scenes.index(s) % len(markers)], label=f"scene {s}")
     ax.set_xscale("log")
+    plain_log_ticks(ax.xaxis)
     if plotted:
         ax.set_yscale("log")
+        plain_log_ticks(ax.yaxis)
     else:
         ax.text(0.5, 0.5, "no error figures (no reference)", transform=ax.transAxes, ha="center")
     ax.set_xlabel("chart draw time, ms (median)")

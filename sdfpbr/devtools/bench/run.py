@@ -30,7 +30,7 @@ def run_bench(cfg: BenchConfig) -> dict:
         heat_dir.mkdir(parents=True, exist_ok=True)
 
     for scene in cfg.scenes:
-        ref = noise = None
+        ref = noise = other = None
         if use_reference:
             ref = get_reference(session, scene_spec(scene, cfg), cfg.ref_samples, cfg.seed, log)
             other = get_reference(session, scene_spec(scene, cfg), cfg.ref_samples, cfg.seed + 1, log)
@@ -44,10 +44,11 @@ def run_bench(cfg: BenchConfig) -> dict:
             log(f"  warm-up: {t.draw.warmup_draws} draws, "
                 + ("draw times settled" if t.draw.settled else "draw times did NOT settle (timings are noisy)"))
             if cfg.cold:
-                row["cold_s"], row["cold_warm_cache_s"], row["start_s"] = cold_times(scene_overrides(scene), preset, cfg)
+                row["cold_s"], row["cold_warm_cache_s"], row["start_s"] = cold_times(
+                    scene_overrides(scene), preset, cfg)
             if ref is not None:
                 path = heat_dir / f"flip_{scene}_{preset}.png" if heat_dir else None
-                row.update(error_columns(t.result, ref, spec, path, f"{scene} / {preset}", noise))
+                row.update(error_columns(t.result, ref, spec, path, f"{scene} / {preset}", noise, other))
             rows.append(row)
             log("  " + format_row(row))
 
@@ -91,7 +92,8 @@ def baseline_row(session, cfg: BenchConfig) -> dict:
             obj.release()
         link, first = time_compile(ctx, VERTEX_SHADER, src.text, [(4, "f1")])
     return {
-        "scene": "shadertoy", "preset": "baseline", "shader": src.origin, "entry_point": src.entry, "width": W, "height": H, "spheres": None,
+        "scene": "shadertoy", "preset": "baseline", "shader": src.origin, "entry_point": src.entry,
+        "width": W, "height": H, "spheres": None,
         "render_ms": timing.median_ms, "render_ms_min": timing.min_ms, "render_ms_mad": timing.mad_ms,
         "render_samples_ms": timing.samples_ms, "timing": timing.method,
         "warmup_draws": timing.warmup_draws, "settled": timing.settled,

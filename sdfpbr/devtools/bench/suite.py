@@ -101,14 +101,16 @@ class BenchConfig:
 
     @classmethod
     def quick(cls, **overrides) -> "BenchConfig":
-        """CI-sized: 256^2, two scenes, two presets, 3 repeats, 16-sample references."""
+        """CI-sized: 256^2, two scenes, two presets, 3 repeats, 512-sample references: enough for
+        the spheres' mean luminance to judge every preset (accuracy.cell_bias_columns), not
+        FLIP, which needs tens of thousands."""
         base = dict(scenes=("default", "bare"), presets=("draft", "default"), width=256, height=256,
-                    repeats=3, warmup=1, ref_samples=16)
+                    repeats=3, warmup=1, ref_samples=512)
         base.update(overrides)
         return cls(**base)
 
 
-def _choices(values, allowed, what: str) -> tuple[str, ...]:
+def pick_choices(values, allowed, what: str) -> tuple[str, ...]:
     out = []
     for v in values:
         if v not in allowed:
@@ -121,8 +123,8 @@ def _choices(values, allowed, what: str) -> tuple[str, ...]:
 
 
 def check_config(cfg: BenchConfig) -> BenchConfig:
-    cfg.scenes = _choices(cfg.scenes, tuple(SCENES), "scene")
-    cfg.presets = _choices(cfg.presets, available_presets(), "preset")
+    cfg.scenes = pick_choices(cfg.scenes, tuple(SCENES), "scene")
+    cfg.presets = pick_choices(cfg.presets, available_presets(), "preset")
     for name, lo in (("repeats", 1), ("warmup", 0), ("ref_samples", 1)):
         v = getattr(cfg, name)
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
