@@ -81,7 +81,7 @@ def _one_item(data: dict, base_dir: Path, where: str, srcdir):
     items = parse_entry(data, where, base_dir, "chart", root=srcdir)
     if len(items) != 1:
         raise SpecError(f"{where}: the entry makes {len(items)} images; a directive shows one "
-                        f"(use bugs = \"all\" for a contact sheet)")
+                        f"(one bug: bug = NAME; one page of a bug catalog: add page = N)")
     return items[0]
 
 

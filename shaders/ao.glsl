@@ -1,5 +1,5 @@
 // Ambient occlusion of the IBL term. AO_METHOD analytic: the exact cosine-weighted occlusion
-// of each neighbouring sphere (Lagarde & de Rousiers 2014, REFERENCE.md §5), combined as
+// of each neighbouring sphere (Lagarde & de Rousiers 2014; docs/model.md, geometry), combined as
 // prod(1 - occ_i); sdf: taps along the normal, an uncalibrated artistic estimate.
 #if AO_METHOD == analytic
 #include "sphere_occlusion.glsl"

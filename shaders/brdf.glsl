@@ -1,4 +1,4 @@
-// The glTF 2.0 Appendix-B metallic-roughness material (REFERENCE.md §1) and, composed in only
+// The glTF 2.0 Appendix-B metallic-roughness material (docs/model.md, the BRDF) and, composed in only
 // where a chart uses them, the KHR lobes of lobes.glsl (docs/lobes.md): KHR_SPECULAR
 // (KHR_materials_specular and _ior), CLEARCOAT, SHEEN, EMISSION.
 

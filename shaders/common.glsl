@@ -2,7 +2,7 @@
 #define PI 3.14159265358979
 #define INV_PI 0.31830988618379
 #define GOLDEN_ANGLE 2.39996323   // pi (3 - sqrt 5): spiral points spread evenly
-// Filament's fp32 guards (REFERENCE.md §1): r >= 0.045 keeps alpha^2 normal; NdotV >= 1e-4.
+// Filament's fp32 guards (docs/model.md, conventions): r >= 0.045 keeps alpha^2 normal; NdotV >= 1e-4.
 #define MIN_PERCEPTUAL_ROUGHNESS 0.045
 #define MIN_N_DOT_V 1e-4
 #define DIELECTRIC_F0 0.04   // ior 1.5

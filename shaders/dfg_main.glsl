@@ -6,12 +6,12 @@
 #include "sheen.glsl"
 #endif
 
-// The DFG LUT (REFERENCE.md §2) by GGX importance sampling with the shading's visibility:
+// The DFG LUT (docs/model.md, image-based light) by GGX importance sampling with the shading's visibility:
 // texel (i, j) holds (A, B, C, E_s or 1) at NdotV = i/(size-1), perceptual roughness = j/(size-1): the
 // inverse of dfg_lookup, which puts 0 and 1 on the first and last texel centres.
 //
 // The specular estimator is a quadrature, not a random walk, so its error is its bias, and it
-// is made well conditioned on any IEEE float32 driver (REFERENCE.md §2, measured against the
+// is made well conditioned on any IEEE float32 driver (docs/model.md's test vectors, measured against the
 // float64 quadrature of sdfpbr.oracle.shading_model in tests/test_shading.py):
 // - In the CDF variable u of D cos(theta_h) the integrand grows like 1/sqrt(1 - u) towards
 //   u = 1 as NdotV -> 0 (1/NdotH, with l still above the horizon), so a rule on u errs by

@@ -1,4 +1,4 @@
-// The microfacet terms of REFERENCE.md §1, one function each, no options.
+// The microfacet terms of docs/model.md (the BRDF), one function each, no options.
 
 float d_ggx(float n_dot_h, float alpha) {
     float a2 = alpha * alpha;

@@ -11,7 +11,7 @@ vec2 hammersley(uint i, uint n) {
     return vec2(float(i) / float(n), radical_inverse(i));
 }
 
-// GGX half vector around +z (REFERENCE.md §2): cos^2 theta_h = (1 - u) / (1 + (a2 - 1) u).
+// GGX half vector around +z (docs/model.md, image-based light): cos^2 theta_h = (1 - u) / (1 + (a2 - 1) u).
 vec3 ggx_half_vector(vec2 u, float alpha) {
     float a2 = alpha * alpha;
     float cos2 = (1.0 - u.x) / (1.0 + (a2 - 1.0) * u.x);

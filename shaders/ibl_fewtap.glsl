@@ -1,5 +1,5 @@
-// The fewtap-ibl bug (and the seed002 preset): shared seed 002's environment lighting in our
-// terms. Specular: five weighted taps of the environment around R, spread by roughness^2, times
+// The fewtap-ibl bug (and the seed002 preset): a Shadertoy-style raymarcher's environment
+// lighting in our terms (docs/model.md). Specular: five weighted taps of the environment around R, spread by roughness^2, times
 // an ad-hoc fit instead of the DFG integral; diffuse: the radiance along N as if the
 // environment were uniform. No prefiltering, no irradiance integral, no LUT.
 vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {

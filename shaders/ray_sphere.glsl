@@ -1,4 +1,4 @@
-// Ray-sphere with the cancellation-free form (REFERENCE.md §5): qc = oc - b rd, h = R^2 - |qc|^2.
+// Ray-sphere with the cancellation-free form (docs/model.md, geometry): qc = oc - b rd, h = R^2 - |qc|^2.
 float ray_sphere(vec3 ro, vec3 rd, vec3 center, float radius) {
     vec3 oc = ro - center;
     float b = dot(oc, rd);

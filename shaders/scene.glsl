@@ -36,7 +36,7 @@ vec3 cell_center(ivec2 cell) { return vec3(0.0); }
 ivec2 nearest_cell(vec3 p) { return g_cell; }
 
 #if SCENE_SDF == all_spheres
-// Shared seed 002's union over every sphere of the chart, laid out here so far apart on the
+// The seed002 preset's union over every sphere of the chart, laid out here so far apart on the
 // floor that no cell's camera sees another: the same picture, at the seed's O(rows x cols) cost.
 #define SEED_LAYOUT_SPACING 1e3
 #endif
@@ -79,7 +79,7 @@ ivec2 nearest_cell(vec3 p) {
 // Signed distance to the sphere union; cell receives the nearest sphere.
 float sdf_spheres(vec3 p, out ivec2 cell) {
 #if SCENE_SDF == all_spheres
-    // Shared seed 002's union: every sphere, every evaluation (O(rows x cols)).
+    // The seed002 preset's union: every sphere, every evaluation (O(rows x cols)).
     float d = 1e30;
     for (int j = 0; j < u_grid.y; ++j)
         for (int i = 0; i < u_grid.x; ++i) {

@@ -150,7 +150,7 @@ float soft_shadow(vec3 ro, vec3 rd, float k) {
     return grid_shadow(ro, rd, atan(1.0 / k), u_shadow_far);
 }
 #else
-// The seed's union of every sphere: soft shadows by sphere tracing towards the key light
+// The seed002 preset's union of every sphere: soft shadows by sphere tracing towards the key light
 // (Inigo Quilez's improved technique). k = 1 / tan(angular radius) makes the penumbra match
 // the light's size.
 uniform int u_shadow_steps;

@@ -1,5 +1,5 @@
 // The exact cosine-weighted occlusion (form factor) of a sphere seen from a point with normal
-// n (Lagarde & de Rousiers 2014, REFERENCE.md §5): used by the analytic AO and by the cells
+// n (Lagarde & de Rousiers 2014; docs/model.md, geometry): used by the analytic AO and by the cells
 // stage's sphere-to-floor bounce; and the specular occlusion of a lobe by a sphere.
 // Occlusion of a sphere at relative distance d = |c - p| / R whose centre direction makes
 // cosine n_dot_c with the normal: the form factor of a sphere, exact across the horizon.
