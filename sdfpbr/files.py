@@ -1,6 +1,7 @@
 """The one way sdfpbr writes a file: under a temporary name beside the destination, fsynced (all
-but cache entries, which their readers verify), then renamed into place. A rename is atomic on one filesystem, so a reader sees no file or a
-complete one, never a torn one, and a failure never clobbers the old file.
+but cache entries, which their readers verify), then renamed into place. A rename is atomic on one
+filesystem, so a reader sees no file or a complete one, never a torn one, and a failure never
+clobbers the old file.
 
 Temporary names carry the writer's pid (``.<name>.<random>.<pid>.tmp[<suffix>]``), so the
 temporaries of a killed writer can be told from a live writer's and removed

@@ -18,7 +18,7 @@ from .errors import SpecError
 
 MIB = 1 << 20
 # The largest file of each kind sdfpbr reads, in bytes. An environment may be 16384 x 16384
-# float32 RGBA (gpu.ibl.MAX_ENV_TEXELS), plus its header; an image of 2^26 texels is at most
+# float32 RGBA (image.env_file.MAX_ENV_TEXELS), plus its header; an image of 2^26 texels is at most
 # 256 MiB as RGBA8 before compression (gpu.textures); a glTF asset's JSON, a GLB or a buffer
 # carries its images.
 INPUT_LIMITS = {
@@ -152,7 +152,8 @@ def parse_json(text: str | bytes, where: str):
     except RecursionError:
         raise SpecError(f"{where}: values nested more than {MAX_NESTING} deep") from None
     except (ValueError, UnicodeDecodeError) as exc:   # JSONDecodeError is a ValueError
-        raise SpecError(f"{where}: malformed JSON: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+        raise SpecError(f"{where}: malformed JSON: "
+                        f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
     return check_nesting(value, where)
 
 

@@ -1,5 +1,5 @@
 """White-furnace energy report: every cell of a chart in a uniform environment of radiance 1,
-each pixel against the float64 split-sum expectation at its own NdotV (REFERENCE.md section 3).
+each pixel against the float64 split-sum expectation at its own NdotV (docs/model.md, the white furnace).
 
 Two different things show up and are kept apart:
 - what the *model* does: the expectation itself above 1 (the glTF dielectric coupling gains
@@ -81,7 +81,8 @@ def cell_energy(result, spec: ChartSpec, table=None) -> list[CellEnergy]:
             n_dot_v = aov["ndotv"][m].astype(np.float64)
             rough = aov["roughness"][m].astype(np.float64)
             metal = aov["metallic"][m].astype(np.float64)
-            want = spec.env_intensity * table.expected(n_dot_v, rough, bases[row, col], metal, spec.brdf, spec.multiscatter)
+            want = spec.env_intensity * table.expected(n_dot_v, rough, bases[row, col], metal,
+                                                       spec.brdf, spec.multiscatter)
             got = result.hdr[m].astype(np.float64)
             g, w = got.mean(-1), want.mean(-1)
             graze = n_dot_v < GRAZING_N_DOT_V

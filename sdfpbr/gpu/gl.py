@@ -56,7 +56,8 @@ class _OSMesaLoader:
         self._lib = lib
         self._ctx = lib.OSMesaCreateContextAttribs(attrs, None)
         if not self._ctx:
-            raise GLUnavailable(f"OSMesa backend: could not create a GL {REQUIRED_GL // 100}.{(REQUIRED_GL // 10) % 10} core context")
+            raise GLUnavailable("OSMesa backend: could not create a GL "
+                                f"{REQUIRED_GL // 100}.{(REQUIRED_GL // 10) % 10} core context")
         # OSMesa needs a colour buffer to make current; rendering goes to our own framebuffers.
         self._buffer = (ctypes.c_ubyte * 4)()
         if not lib.OSMesaMakeCurrent(self._ctx, self._buffer, 0x1401, 1, 1):
@@ -83,7 +84,8 @@ def _create(backend: str, device_index: int) -> moderngl.Context:
         try:
             return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL, device_index=device_index)
         except Exception as exc:  # glcontext raises bare Exceptions for a missing libEGL or device
-            raise GLUnavailable(f"EGL backend: {str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__}") from exc
+            raise GLUnavailable(
+                f"EGL backend: {str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__}") from exc
     if backend == "osmesa":
         loader = _OSMesaLoader()
         try:
@@ -103,7 +105,8 @@ def create_context(backend: str = "auto", device_index: int = 0) -> moderngl.Con
     if backend == "osmesa" and device_index != 0:
         raise GLUnavailable(f"device index {device_index}: OSMesa renders on the CPU and has one device, index 0")
     # A device index beyond 0 names an EGL device: falling back to OSMesa would ignore it.
-    order = ("egl", "osmesa") if backend == "auto" and device_index == 0 else ("egl",) if backend == "auto" else (backend,)
+    order = (("egl", "osmesa") if backend == "auto" and device_index == 0
+             else ("egl",) if backend == "auto" else (backend,))
     failures = []
     for name in order:
         try:

@@ -18,7 +18,8 @@ HDR_SUFFIXES = (".npy", ".exr")
 def check_writable(path: str | Path, suffixes: tuple[str, ...] | None = None, what: str = "output") -> Path:
     """Fail early, before rendering, if ``path`` cannot be written."""
     if not str(path).strip():
-        raise SpecError(f"{what} is empty: give a file name" + (f" ending in {' or '.join(suffixes)}" if suffixes else ""))
+        raise SpecError(f"{what} is empty: give a file name"
+                        + (f" ending in {' or '.join(suffixes)}" if suffixes else ""))
     p = Path(path)
     if suffixes and p.suffix.lower() not in suffixes:
         raise SpecError(f"{what} {p} must end in {' or '.join(suffixes)}")

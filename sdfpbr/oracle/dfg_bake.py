@@ -70,7 +70,8 @@ def dfg_rule(n_dot_v, perceptual_roughness, samples, model="gltf", sheen=False):
     cos_d, sin_d, phi_d = np.sqrt(1.0 - u_x), np.sqrt(u_x), 2.0 * np.pi * u_y
     v_dot_ld = sin_v * sin_d * np.cos(phi_d) + mu * cos_d
     v_dot_hd = np.abs((1.0 + v_dot_ld) / np.sqrt(np.maximum(2.0 + 2.0 * v_dot_ld, 1e-300)))
-    c = (1.0 - (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(v_dot_hd))).sum(1) * inv
+    c = (1.0 - (shading_model.DIELECTRIC_F0
+                + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(v_dot_hd))).sum(1) * inv
     e_s = np.zeros_like(a)
     if sheen:
         alpha_s = np.maximum(r, shading_model.MIN_PERCEPTUAL_ROUGHNESS) ** 2

@@ -1,4 +1,4 @@
-"""The float64 white-furnace expectation (REFERENCE.md section 3): the split-sum terms of
+"""The float64 white-furnace expectation (docs/model.md, the white furnace): the split-sum terms of
 ``shading_model.dfg_integrate`` tabulated per roughness, so a whole render can be checked pixel by
 pixel. The stress sweep and the energy report read it."""
 from __future__ import annotations

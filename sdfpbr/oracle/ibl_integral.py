@@ -134,7 +134,8 @@ def _diffuse_term(n, v, env, n_theta, n_phi):
     l = (st * np.cos(ph))[..., None] * X + (st * np.sin(ph))[..., None] * Y + ct[..., None] * N
     vv = v[:, None, None, :]
     v_dot_h = np.sqrt(np.clip(0.5 * (1.0 + np.sum(vv * l, -1)), 0.0, 1.0))
-    one_minus_fd = 1.0 - (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(v_dot_h))
+    one_minus_fd = 1.0 - (shading_model.DIELECTRIC_F0
+                          + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(v_dot_h))
     wgt = (0.5 * np.pi * w[None, :, None]) * st * ct * (2.0 * np.pi * wp[None, None, :]) / np.pi
     return np.sum((one_minus_fd * wgt)[..., None] * env.radiance(l), axis=(1, 2))
 

@@ -126,7 +126,8 @@ def fit_node(args) -> dict:
     """(delta, core, tail) for one (r, N.V) node, and its held-out errors against the ramps."""
     i, j, r, mu = args
     text = _shader_text()
-    lobe_t, lobe_dr, core_scale = _glsl_mat4(text, "LOBE_T"), _glsl_mat4(text, "LOBE_DR"), _glsl_define(text, "CORE_SCALE")
+    lobe_t, lobe_dr, core_scale = (_glsl_mat4(text, "LOBE_T"), _glsl_mat4(text, "LOBE_DR"),
+                                   _glsl_define(text, "CORE_SCALE"))
     fade = _glsl_define(text, "LOBE_TAP_FADE")
     err = np.zeros((len(DELTAS), len(CORES), len(TAILS)))
     for s in range(TRAIN_SKIES):
@@ -188,7 +189,7 @@ LobeFit lobe_table(float perceptual_roughness, float n_dot_v) {{
                    dot(w, vec4(LOBE_TABLE_CORE[at.x], LOBE_TABLE_CORE[at.y], LOBE_TABLE_CORE[at.z], LOBE_TABLE_CORE[at.w])),
                    dot(w, vec4(LOBE_TABLE_DELTA[at.x], LOBE_TABLE_DELTA[at.y], LOBE_TABLE_DELTA[at.z], LOBE_TABLE_DELTA[at.w])));
 }}
-""")
+""")  # noqa: E501 -- generated GLSL, kept as written
 
 
 def main(argv: list[str]) -> int:

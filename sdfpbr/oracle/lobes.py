@@ -108,14 +108,16 @@ def layered_brdf(n, v, l, m, model="gltf", multiscatter=True, e_spec=None):
     h = shading_model.normalize(v + l)
     n_dot_h = np.clip(np.sum(n * h, -1), 0.0, 1.0)
     v_dot_h = np.abs(np.sum(v * h, -1))
-    f_spec = (shading_model.d_ggx(n_dot_h, alpha) * shading_model.visibility(model, nl, n_dot_v, r, alpha, False))[..., None]
+    f_spec = (shading_model.d_ggx(n_dot_h, alpha)
+              * shading_model.visibility(model, nl, n_dot_v, r, alpha, False))[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     f0 = dielectric_f0(m.ior, m.specular_color)
     fd = m.specular * (f0 + (1.0 - f0) * fc)
     spec_d = f_spec * fd
     spec_m = f_spec * (base + (1.0 - base) * fc)
     if multiscatter:
-        e = shading_model.single_scatter_albedo(n_dot_v, np.full(n_dot_v.shape, r), model) if e_spec is None else np.asarray(e_spec)
+        e = (shading_model.single_scatter_albedo(n_dot_v, np.full(n_dot_v.shape, r), model) if e_spec is None
+             else np.asarray(e_spec))
         spec_d = spec_d * shading_model.energy_compensation(f0, e)
         spec_m = spec_m * shading_model.energy_compensation(base, e)
     diffuse = base / np.pi * (1.0 - np.max(fd, axis=-1, keepdims=True))
@@ -124,7 +126,8 @@ def layered_brdf(n, v, l, m, model="gltf", multiscatter=True, e_spec=None):
     if sheen > 0.0:
         rs = max(m.sheen_roughness, MIN_PERCEPTUAL_ROUGHNESS)
         f_sheen = (np.asarray(m.sheen_color) * (d_charlie(n_dot_h, rs * rs) * v_sheen(nl, n_dot_v, rs * rs))[..., None])
-        scaling = np.minimum(1.0 - sheen * sheen_albedo(n_dot_v, rs), 1.0 - sheen * sheen_albedo(np.maximum(nl, MIN_N_DOT_V), rs))
+        scaling = np.minimum(1.0 - sheen * sheen_albedo(n_dot_v, rs),
+                             1.0 - sheen * sheen_albedo(np.maximum(nl, MIN_N_DOT_V), rs))
         f = f_sheen + f * scaling[..., None]
     if m.clearcoat > 0.0:
         rc = max(m.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)
@@ -155,7 +158,8 @@ def layered_albedo(n_dot_v, m, model="gltf", multiscatter=True, n=64, sheen_scal
         if sheen <= 0.0:
             return np.ones_like(n_dot_l)
         if sheen_scaling == "view":
-            return np.broadcast_to(1.0 - sheen * sheen_albedo_interpolated(mu3, rs), np.broadcast_shapes(n_dot_l.shape, mu3.shape))
+            return np.broadcast_to(1.0 - sheen * sheen_albedo_interpolated(mu3, rs),
+                                   np.broadcast_shapes(n_dot_l.shape, mu3.shape))
         return np.minimum(1.0 - sheen * sheen_albedo_interpolated(mu3, rs),
                           1.0 - sheen * sheen_albedo_interpolated(np.maximum(n_dot_l, MIN_N_DOT_V), rs))
 

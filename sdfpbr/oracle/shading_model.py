@@ -6,7 +6,7 @@ Pure numpy, vectorised with broadcasting. Vectors are arrays of shape (..., 3).
 
 Naming: ``perceptual_roughness`` (r) is what users type and charts label;
 ``alpha`` = r * r is what the formulas use. ``Fc(x) = (1 - x)^5``.
-See shared/REFERENCE.md sections 1-4 for the formulas and test vectors.
+docs/model.md gives the formulas and the test vectors.
 """
 
 from __future__ import annotations

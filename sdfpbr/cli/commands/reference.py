@@ -20,7 +20,8 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", default="reference.png", help="labeled PNG (default reference.png)")
     p.add_argument("--hdr", metavar="PATH", help="also write linear radiance as .npy or .exr")
     p.add_argument("--aov", metavar="PATH.npz",
-                   help="also write the chart's AOVs (normal, depth, row, col, roughness, metallic, ndotv, coverage) plus stderr")
+                   help="also write the chart's AOVs (normal, depth, row, col, roughness, metallic, ndotv, coverage) "
+                        "plus stderr")
     p.add_argument("--samples", type=int, metavar="N",
                    help="samples per pixel (default 64; with --target-error, the most it may take, default 16384)")
     p.add_argument("--target-error", type=float, metavar="E",

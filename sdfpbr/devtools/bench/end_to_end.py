@@ -131,7 +131,8 @@ def api_figure(session, cfg: BenchConfig, log) -> Figure:
     draws = time_chart(session, spec, API_ROUNDS, 1, compile_time=False).draw.median_ms
     api_ms = 1000 * statistics.median(before + calls(API_ROUNDS))
     over = api_ms - draws
-    detail = f"call {api_ms:.1f} ms, draws {draws:.1f} ms (medians of {2 * API_ROUNDS} calls either side of {API_ROUNDS} frames)"
+    detail = (f"call {api_ms:.1f} ms, draws {draws:.1f} ms "
+              f"(medians of {2 * API_ROUNDS} calls either side of {API_ROUNDS} frames)")
     log(f"api: warm chart() {api_ms:.1f} ms, its draws {draws:.1f} ms")
     name = f"warm chart() {cfg.width}x{cfg.height}, above its draws"
     if timer_query_measures_execution(session.ctx):   # a hardware GPU
@@ -165,7 +166,8 @@ def gallery_figures(charts: Path, log) -> list[Figure]:
                    f"<= {GALLERY_COLD_S:g} s", baked.seconds <= GALLERY_COLD_S,
                    f"every image rendered; from an empty cache {first.seconds:.1f} s"),
             Figure(f"`sdfpbr build {charts.name}`, nothing changed", same.seconds, "s",
-                   f"<= {GALLERY_UNCHANGED_S:g} s", same.seconds <= GALLERY_UNCHANGED_S, "a process, start-up included")]
+                   f"<= {GALLERY_UNCHANGED_S:g} s", same.seconds <= GALLERY_UNCHANGED_S,
+                   "a process, start-up included")]
 
 
 def animation_figures(cfg: BenchConfig, frames: int, log) -> list[Figure]:
@@ -175,7 +177,8 @@ def animation_figures(cfg: BenchConfig, frames: int, log) -> list[Figure]:
         one = run_process(["chart", *size, "-o", str(Path(tmp) / "c.png")], env)
         bake = folder_bytes(cache / "ibl")
         before = folder_bytes(cache)
-        anim = run_process(["chart", *size, "--frames", str(frames), "--orbit", "light", "-o", str(Path(tmp) / "a.webp")], env)
+        anim = run_process(["chart", *size, "--frames", str(frames), "--orbit", "light",
+                            "-o", str(Path(tmp) / "a.webp")], env)
         grew = folder_bytes(cache) - before
         webp = (Path(tmp) / "a.webp").stat().st_size
     if one.peak_bytes is None or anim.peak_bytes is None:
@@ -193,7 +196,8 @@ def animation_figures(cfg: BenchConfig, frames: int, log) -> list[Figure]:
 
 def big_chart_figure(size: int, log) -> Figure:
     with tempfile.TemporaryDirectory(prefix="sdfpbr-e2e-") as tmp:
-        big = run_process(["chart", "--size", f"{size}x{size}", "-o", str(Path(tmp) / "big.png")], _env(Path(tmp) / "cache"))
+        big = run_process(["chart", "--size", f"{size}x{size}", "-o", str(Path(tmp) / "big.png")],
+                          _env(Path(tmp) / "cache"))
     if big.peak_bytes is None:
         return Figure(f"{size}x{size} chart, peak memory", None, "", "", None, "no peak memory on this platform")
     gb = big.peak_bytes / 2**30
