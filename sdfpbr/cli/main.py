@@ -205,10 +205,15 @@ def cmd_chart(args) -> int:
             print(f"sdfpbr: note: {what} is not charted", file=sys.stderr)
     start = time.perf_counter()
     from ..gpu.render import check_memory
+    from ..gpu.session import default_session
     from ..progress import Ticker
-    check_memory(spec, bool(args.aov), bool(args.hdr))   # a refusal is one line, before any progress line
+    # A refusal is one line, before any progress line: the memory is checked before the GL
+    # context is made and again after (a driver may reserve much address space), then timed.
+    check_memory(spec, bool(args.aov), bool(args.hdr))
+    session = default_session(spec.backend, spec.device_index)
+    check_memory(spec, bool(args.aov), bool(args.hdr))
     with Ticker(f"sdfpbr chart {spec.width}x{spec.height}"):   # silent unless it takes a while
-        result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov))
+        result = chart(spec, hdr=bool(args.hdr), aovs=bool(args.aov), session=session)
         result.save(args.output, hdr=args.hdr, aov=args.aov)
     if args.verbose:
         t = result.result.timings
