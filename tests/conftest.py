@@ -1,6 +1,6 @@
-"""One GL context per backend for the whole session (moderngl's own suite does the same), a
-private disk cache, and the one place that knows which GL backends and optional extras this
-machine has.
+"""One GL context per backend, shared by the test modules and made fresh when it has grown
+large (see FRESH_CONTEXT_ABOVE), the run's private disk cache, shared by the xdist workers,
+and the one place that knows which GL backends and optional extras this machine has.
 
 A test that needs a backend or an extra says so with a marker and is skipped, with the reason,
 where it is absent (an NVIDIA machine has EGL but no OSMesa; a bare install has no extras):
@@ -87,27 +87,100 @@ def pytest_runtest_setup(item):
                 pytest.skip(reason)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="session", autouse=True)
 def cache_dir(tmp_path_factory):
-    path = tmp_path_factory.mktemp("cache")
+    """The run's own disk cache, for every test (autouse: a CLI subprocess never writes to the
+    user's ~/.cache). Bakes (IBL, DFG, plates) are most of the suite's time, so the xdist
+    workers share one cache: a bake one worker made, the others read. Workers may write one
+    key at once: entries are written whole and renamed into place (test_concurrency)."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        path = tmp_path_factory.getbasetemp().parent / "cache"   # the run's folder, above each worker's
+        path.mkdir(exist_ok=True)
+    else:
+        path = tmp_path_factory.mktemp("cache")
     os.environ["SDFPBR_CACHE_DIR"] = str(path)   # subprocesses of the CLI tests share it
     return path
 
 
-@pytest.fixture(scope="session")
+# A GL context keeps every program it compiled until the context goes (llvmpipe's code for the
+# chart's shaders: 5-25 MB a program here); one context for the whole run grew a worker to
+# 3.7 GB. So a test module starts on a fresh context once its worker holds more than this (what
+# the next modules use is compiled again, from Mesa's disk cache: well under a second each).
+FRESH_CONTEXT_ABOVE = 1 << 30   # bytes resident
+
+
+def resident_bytes() -> int:
+    """This process's resident memory (0 where /proc cannot say: never a fresh context)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError):
+        return 0
+
+
+class SharedSessions:
+    """Per backend, the Session test modules share and its siblings (the same context and
+    cache, other settings); made again on a fresh context past FRESH_CONTEXT_ABOVE."""
+
+    def __init__(self):
+        self.sessions: dict[str, Session] = {}
+        self.siblings: dict[tuple, Session] = {}
+
+    def get(self, backend: str, cache_dir) -> Session:
+        reason = missing_backend(backend)
+        if reason:
+            pytest.skip(reason)
+        current = self.sessions.get(backend)
+        if current is not None and resident_bytes() > FRESH_CONTEXT_ABOVE:
+            self.siblings = {k: v for k, v in self.siblings.items() if k[0] != backend}
+            current.release()   # the context and all its siblings' objects with it
+            _release_freed_heap()
+            current = None
+        if current is None:
+            ctx = backend_context(backend)[0] if backend not in self.sessions else create_context(backend)
+            current = self.sessions[backend] = Session(ctx, ArrayCache(cache_dir))
+        return current
+
+    def sibling(self, backend: str, base: Session, settings: dict) -> Session:
+        key = (backend, *sorted(settings.items()))
+        if key not in self.siblings:
+            self.siblings[key] = Session(base.ctx, base.cache, **settings)
+        return self.siblings[key]
+
+
+def _release_freed_heap() -> None:
+    """Hand the heap a released context freed back to the system (glibc keeps it otherwise),
+    so the other workers and the CLI tests' processes may use it."""
+    import ctypes
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (AttributeError, OSError):   # not glibc
+        pass
+
+
+SHARED = SharedSessions()
+
+
+@pytest.fixture(scope="module")
 def session(cache_dir):
-    reason = missing_backend("egl")
-    if reason:
-        pytest.skip(reason)
-    return Session(backend_context("egl")[0], ArrayCache(cache_dir))
+    return SHARED.get("egl", cache_dir)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
+def sibling(session):
+    """sibling(**settings): a Session on ``session``'s context and cache with other settings
+    (chart_shader, tile), one per settings while that context lasts. A Session keeps what it
+    uploads on its context until the context goes, so tests share these rather than make a
+    Session each; a test whose claim is about a fresh Session makes its own."""
+    def get(**settings):
+        settings = {k: v for k, v in settings.items() if v is not None}   # None: Session's default
+        return SHARED.sibling("egl", session, settings)
+    return get
+
+
+@pytest.fixture(scope="module")
 def osmesa_session(cache_dir):
-    reason = missing_backend("osmesa")
-    if reason:
-        pytest.skip(reason)
-    return Session(backend_context("osmesa")[0], ArrayCache(cache_dir))
+    return SHARED.get("osmesa", cache_dir)
 
 
 @pytest.fixture

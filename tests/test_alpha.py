@@ -6,10 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from sdfpbr.shading.camera import frame, ground_height, sphere_centers
+from sdfpbr.shading.camera import sphere_centers
 from sdfpbr.shading.catcher import catcher_bands
-from sdfpbr.shading.cells import cell_grid
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import make_spec
+
+from helpers import floor_points, footprint_offsets
 
 SUN = {"kind": "directional", "direction": [0.45, 0.8, 0.35], "intensity": 3.0, "angular_radius_deg": 1.0}
 
@@ -44,22 +46,6 @@ def test_a_backdrop_is_the_page_under_the_labels_too(session):
         chart = label(spec, session.render(spec))
         for corner in (chart[0, 0], chart[-1, -1]):
             np.testing.assert_array_equal(corner, [255, 230, 204, 255])
-
-
-def floor_points(spec, centres: np.ndarray):
-    """Each pixel's camera ray on the floor plane: the point, a pixel's world size there, and
-    whether the pixel shows open floor (rays passing within two pixels of a sphere at one of
-    ``centres`` would hide or edge it, and are left out)."""
-    cam = frame(spec)
-    d = cam.pixel_rays()[1]
-    t = (ground_height(spec) - cam.position[1]) / d[..., 1]
-    p = cam.position + d * t[..., None]
-    pixel = 2 * cam.half_height * t / spec.height
-    floor = d[..., 1] < 0
-    for c in centres:
-        along = ((c - cam.position) @ d.reshape(-1, 3).T).reshape(t.shape)
-        floor &= np.linalg.norm(cam.position + d * along[..., None] - c, axis=-1) > spec.sphere_radius + 2 * pixel
-    return p, pixel, floor
 
 
 @pytest.mark.parametrize("renderer", ["chart", "reference"])
@@ -102,29 +88,10 @@ def test_the_floor_is_a_shadow_catcher_whose_alpha_is_the_spheres_shadow(session
 ATAN_RAD = 2.0 ** -17
 
 
-# The cells floor's shadow is averaged over these points of the pixel (shadow.glsl).
-FOOTPRINT_POINTS = ((0.125, 0.375), (0.375, -0.125), (-0.125, -0.375), (-0.375, 0.125))
-
-
-def footprint_offsets(spec, p: np.ndarray, pixel: np.ndarray) -> list[np.ndarray]:
-    """The offsets from each floor point ``p`` (floor_points) of the four points the cells
-    stage averages its floor's shadow over: a rotated grid on a pixel-wide square across the
-    ray, one side level, slid along the ray onto the floor."""
-    v = frame(spec).position - p
-    v /= np.linalg.norm(v, axis=-1)[..., None]
-    across = np.stack([v[..., 2], np.zeros_like(v[..., 0]), -v[..., 0]], axis=-1)
-    h = across / np.linalg.norm(across, axis=-1)[..., None]
-    w = np.cross(v, h)
-    ex = pixel[..., None] * h
-    ey = pixel[..., None] * (w - v * (w[..., 1] / np.maximum(v[..., 1], 0.05))[..., None])
-    ey[..., 1] = 0.0   # on the floor, capped or not
-    return [x * ex + y * ey for x, y in FOOTPRINT_POINTS]
-
-
 def fade_band(spec) -> np.ndarray:
     """(H, W) whether a pixel lies in one of its cell's fade bands (catcher.catcher_bands)."""
-    g = cell_grid(spec)
-    left, right, top, bottom = catcher_bands(spec)
+    g = chart_frame(spec).grid
+    left, right, top, bottom = catcher_bands(spec, g)
     x = (np.arange(spec.width) + 0.5 - g.left) % g.cell_width / g.cell_width
     y = (np.arange(spec.height) + 0.5 - g.top) % g.cell_height / g.cell_height
     return np.logical_or.outer((y < top) | (1 - y < bottom), (x < left) | (1 - x < right))
@@ -132,7 +99,7 @@ def fade_band(spec) -> np.ndarray:
 
 def border_distance(spec) -> np.ndarray:
     """(H, W) pixels from each pixel's centre to the nearest border of its cell."""
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     x = (np.arange(spec.width) + 0.5 - g.left) % g.cell_width
     y = (np.arange(spec.height) + 0.5 - g.top) % g.cell_height
     return np.minimum.outer(np.minimum(y, g.cell_height - y), np.minimum(x, g.cell_width - x))
@@ -146,7 +113,7 @@ def test_a_shadow_catchers_cells_meet_without_seams(session):
     sphere, partial around it)."""
     spec = make_spec(rows=3, cols=4, width=403, height=307, transparent=True, labels=False)
     alpha = session.render(spec).image[..., 3].astype(int)
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     xs = g.left + g.cell_width * np.arange(1, g.cols)      # first column of each cell but the first
     ys = g.top + g.cell_height * np.arange(1, g.rows)
     rows, cols = slice(g.top, g.top + g.rows * g.cell_height), slice(g.left, g.left + g.cols * g.cell_width)
@@ -167,7 +134,7 @@ def test_without_a_floor_transparency_is_the_spheres_coverage(session, stage, ro
     spec = make_spec(rows=rows, cols=rows, width=96 * rows, height=96 * rows, ground=False, transparent=True,
                      stage=stage)
     alpha = session.render(spec).image[..., 3].astype(float) / 255
-    cam = frame(spec)
+    cam = chart_frame(spec).camera
     d = cam.pixel_rays()[1]
     dist = np.full(alpha.shape, np.inf)   # px outside the nearest silhouette: the ray's miss distance
     for c in sphere_centers(spec).reshape(-1, 3) if stage == "shared" else np.zeros((1, 3)):

@@ -7,9 +7,6 @@ definition alone: the floor a blend sphere leaves is linear in alpha between the
 sphere's and the alpha-0 render's, and a pixel that sees the sphere adds the floor behind it
 in 1 - alpha; the closed form of a sun's light on the floor, thinned by 1 - alpha in the
 shadow, holds in the chart and the reference."""
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -74,7 +71,8 @@ def test_alpha_on_an_axis_blends_each_cell_by_its_own_value(session):
             assert np.abs(got[sphere] - opaque[sphere]).mean() > 0.01
 
 
-@pytest.mark.parametrize("stage, intersect, precision", [("cells", "analytic", "float32"), ("shared", "march", "float16"),
+@pytest.mark.parametrize("stage, intersect, precision", [("cells", "analytic", "float32"),
+                                                     ("shared", "march", "float16"),
                                                      ("shared", "analytic", "float32")])
 @pytest.mark.parametrize("alpha", [1e-6, 0.5, 1 - 1e-6])
 def test_without_a_floor_a_blend_spheres_coverage_is_its_alpha(session, stage, intersect, precision, alpha):
@@ -115,10 +113,7 @@ def test_the_reference_blends_by_the_same_alpha(session):
 # ---- glTF -----------------------------------------------------------------------------------
 
 pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
-sys.path.insert(0, str(Path(__file__).parent))
-from test_gltf import png_bytes, textured_glb  # noqa: E402
-from test_alpha import floor_points, footprint_offsets  # noqa: E402
-from test_bugs import PROGRAM_RTOL  # noqa: E402
+from helpers import PROGRAM_RTOL, floor_points, footprint_offsets, png_bytes, textured_glb  # noqa: E402
 
 
 def glb_with_alpha(tmp_path, mode, factor_alpha=1.0, cutoff=None, left=0, right=255):

@@ -19,11 +19,6 @@ from sdfpbr.spec.chart_spec import Light, make_spec
 SMALL = dict(width=64, height=64, quality="draft")
 
 
-@pytest.fixture(autouse=True)
-def _private_cache(cache_dir):
-    """Renders go through the default session; point its disk cache at the test session's."""
-
-
 def read_frames(path):
     return np.stack(list(iio.imiter(path, plugin="pillow")))
 
@@ -89,7 +84,8 @@ def test_camera_orbit_webp_is_lossless_and_mp4_has_every_frame(tmp_path):
 
 def test_compare_animation_shows_the_pair_side_by_side(tmp_path):
     spec = make_spec(**SMALL)
-    anim = animate_compare(spec, "double-gamma", 3, "light", output=tmp_path / "pair.webp", progress=False, keep_frames=True)
+    anim = animate_compare(spec, "double-gamma", 3, "light", output=tmp_path / "pair.webp", progress=False,
+                           keep_frames=True)
     assert read_frames(tmp_path / "pair.webp").shape[0] == 3
     assert [s.bugs for s in anim.specs[:2]] == [(), ("double-gamma",)]
     # Frame 0 holds both renders of orbit step 0, unresampled, correct on the left.

@@ -240,9 +240,33 @@ def test_each_bug_expands_to_one_image_per_bug(tmp_path):
         correct, buggy = item.specs
         assert bug.name in buggy.bugs and bug.name not in correct.bugs
         assert item.caption == bug.caption
-    (tmp_path / "sheet").mkdir()
-    sheet = collect(make_charts(tmp_path / "sheet", {"s.toml": '[compare]\nbugs = "all"\n[spec]\n' + SMALL}))
-    assert len(sheet) == 1 and sheet[0].kind == "bug-sheet" and sheet[0].bug_names == tuple(BUGS)
+
+
+def test_the_whole_catalog_expands_to_page_sized_sheets(tmp_path):
+    """bugs = "all" makes the catalog's pages (compare.catalog_pages), STEM-1.png, STEM-2.png,
+    ..., each rendering its own bugs' charts; page = N makes page N alone, as STEM.png."""
+    from sdfpbr.features.compare import catalog_pages
+    from sdfpbr.features.gallery.images import flip_pairs
+    from sdfpbr.spec.bugs import BUGS
+    pages = catalog_pages(list(BUGS))
+    charts = make_charts(tmp_path, {"s.toml": '[compare]\nbugs = "all"\n[spec]\n' + SMALL})
+    sheets = collect(charts)
+    assert [i.name for i in sheets] == [f"s-{k}" for k in range(1, len(pages) + 1)]
+    for item, page in zip(sheets, pages):
+        assert item.kind == "bug-sheet" and item.params["bugs"] == page
+        assert [name for _, name in flip_pairs(item)] == page
+        assert {s.bugs for s in item.specs} == {()} | {(name,) for name in page}   # its own charts only
+    assert len({i.canonical for i in sheets}) == len(sheets)                         # a key each
+    (charts / "s.toml").write_text('[compare]\nbugs = "all"\npage = 2\n[spec]\n' + SMALL)
+    (alone,) = collect(charts)
+    assert alone.name == "s" and alone.canonical == sheets[1].canonical
+    for page, needle in (("0", "from 1 to"), ('"2"', "from 1 to"), ("true", "from 1 to")):
+        (charts / "s.toml").write_text(f'[compare]\nbugs = "all"\npage = {page}\n[spec]\n' + SMALL)
+        with pytest.raises(SpecError, match=needle):
+            collect(charts)
+    (charts / "s.toml").write_text('[compare]\nbugs = "each"\npage = 1\n[spec]\n' + SMALL)
+    with pytest.raises(SpecError, match="page goes with bugs"):
+        collect(charts)
 
 
 def test_entry_paths_are_relative_to_the_entry(tmp_path):
@@ -272,6 +296,7 @@ def cli(*args, **kw):
     ("sweep.toml", '[sweep]\nfield = "tonemapp"\nvalues = ["aces"]\n', "unknown spec field 'tonemapp'"),
     ("values.toml", '[sweep]\nfield = "tonemap"\nvalues = []\n', "non-empty list"),
     ("field.toml", '[sweep]\nfield = "nosuch"\n', "unknown spec field 'nosuch'"),
+    ("novalues.toml", '[sweep]\nfield = "rows"\n', "[sweep] over rows needs values"),
     ("extra.toml", 'caption = "x"\nsize = "48x48"\n[spec]\nrows = 2\n', "[spec] belongs to"),
     ("missing.toml", '[compare]\na = "nowhere.toml"\nb = "nowhere.toml"\n', "does not exist"),
 ])
@@ -340,18 +365,20 @@ def test_the_key_follows_the_python_that_makes_images_only():
 
 
 def test_the_project_gallery_covers_the_issue_list():
-    """charts/: the default chart, the metals, every bug (own image + contact sheet), the tone
-    mapper, exposure and environment sweeps, the furnace, a chart laid onto a page; parsed, not
-    rendered."""
+    """charts/: the default chart, the metals, every bug (own image + the catalog's pages), the
+    tone mapper, exposure and environment sweeps, the furnace, a chart laid onto a page; parsed,
+    not rendered."""
+    from sdfpbr.features.compare import catalog_pages
     from sdfpbr.spec.bugs import BUGS
-    from sdfpbr.spec.chart_spec import MATERIAL_PRESETS
+    from sdfpbr.spec.chart_spec import ENV_PRESETS, MATERIAL_PRESETS, TONEMAPPERS
     items = {i.name: i for i in collect(Path(__file__).resolve().parent.parent / "charts")}
-    assert {"default", "materials", "furnace", "tonemappers", "exposure", "environments", "bug-catalog"} <= set(items)
+    catalog = [f"bug-catalog-{k}" for k in range(1, len(catalog_pages(list(BUGS))) + 1)]
+    assert {"default", "materials", "furnace", "tonemappers", "exposure", "environments", *catalog} <= set(items)
     assert {f"bugs-{name}" for name in BUGS} <= set(items)
-    assert items["bug-catalog"].bug_names == tuple(BUGS)
+    assert [n for page in catalog for n in items[page].params["bugs"]] == list(BUGS)
     assert set(items["materials"].specs[0].row_materials) == set(MATERIAL_PRESETS)
-    assert items["tonemappers"].sweep_values == ("none", "clamp", "reinhard", "reinhard-extended", "aces",
-                                                 "aces-hill", "neutral")
+    assert items["tonemappers"].sweep_values == TONEMAPPERS          # every tone mapper, read from the table
+    assert items["environments"].sweep_values == ENV_PRESETS
     assert items["exposure"].sweep_field == "exposure" and items["environments"].sweep_field == "env"
     furnace = items["furnace"].specs[0]
     assert (furnace.env, furnace.lights, furnace.ground, furnace.ao, furnace.base_color) == (
@@ -396,8 +423,9 @@ def test_comparisons_composed_in_workers_are_the_images_each_makes_alone(env):
 
 def test_items_that_share_a_chart_go_to_one_worker_together():
     """A parallel build hands a worker the items that render a spec in common, so the renders
-    and FLIP maps it keeps serve them all: the bug catalog with the bug comparisons (the same
-    correct and buggy charts), the exposure and tone-mapper sweeps (the same ACES, 0 EV chart)."""
+    and FLIP maps it keeps serve them all: the bug catalog's pages with the bug comparisons (the
+    same correct and buggy charts), the exposure and tone-mapper sweeps (the same ACES, 0 EV chart)."""
+    from sdfpbr.features.compare import catalog_pages
     from sdfpbr.spec.bugs import BUGS
     from sdfpbr.features.gallery.build import work_groups
     items = collect(Path(__file__).resolve().parent.parent / "charts")
@@ -406,7 +434,10 @@ def test_items_that_share_a_chart_go_to_one_worker_together():
     assert sorted(n for group in names for n in group) == sorted(item.name for item in items)   # each once
     order = [item.name for item in items]
     assert all(group == sorted(group, key=order.index) for group in names)                       # entry order
-    assert set(names[0]) == {"bug-catalog"} | {f"bugs-{bug}" for bug in BUGS}                    # largest first
+    for k, page in enumerate(catalog_pages(list(BUGS)), 1):   # each page with its bugs' comparisons
+        group = next(set(g) for g in names if f"bug-catalog-{k}" in g)
+        assert {f"bugs-{bug}" for bug in page} <= group
+    assert "bug-catalog-1" in names[0] and {i.kind for i in groups[0]} == {"bug-sheet", "compare"}   # largest first
     assert {"exposure", "tonemappers"} in [set(group) for group in names]
     text = {item.name: {json.dumps(s.to_dict(), sort_keys=True, default=str) for s in item.specs} for item in items}
     for a in groups:                                                  # and groups share no chart
@@ -420,6 +451,43 @@ def test_the_gallery_page_leads_with_the_default_chart():
     images = [{"name": n, "kind": k} for n, k in (("bug-catalog", "bug-sheet"), ("bugs-x", "compare"),
                                                   ("exposure", "sweep"), ("default", "chart"), ("furnace", "chart"))]
     assert [i["name"] for i in page_order(images)] == ["default", "furnace", "exposure", "bugs-x", "bug-catalog"]
+
+
+def test_the_gallery_page_has_a_section_per_kind_and_cards_as_wide_as_their_images():
+    from sdfpbr.features.gallery.page import COLUMN_PX, FULL_ROW_COLUMNS, SECTIONS, columns_needed, gallery_html
+
+    def image(name, kind, width):
+        return {"name": name, "kind": kind, "width": width, "height": 300, "image": f"{name}.png", "entry": "e.toml",
+                "caption": "", "params": {}, "specs": []}
+    manifest = {"images": [image("cat-1", "bug-sheet", 1033), image("x", "sweep", 900), image("default", "chart", 459),
+                           image("bugs-a", "compare", 1700)],
+                "charts": "charts", "sdfpbr": "0", "gl_renderers": ["gl"]}
+    page = gallery_html(manifest)
+
+    class Collect(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.order, self.spans = [], {}
+
+        def handle_starttag(self, tag, attrs):
+            a = dict(attrs)
+            if tag == "h2":
+                self.order.append(a["id"])
+            if tag == "figure":
+                self.order.append(a["id"])
+                self.spans[a["id"]] = a.get("class", "")
+
+    parser = Collect()
+    parser.feed(page)
+    kinds = [kind for kind, _, _ in SECTIONS]
+    assert parser.order == ["section-chart", "default", "section-sweep", "x", "section-compare", "bugs-a",
+                            "section-bug-sheet", "cat-1"]
+    assert kinds.index("chart") < kinds.index("sweep") < kinds.index("compare") < kinds.index("bug-sheet")
+    # A card spans the columns its image needs, so a sheet is shown near its own size.
+    assert [columns_needed(w) for w in (COLUMN_PX, 2 * COLUMN_PX, 10 * COLUMN_PX)] == [1, 2, FULL_ROW_COLUMNS]
+    assert parser.spans == {"default": "", "x": "span2", "bugs-a": f"span{FULL_ROW_COLUMNS}", "cat-1": "span2"}
+    assert "align-items: start" in page          # a tall card does not stretch its row
+    assert 'style="max-width: 459px"' in page    # nor is an image drawn larger than it is
 
 
 def test_gallery_summaries_print_clean_values():

@@ -13,6 +13,8 @@ from sdfpbr.cache import ArrayCache, cache_max, enforce_cap
 from sdfpbr.errors import SpecError
 from sdfpbr.files import write_bytes
 
+from helpers import dead_pid
+
 
 def entry(cache: ArrayCache, name: str, kib: int, used: float) -> None:
     """An entry of about ``kib`` KiB, last used at ``used`` (seconds since the epoch)."""
@@ -76,13 +78,6 @@ def test_cache_command_lists_by_kind_and_clears(tmp_path):
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "kinds: dfg, ibl" in r.stderr
     r = run("cache", env={**env, "SDFPBR_CACHE_MAX": "2X"})
     assert r.returncode == 2 and "Traceback" not in r.stderr
-
-
-def dead_pid() -> int:
-    """The pid of a process that has exited."""
-    p = subprocess.Popen([sys.executable, "-c", "pass"])
-    p.wait()
-    return p.pid
 
 
 def test_a_killed_writers_temporaries_go_with_the_next_write(tmp_path):
@@ -302,7 +297,8 @@ def test_bakes_are_kept_per_gl_implementation(session, tmp_path, monkeypatch):
     from sdfpbr.spec.chart_spec import make_spec
     plan = render_plan(make_spec())
     cache = ArrayCache(tmp_path)
-    stored = lambda: len(list((tmp_path / "dfg").glob("*.npz")))
+    def stored():
+        return len(list((tmp_path / "dfg").glob("*.npz")))
     with session:
         IBLBaker(session.ctx, session.programs, cache, "driver A").dfg(plan)
         assert stored() == 1

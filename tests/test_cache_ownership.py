@@ -19,13 +19,9 @@ import pytest
 from sdfpbr.cache import MARKER, ArrayCache, cache_entries, enforce_cap, remove_stale_temporaries
 from sdfpbr.features.gallery.images import ImageCache
 
+from helpers import dead_pid
+
 HEX = "0123456789abcdef" * 4       # a sha256-shaped name
-
-
-def dead_pid() -> int:
-    p = subprocess.Popen([sys.executable, "-c", "pass"])
-    p.wait()
-    return p.pid
 
 
 def plant_foreign(root: Path) -> dict[Path, bytes]:

@@ -6,16 +6,15 @@ import numpy as np
 import pytest
 
 from sdfpbr.image.layout import BACKGROUND
-from sdfpbr.shading.cells import cell_border_px, cell_grid
-from sdfpbr.shading.plan import render_plan
+from sdfpbr.shading.plan import chart_frame, render_plan
 from sdfpbr.spec.chart_spec import make_spec
 
 
 def border_mask(spec) -> np.ndarray:
     """Where the border and the margins beyond the grid are (image rows, top first), from the
     grid's geometry: a pixel is a cell's when it is ``border`` pixels or more inside it."""
-    grid = cell_grid(spec)
-    border = cell_border_px(spec, has_alpha=False)
+    frame = chart_frame(spec)
+    grid, border = frame.grid, frame.cell_border
     ys, xs = np.mgrid[:spec.height, :spec.width]
     x, y = xs - grid.left, ys - grid.top
     in_grid = (x >= 0) & (y >= 0) & (x < grid.cols * grid.cell_width) & (y < grid.rows * grid.cell_height)
@@ -32,7 +31,7 @@ def border_mask(spec) -> np.ndarray:
 ])
 def test_each_cell_is_framed_in_the_page_colour(session, shape):
     spec = make_spec(labels=False, **shape)
-    assert cell_border_px(spec, has_alpha=False) >= 1
+    assert chart_frame(spec).cell_border >= 1
     image = session.render(spec, aovs=False, hdr=False).image
     mask = border_mask(spec)
     page = np.array(BACKGROUND, np.uint8)
@@ -58,7 +57,7 @@ def test_borders_cross_tiles_whole(session, monkeypatch):
 ])
 def test_no_borders_where_the_image_has_no_seams_or_no_room(session, change):
     spec = make_spec(labels=False, **change)
-    assert cell_border_px(spec, has_alpha=spec.transparent or bool(spec.backdrop)) == 0
+    assert chart_frame(spec).cell_border == 0
     assert dict(render_plan(spec).display.options).get("CELL_BORDER") is False
     if change != dict(cell_borders=False):
         plain = make_spec(labels=False, **change, cell_borders=False)

@@ -5,6 +5,8 @@ import pytest
 from sdfpbr.oracle import shading_model
 from sdfpbr.spec.chart_spec import Light, make_spec
 
+from helpers import FurnaceBudget
+
 # Point-sampled (no anti-aliasing): each pixel is its centre's shading, which the oracles
 # evaluate at the pixel's AOVs (anti-aliased, a small sphere's pixel averages its box).
 FURNACE = dict(env="uniform", lights="none", shadows=False, ao=False, ground=False, base_color=(1.0, 1.0, 1.0),
@@ -16,87 +18,6 @@ def _interior(res, min_ndotv=0.15):
     return (res.aov["row"] >= 0) & (res.aov["ndotv"] > min_ndotv) & (res.aov["coverage"] >= 1.0)
 
 
-def dfg_read(table, n_dot_v, perceptual_roughness, rounding=(None, None), channels=3):
-    """(A, B, C) -- or the first ``channels`` of (A, B, C, E_s) -- read bilinearly from a
-    (size, size, 4) table at dfg.glsl's mapping (0 and 1 on the first and last texel centres);
-    ``rounding``: per axis, None or how the filter's fraction is held in 8 bits (np.floor,
-    np.ceil)."""
-    size = table.shape[0]
-    x, y = n_dot_v * (size - 1), perceptual_roughness * (size - 1)
-    i = np.minimum(np.floor(x).astype(int), size - 2)
-    j = np.minimum(np.floor(y).astype(int), size - 2)
-    fx, fy = ((f if q is None else q(f * 256) / 256)[:, None] for f, q in zip((x - i, y - j), rounding))
-    near, far = (1 - fx) * table[j, i] + fx * table[j, i + 1], (1 - fx) * table[j + 1, i] + fx * table[j + 1, i + 1]
-    return ((1 - fy) * near + fy * far)[:, :channels].T
-
-
-# How a GPU may hold a bilinear filter's fractions: exact, or in 8 bits, rounded down or up per axis.
-FILTER_ROUNDINGS = [(None, None)] + [(qx, qy) for qx in (np.floor, np.ceil) for qy in (np.floor, np.ceil)]
-
-
-def dfg_read_error(table, n_dot_v, perceptual_roughness, exact, channel):
-    """|a channel of a DFG table read as dfg.glsl reads it - its float64 value ``exact``|, the
-    worst over FILTER_ROUNDINGS; channel 0-3 (A, B, C, E_s) or "E" for A + B."""
-    reads = [dfg_read(table, n_dot_v, perceptual_roughness, q, channels=4) for q in FILTER_ROUNDINGS]
-    return np.max([np.abs((t[0] + t[1] if channel == "E" else t[channel]) - exact) for t in reads], 0)
-
-
-def chart_dfg_table(session, spec):
-    """The DFG table a chart of ``spec`` reads, as the GPU baked it: (size, size, 4) float64."""
-    from sdfpbr.shading.plan import render_plan
-    with session.ctx:
-        texture = session.ibl.dfg(render_plan(spec))
-        size = texture.size[0]
-        return np.frombuffer(texture.read(), np.float32).reshape(size, size, 4).astype(np.float64)
-
-
-class FurnaceBudget:
-    """A furnace pixel is the split-sum model (REFERENCE.md §2-3) read through the chart's DFG
-    table. Through that table (its texels as the GPU baked them, read here in float64) the pixel
-    is exact but for the filter's fractions -- GPUs may hold them in 8 bits: the bound takes the
-    worse of rounding them down and up -- and float32 (1e-5). Against the float64 model it is
-    off by the table's interpolation (the same read of a float64 table) and by its texels' own
-    error, as the material passes it on: the pixel's change with each of A, B and C moved by
-    that error (to first order; a white metal's (A + B) comp is 1 whatever the table, a
-    dielectric's C + (0.04 A + B) comp moves by about |dC| + |dB| + 0.04 |dA|). White by default."""
-
-    def __init__(self, session, spec, res, mask, base_color=(1.0, 1.0, 1.0)):
-        from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
-        table = chart_dfg_table(session, spec)
-        size = table.shape[0]
-        self.got = res.hdr[mask].astype(float)
-        mu = res.aov["ndotv"][mask].astype(float)
-        r = np.maximum(res.aov["roughness"][mask].astype(float), MIN_PERCEPTUAL_ROUGHNESS)
-        metallic = res.aov["metallic"][mask].astype(float)
-
-        base = np.asarray(base_color, float)
-
-        def expected(t, rounding=(None, None)):
-            return shading_model.furnace_from_dfg(*dfg_read(t, mu, r, rounding), base, metallic, spec.multiscatter)
-
-        terms = dfg_read(table, mu, r)
-        self.through_table = shading_model.furnace_from_dfg(*terms, base, metallic, spec.multiscatter)
-        rounded = [expected(table, q) for q in FILTER_ROUNDINGS[1:]]
-        self.filter = np.max([np.abs(e - self.through_table) for e in rounded], 0) + 1e-5 * (1 + self.through_table)
-        # The float64 table on the rows these roughnesses read.
-        rows = np.unique(np.minimum(np.floor(r * (size - 1)).astype(int), size - 2)[:, None] + [0, 1])
-        grid = np.arange(size) / (size - 1)
-        exact = table.copy()
-        exact[rows, :, :3] = np.stack(shading_model.dfg_integrate(np.maximum(grid[None, :], shading_model.MIN_N_DOT_V),
-                                                           grid[rows][:, None]), -1)
-        self.texel_error = np.abs(table[rows, :, :3] - exact[rows, :, :3]).max()
-        self.model = shading_model.furnace_expected(mu, base, metallic, r, multiscatter=spec.multiscatter)
-        self.interpolation = np.abs(expected(exact) - self.model)
-        moved = [shading_model.furnace_from_dfg(*(t + self.texel_error * (k == i) for k, t in enumerate(terms)), base,
-                                         metallic, spec.multiscatter) for i in range(3)]
-        self.spread = np.sum([np.abs(m - self.through_table) for m in moved], 0)
-
-    def check(self):
-        assert (np.abs(self.got - self.through_table) <= self.filter).all(), np.abs(self.got - self.through_table).max()
-        spread = self.spread
-        assert (np.abs(self.got - self.model) <= self.interpolation + spread + self.filter).all()
-
-
 @pytest.mark.parametrize("multiscatter", [True, False])
 def test_furnace_metal_row_matches_reference(session, multiscatter):
     spec = make_spec(**FURNACE, multiscatter=multiscatter)
@@ -104,7 +25,7 @@ def test_furnace_metal_row_matches_reference(session, multiscatter):
     m = _interior(res) & (res.aov["metallic"] == 1.0)
     budget = FurnaceBudget(session, spec, res, m)
     budget.check()
-    if multiscatter:   # REFERENCE.md §3: a compensated white metal vanishes into the background
+    if multiscatter:   # docs/model.md, the white furnace: a compensated white metal vanishes into the background
         np.testing.assert_allclose(budget.got, 1.0, atol=1e-5)
     else:              # reads E(mu, r), the float64 directional albedo
         assert budget.got[:, 0].min() < 0.5            # the loss is visible at r = 1
@@ -148,7 +69,8 @@ def test_metal_row_has_no_diffuse_under_back_light(session):
     v = np.broadcast_to(-res.camera.forward, n.shape)
     l = np.broadcast_to(np.array(light.direction), n.shape)
     cos = np.clip((n * l).sum(1), 0, None)
-    specular_only = shading_model.brdf(n, v, l, np.ones(3), 1.0, res.aov["roughness"][m].astype(float))[:, 0] * cos * 3.0
+    specular_only = shading_model.brdf(n, v, l, np.ones(3), 1.0,
+                                       res.aov["roughness"][m].astype(float))[:, 0] * cos * 3.0
     lambert = cos / np.pi * 3.0
     quiet = (specular_only < 2e-3) & (lambert > 0.1)
     rows = res.aov["row"][m]
@@ -189,7 +111,8 @@ def test_aov_ndotv_matches_normals_and_view(session):
     # The hit point lies on the sphere of its cell.
     from sdfpbr.shading.camera import sphere_centers
     p = cam.position + rd * res.aov["depth"][m][:, None]
-    c = sphere_centers(res_spec := make_spec(width=160, height=160, rows=2, cols=2, stage="shared"))[res.aov["row"][m], res.aov["col"][m]]
+    c = sphere_centers(res_spec := make_spec(width=160, height=160, rows=2, cols=2,
+                                             stage="shared"))[res.aov["row"][m], res.aov["col"][m]]
     np.testing.assert_allclose(np.linalg.norm(p - c, axis=1), res_spec.sphere_radius, atol=1e-3)
     assert np.isinf(res.aov["depth"][res.aov["ndotv"] == -1]).all()
 
@@ -203,7 +126,7 @@ def test_marched_and_analytic_paths_agree(session):
     a = session.render(make_spec(**base, intersect="analytic"))
     spec = make_spec(**base, intersect="march")
     b = session.render(spec)
-    quality, cam, r = spec.quality_settings(), b.camera, spec.sphere_radius
+    quality, cam, r = b.frame.quality, b.camera, spec.sphere_radius
     pixel = 2 * cam.half_height / cam.height                 # footprint per unit distance (camera.glsl)
     assert not cam.orthographic and quality.normal_method == "tetrahedron"   # the forms below are theirs
     # The tetrahedron normal at step e: its second-order term turns the normal by
@@ -276,5 +199,7 @@ def test_ibl_cache_on_disk_reproduces_the_bake(session, cache_dir):
     spec = make_spec(width=64, height=64, env="sky")
     first = session.render(spec)
     assert any((cache_dir / "ibl").glob("*.npz"))
-    again = Session(create_context("egl"), ArrayCache(cache_dir)).render(spec)   # loads from disk
+    fresh = Session(create_context("egl"), ArrayCache(cache_dir))
+    again = fresh.render(spec)   # loads from disk
+    fresh.release()   # its context, not left to the worker
     assert np.array_equal(first.image, again.image)

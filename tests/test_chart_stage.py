@@ -1,5 +1,5 @@
 """The chart as a compute shader (for GPUs that run few fragment units) draws what the fragment
-shader draws; which one a session uses follows its renderer, or $SDFPBR_CHART_STAGE."""
+shader draws; which one a session uses follows its renderer, or $SDFPBR_CHART_SHADER."""
 import dataclasses
 from pathlib import Path
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.gpu.session import Session, chart_stage_for
+from sdfpbr.gpu.session import Session, chart_shader_for
 from sdfpbr.spec.chart_spec import make_spec
 
 CASES = [dict(), dict(stage="shared"), dict(spp=4), dict(hdr_precision="float16"), dict(transparent=True),
@@ -15,18 +15,17 @@ CASES = [dict(), dict(stage="shared"), dict(spp=4), dict(hdr_precision="float16"
 
 
 @pytest.fixture(scope="module")
-def stages(session):
-    return Session(session.ctx, session.cache, chart_stage="fragment"), \
-        Session(session.ctx, session.cache, chart_stage="compute")
+def shaders(sibling):
+    return sibling(chart_shader="fragment"), sibling(chart_shader="compute")
 
 
 @pytest.mark.parametrize("options", CASES, ids=[",".join(c) or "default" for c in CASES])
-def test_the_compute_chart_is_the_fragment_chart(stages, options):
+def test_the_compute_chart_is_the_fragment_chart(shaders, options):
     """The same source with another entry point: the same arithmetic per pixel, so the same
     radiance up to how the driver groups pixels for SIMD (llvmpipe takes some cube-map
     decisions per group: a few ulps), so the 8-bit images within one step (a few ulps can round
     a value either side of a step) and the same AOVs."""
-    fragment, compute = stages
+    fragment, compute = shaders
     spec = make_spec(**{"width": 160, "height": 120, "quality": "draft", **options})
     a, b = fragment.render(spec), compute.render(spec)
     np.testing.assert_allclose(b.hdr, a.hdr, rtol=0, atol=1e-5 * a.hdr.max())
@@ -36,25 +35,25 @@ def test_the_compute_chart_is_the_fragment_chart(stages, options):
         np.testing.assert_allclose(b.aov[name], a.aov[name], atol=1e-6, err_msg=name)
 
 
-def test_the_compute_chart_tiles_and_reads_only_what_is_asked(session):
+def test_the_compute_chart_tiles_and_reads_only_what_is_asked(sibling):
     spec = make_spec(width=150, height=90, rows=2, cols=3, quality="draft")
-    whole = Session(session.ctx, session.cache, chart_stage="compute").render(spec)
-    tiled = Session(session.ctx, session.cache, chart_stage="compute", tile=40).render(spec)
+    whole = sibling(chart_shader="compute").render(spec)
+    tiled = sibling(chart_shader="compute", tile=40).render(spec)
     np.testing.assert_allclose(tiled.hdr, whole.hdr, rtol=0, atol=1e-5 * whole.hdr.max())
-    bare = Session(session.ctx, session.cache, chart_stage="compute").render(spec, aovs=False, hdr=False)
+    bare = sibling(chart_shader="compute").render(spec, aovs=False, hdr=False)
     assert bare.aov == {} and bare.hdr is None
     np.testing.assert_array_equal(bare.image, whole.image)
 
 
-def test_the_stage_follows_the_renderer_or_the_environment(monkeypatch):
-    monkeypatch.delenv("SDFPBR_CHART_STAGE", raising=False)
-    assert chart_stage_for("llvmpipe (LLVM 15.0.6, 256 bits) | 4.5 (Core Profile) Mesa 22.3.6") == "fragment"
-    assert chart_stage_for("NVIDIA H100 80GB HBM3/PCIe/SSE2 | 4.6.0 NVIDIA 550.54") == "compute"
-    monkeypatch.setenv("SDFPBR_CHART_STAGE", "compute")
-    assert chart_stage_for("llvmpipe") == "compute"
-    monkeypatch.setenv("SDFPBR_CHART_STAGE", "vertex")
-    with pytest.raises(SpecError, match="SDFPBR_CHART_STAGE must be one of fragment, compute"):
-        chart_stage_for("llvmpipe")
+def test_the_shader_follows_the_renderer_or_the_environment(monkeypatch):
+    monkeypatch.delenv("SDFPBR_CHART_SHADER", raising=False)
+    assert chart_shader_for("llvmpipe (LLVM 15.0.6, 256 bits) | 4.5 (Core Profile) Mesa 22.3.6") == "fragment"
+    assert chart_shader_for("NVIDIA H100 80GB HBM3/PCIe/SSE2 | 4.6.0 NVIDIA 550.54") == "compute"
+    monkeypatch.setenv("SDFPBR_CHART_SHADER", "compute")
+    assert chart_shader_for("llvmpipe") == "compute"
+    monkeypatch.setenv("SDFPBR_CHART_SHADER", "vertex")
+    with pytest.raises(SpecError, match="SDFPBR_CHART_SHADER must be one of fragment, compute"):
+        chart_shader_for("llvmpipe")
 
 
 DATA = Path(__file__).parent / "data"
@@ -82,7 +81,7 @@ EDGE_CASES = [dict(), dict(width=256, height=256, rows=64, cols=64), dict(width=
 
 @pytest.mark.parametrize("options", EDGE_CASES, ids=[",".join(f"{k}={v}" for k, v in c.items()) or "default"
                                                      for c in EDGE_CASES])
-def test_the_edge_pass_draws_what_the_chart_draws_inline(session, monkeypatch, options):
+def test_the_edge_pass_draws_what_the_chart_draws_inline(sibling, monkeypatch, options):
     """The fragment chart leaves its silhouettes' pixels to a pass over a ring of triangles
     round each one (a software rasterizer runs an if's body for every pixel): every pixel the
     silhouette crosses must lie in a ring, and the pass must shade it as the chart program
@@ -99,7 +98,7 @@ def test_the_edge_pass_draws_what_the_chart_draws_inline(session, monkeypatch, o
     plan = render_plan(spec, passes=True)
     assert plan.edge_pass is not None and plan.options["EDGE_PIXELS"] == "skipped"
     assert (plan.sphere_pass is not None) == (plan.options["STAGE"] == "cells" and not plan.options["SPHERE_PLATE"])
-    fragment = Session(session.ctx, session.cache, chart_stage="fragment", tile=tile)
+    fragment = sibling(chart_shader="fragment", tile=tile)
     with fragment:
         a = render_chart(fragment, spec, plan=render_plan(spec, passes=False))
         b = render_chart(fragment, spec, plan=plan)
@@ -116,14 +115,15 @@ def test_a_ring_too_thin_for_the_silhouette_leaves_pixels_out(session, monkeypat
     """The comparison above can fail: rings a third of a pixel wide miss silhouette pixels,
     which then keep the chart pass's one ray (coverage 0 or 1)."""
     import sdfpbr.gpu.render as render
-    from sdfpbr.shading.silhouette import silhouette_ring
+    import sdfpbr.shading.plan as planning
+    edge_rings = planning.edge_rings
     spec = make_spec(width=256, height=256, quality="draft")
     plan = render.render_plan(spec, passes=True)
-    fragment = Session(session.ctx, session.cache, chart_stage="fragment")
+    fragment = Session(session.ctx, session.cache, chart_shader="fragment")
     with fragment:
         a = render.render_chart(fragment, spec, plan=render.render_plan(spec, passes=False))
-        monkeypatch.setattr(render, "silhouette_ring", lambda s: silhouette_ring(s, pad=0.15))
-        b = render.render_chart(fragment, spec, plan=plan)
+        monkeypatch.setattr(planning, "edge_rings", lambda frame: edge_rings(frame, pad=0.15))
+        b = render.render_chart(fragment, spec, plan=plan)   # its rings made now, at its first draw
     edges = (a.aov["coverage"] > 0) & (a.aov["coverage"] < 1)
     missed = edges & ((b.aov["coverage"] == 0) | (b.aov["coverage"] == 1))
     assert missed.sum() > 0.2 * edges.sum()
@@ -133,21 +133,22 @@ def test_boxes_too_small_for_the_spheres_leave_them_unshaded(session, monkeypatc
     """The comparison above can fail for the sphere pass too: boxes cut 10 px inside the
     silhouettes leave sphere pixels with the chart pass's value (no sphere shaded there)."""
     import sdfpbr.gpu.render as render
-    from sdfpbr.shading.silhouette import sphere_boxes
+    import sdfpbr.shading.plan as planning
+    sphere_boxes = planning.sphere_boxes
     spec = make_spec(width=256, height=256, quality="draft", y_axis="clearcoat")
     plan = render.render_plan(spec, passes=True)
     assert plan.sphere_pass is not None
-    fragment = Session(session.ctx, session.cache, chart_stage="fragment")
+    fragment = Session(session.ctx, session.cache, chart_shader="fragment")
     with fragment:
         a = render.render_chart(fragment, spec, plan=render.render_plan(spec, passes=False))
-        monkeypatch.setattr(render, "sphere_boxes", lambda s: sphere_boxes(s, pad=-10.0))
-        b = render.render_chart(fragment, spec, plan=plan)
+        monkeypatch.setattr(planning, "sphere_boxes", lambda frame: sphere_boxes(frame, pad=-10.0))
+        b = render.render_chart(fragment, spec, plan=plan)   # its boxes made now, at its first draw
     spheres = a.aov["coverage"] == 1
     dark = spheres & (b.hdr.max(axis=-1) == 0) & (a.hdr.max(axis=-1) > 0)
     assert dark.sum() > 0.2 * spheres.sum()
 
 
-def test_a_sphere_pass_without_an_edge_pass_draws_the_edges_itself(session):
+def test_a_sphere_pass_without_an_edge_pass_draws_the_edges_itself(sibling):
     """Between the two passes' sizes (SPHERE_PASS_MIN_PIXELS, EDGE_PASS_MIN_PIXELS) a chart
     without the sphere plate has a sphere pass alone, which draws the silhouettes' pixels too."""
     from sdfpbr.gpu.render import render_chart
@@ -155,7 +156,7 @@ def test_a_sphere_pass_without_an_edge_pass_draws_the_edges_itself(session):
     spec = make_spec(width=600, height=500, rows=3, cols=4, quality="draft", y_axis="clearcoat")
     plan = render_plan(spec)
     assert plan.sphere_pass is not None and plan.edge_pass is None
-    fragment = Session(session.ctx, session.cache, chart_stage="fragment")
+    fragment = sibling(chart_shader="fragment")
     with fragment:
         a = render_chart(fragment, spec, plan=render_plan(spec, passes=False))
         b = render_chart(fragment, spec, plan=plan)

@@ -16,19 +16,14 @@ from PIL import Image
 from sdfpbr.spec.bugs import BUGS
 from sdfpbr.shading.camera import sphere_centers
 from sdfpbr.api import chart
-from sdfpbr.features.compare import (bug_contact_sheet, bug_pair, compare_bug, compare_specs,
-                                  sweep)
+from sdfpbr.features.compare import (BUGS_PER_PAGE, bug_catalog, bug_contact_sheet, bug_pair, catalog_pages,
+                                     compare_bug, compare_specs, sweep)
 from sdfpbr.image.sheet import flatten
 from sdfpbr.errors import SpecError
 from sdfpbr.image.metrics import DEFAULT_PPD, apply_colormap, flip_ldr, per_cell_mean
 from sdfpbr.spec.chart_spec import make_spec
 
 SMALL = dict(width=96, height=96, quality="draft", stage="shared")   # sphere positions by the grid camera
-
-
-@pytest.fixture(autouse=True)
-def _private_cache(cache_dir):
-    """Renders go through the default session; point its disk cache at the test session's."""
 
 
 def display(spec):
@@ -166,24 +161,72 @@ def test_sheet_saves_png_with_specs_and_digests(tmp_path):
     assert not (tmp_path / "cmp.jpg").exists()
 
 
-def test_contact_sheet_is_a_grid_of_cards_quoting_the_figures_compare_quotes():
+def test_contact_sheet_is_a_row_per_bug_quoting_the_figures_compare_quotes():
     spec = make_spec(**SMALL)
     names = ["clamp-tonemap", "double-gamma", "no-cosine"]
-    sheet = bug_contact_sheet(spec, names, panel_size=64, per_row=2, measure_size=None)
+    sheet = bug_contact_sheet(spec, names, panel_size=64, measure_size=None)
     assert len(sheet.panels) == 9 and len(sheet.differences) == 3
     assert len(sheet.specs) == 4                        # the correct chart is rendered once
-    cards = [sheet.panels[i:i + 3] for i in (0, 3, 6)]
-    for card, name in zip(cards, names):
-        assert [p.box.w for p in card] == [64, 64, 64] and len({p.box.y for p in card}) == 1
-        assert card[1].label == f"buggy: {name}"
-    assert cards[0][0].box.y == cards[1][0].box.y and cards[1][0].box.x > cards[0][2].box.x   # side by side
-    assert cards[2][0].box.y >= cards[0][0].box.y + 64                                          # next row
+    rows = [sheet.panels[i:i + 3] for i in (0, 3, 6)]
+    for row in rows:
+        assert [p.box.w for p in row] == [64, 64, 64] and len({p.box.y for p in row}) == 1
+        assert [p.label for p in row[:2]] == ["correct", "buggy"]
+        assert row[0].box.x < row[1].box.x < row[2].box.x                       # side by side
+        assert sheet.specs[row[0].spec_index] == bug_pair(spec, "clamp-tonemap")[1]
+    for upper, lower in zip(rows, rows[1:]):
+        assert lower[0].box.y >= upper[0].box.y + 64 and lower[0].box.x == upper[0].box.x   # a row each
     for d, name in zip(sheet.differences, names):
         assert d.mean > 0.1
         # One figure per bug: the sheet measures what `compare --bug` measures at the same size.
         assert d.mean == compare_bug(spec, name).differences[0].mean
     with pytest.raises(SpecError, match="allowed: unsquared-roughness"):
         bug_contact_sheet(spec, ["clamp-tonemap", "no-such-bug"])
+
+
+@pytest.mark.parametrize("count, per_page, sizes", [
+    (22, 8, [8, 7, 7]), (16, 8, [8, 8]), (17, 8, [6, 6, 5]), (5, 8, [5]), (1, 1, [1]), (3, 1, [1, 1, 1])])
+def test_catalog_pages_are_as_even_as_they_can_be(count, per_page, sizes):
+    names = [f"b{i}" for i in range(count)]
+    pages = catalog_pages(names, per_page)
+    assert [len(p) for p in pages] == sizes and [n for p in pages for n in p] == names
+    with pytest.raises(SpecError, match="positive whole number"):
+        catalog_pages(names, 0)
+
+
+def test_the_catalog_is_pages_that_each_fit_a_page():
+    """Every bug on one sheet was 2244 x 5900 px in 14-px text: now pages of BUGS_PER_PAGE rows,
+    each narrower than a wide screen and no taller than about an A4 page is for its width."""
+    spec = make_spec(**SMALL)
+    names = ["clamp-tonemap", "double-gamma", "gamma-2.2"]
+    pages = bug_catalog(spec, names, per_page=2, measure_size=None)
+    assert [len(p.differences) for p in pages] == [2, 1]
+    assert [p.title for p in pages] == ["PBR bug catalog: 3 bugs, page 1 of 2", "PBR bug catalog: 3 bugs, page 2 of 2"]
+    assert pages[1].differences[0].mean == compare_bug(spec, "gamma-2.2").differences[0].mean
+    (alone,) = bug_catalog(spec, names, per_page=2, measure_size=None, pages=[2])
+    np.testing.assert_array_equal(alone.image, pages[1].image)
+    with pytest.raises(SpecError, match="numbered 1 to 2"):
+        bug_catalog(spec, names, per_page=2, pages=[3])
+    full = bug_catalog(spec, list(BUGS)[:BUGS_PER_PAGE], measure_size=None)   # a full page at the defaults
+    (h, w), = {p.image.shape[:2] for p in full}
+    assert len(full) == 1 and w <= 1200 and h <= 1.7 * w
+
+
+@pytest.mark.parametrize("make", ["sweep", "bug", "catalog"])
+def test_sheets_lie_on_the_charts_backdrop(make):
+    """Charts laid onto a light page made a light render in a dark frame: the sheet is on the
+    backdrop too, its text dark enough to read on it (WCAG contrast, as a chart's labels)."""
+    from sdfpbr.image.layout import page_colour, text_colour
+    backdrop = (0.96, 0.95, 0.92)
+    spec = make_spec(**SMALL, backdrop=backdrop)
+    sheet = {"sweep": lambda: sweep(spec, "tonemap", ["aces", "clamp"]),
+             "bug": lambda: compare_bug(spec, "no-cosine"),
+             "catalog": lambda: bug_contact_sheet(spec, ["no-cosine"], panel_size=64, measure_size=None)}[make]()
+    page = np.array(page_colour(backdrop)[:3])
+    corners = sheet.image[[0, 0, -1, -1], [0, -1, 0, -1], :3]
+    assert (corners == page).all()
+    ink = np.array(text_colour("title", backdrop)[:3])
+    assert ink.max() < page.min()                          # dark text on the light page
+    assert (np.abs(sheet.image[..., :3].astype(int) - ink).max(axis=-1) == 0).any()   # and drawn in it
 
 
 def test_contact_sheet_shows_small_panels_of_bigger_measured_renders():
@@ -248,6 +291,7 @@ def run(*args, cwd=None):
     (["compare"], "nothing to compare"),
     (["compare", "--bug", "clamp-tonemap", "--bugs", "all"], "only one of"),
     (["compare", "--bugs", "all", "--frames", "3"], "--bug comparison only"),
+    (["compare", "--bugs", "all", "--per-page", "-1"], "--per-page"),
     (["compare", "--bug", "clamp-tonemap", "--size", "big"], "WxH"),
     (["sweep", "tonemap", "--values", "aces,filmic"], "allowed"),
     (["sweep", "exposur"], "did you mean 'exposure'"),
@@ -288,6 +332,20 @@ def test_compare_and_sweep_commands_write_sheets(tmp_path):
         assert json.loads(im.text["sdfpbr:panels"]) == ["exposure -2 EV", "exposure +0 EV", "exposure +2 EV"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.toml", "ab.png", "b.toml",
                                                         "compare-double-gamma.png", "sweep.png"]
+
+
+def test_a_catalog_longer_than_a_page_writes_numbered_pages_and_says_so(tmp_path):
+    names = "clamp-tonemap,double-gamma,gamma-2.2"
+    r = run("compare", "--bugs", names, "--per-page", "2", "--size", "48x48", "--quality", "draft",
+            "-o", str(tmp_path / "cat.png"))
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cat-1.png", "cat-2.png"]
+    assert r.stderr.splitlines()[-1] == f"sdfpbr: note: 2 pages: {tmp_path / 'cat-1.png'}, {tmp_path / 'cat-2.png'}"
+    with Image.open(tmp_path / "cat-2.png") as im:
+        assert im.text["Title"] == "PBR bug catalog: 3 bugs, page 2 of 2"
+    r = run("compare", "--bugs", names, "--per-page", "0", "--size", "48x48", "--quality", "draft",
+            "-o", str(tmp_path / "one.png"))
+    assert r.returncode == 0 and (tmp_path / "one.png").is_file() and "note" not in r.stderr
 
 
 def test_sheets_keep_their_renders_read_only_and_frames_are_not_kept():
@@ -349,9 +407,11 @@ def test_a_catalog_made_with_helper_processes_is_the_one_made_on_one_core(tmp_pa
     if not helpers(len(names)):
         pytest.skip("one core (or no worker processes here): no helpers to compare with")
     sheets = {}
-    for where, pin in (("helpers", None), ("one core", lambda: os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}))):
+    for where, pin in (("helpers", None),
+                       ("one core", lambda: os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}))):
         out = tmp_path / f"{where}.png"
-        done = subprocess.run([sys.executable, "-m", "sdfpbr", "compare", "--bugs", ",".join(names), "--quality", "draft",
+        done = subprocess.run([sys.executable, "-m", "sdfpbr", "compare", "--bugs", ",".join(names),
+                               "--quality", "draft",
                                "--rows", "2", "--cols", "2", "--panel-size", "96", "-o", str(out)],
                               capture_output=True, text=True, preexec_fn=pin)
         assert done.returncode == 0, done.stderr
@@ -365,10 +425,10 @@ def test_a_differences_mean_leaves_the_cells_borders_out():
     """The cells' page-colour borders are the same pixels in both renders: the mean is over the
     rest of the image (the map keeps them, with what FLIP's filters spread onto them from the
     cells), so it reads as the cells' error."""
-    from sdfpbr.shading.cells import cell_border_mask
+    from sdfpbr.shading.plan import chart_frame
     spec = make_spec(width=192, height=192, quality="draft")          # the cells stage: 38-px cells
     d = compare_bug(spec, "unsquared-roughness").differences[0]
-    border = cell_border_mask(spec, has_alpha=False)
+    border = chart_frame(spec).border_mask()
     assert border.any()
     assert d.mean == pytest.approx(d.error_map[~border].mean(dtype=np.float64), rel=1e-12)
     assert d.mean > d.error_map.mean(dtype=np.float64)
@@ -378,7 +438,8 @@ def test_a_differences_mean_leaves_the_cells_borders_out():
 
 
 @pytest.mark.parametrize("args, line", [
-    (["sweep", "tonemap", "--values", "aces,none", "--size", "48x48", "-o", "s.png"], "tonemap sweep: 2/2 charts drawn"),
+    (["sweep", "tonemap", "--values", "aces,none", "--size", "48x48", "-o", "s.png"],
+     "tonemap sweep: 2/2 charts drawn"),
     (["compare", "--bugs", "double-gamma,unsquared-roughness", "--size", "48x48", "-o", "b.png"],
      "bug catalog: 2/2 bugs drawn"),
 ])

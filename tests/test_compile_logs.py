@@ -37,9 +37,11 @@ DRIVER_LOGS = {
     # Mesa: INDEX:LINE(COLUMN); keeps the index for syntax errors ...
     "mesa-syntax": "2:3(38): error: syntax error, unexpected ';', expecting '('\n",
     # ... and reports index 0 for semantic ones (found on llvmpipe 24.x; resolved by the text).
-    "mesa-semantic": "0:3(29): error: `missing' undeclared\n0:3(15): error: operands to arithmetic operators must be numeric\n",
+    "mesa-semantic": "0:3(29): error: `missing' undeclared\n"
+                     "0:3(15): error: operands to arithmetic operators must be numeric\n",
     # NVIDIA: INDEX(LINE), a warning first.
-    "nvidia": '3(4) : warning C7022: unrecognized profile specifier "x"\n2(3) : error C1503: undefined variable "missing"\n',
+    "nvidia": '3(4) : warning C7022: unrecognized profile specifier "x"\n'
+              '2(3) : error C1503: undefined variable "missing"\n',
     "nvidia-index-0": '0(3) : error C1503: undefined variable "missing"\n',
     # AMD (and Intel on Windows, Apple): ERROR: INDEX:LINE:, then a count line that also says ERROR.
     "amd": "ERROR: 2:3: 'missing' : undeclared identifier \nERROR: 1 compilation errors.  No code generated.\n\n",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import edge, shading_model
-from sdfpbr.shading.camera import frame
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import make_spec
 
 
@@ -44,7 +44,8 @@ def _covered_means(samples, radius_px=12.0, n=2000):
         c = float(edge.box_coverage(s, abs(g[0]), abs(g[1])))
         if not 0.02 < c < 0.98:
             continue
-        shading = lambda d: np.sqrt(np.clip(1.0 - (1.0 + d / radius_px) ** 2, 0.0, 1.0))
+        def shading(d):
+            return np.sqrt(np.clip(1.0 - (1.0 + d / radius_px) ** 2, 0.0, 1.0))
         d = s + g[0] * u[:, None] + g[1] * u[None, :]
         exact.append(shading(d)[d < 0].mean())
         points = edge.edge_sample_points(np.zeros(2), s, g, samples)
@@ -79,7 +80,7 @@ def _mirror_edge(spec, samples, s_error=0.0):
     the covered part's radiance under a light along the view, as the mean of the float64 BRDF
     at the rule's points; plus how far in (world units) the rule's shallowest point lies.
     s_error: added to the silhouette distance the rule starts from (the sphere stays)."""
-    cam = frame(spec)
+    cam = chart_frame(spec).camera
     H, W = cam.height, cam.width
     ys, xs = np.mgrid[0:H, 0:W]
     x, y = xs + 0.5, H - ys - 0.5                       # GL pixel centres
@@ -112,10 +113,10 @@ def test_silhouette_pixels_shade_the_rules_points(session, monkeypatch, samples)
     the points' radiance move across it by their slope there, which the mirror measures at
     each pixel for an error of either sign, plus PROGRAM_RTOL of the shading's own roundings."""
     from sdfpbr.spec.presets import QUALITY_PRESETS
-    from test_bugs import PROGRAM_RTOL
+    from helpers import PROGRAM_RTOL
     monkeypatch.setitem(QUALITY_PRESETS, "default", dataclasses.replace(QUALITY_PRESETS["default"],
                                                                         edge_samples=samples))
-    cam = frame(make_spec(**LIT))
+    cam = chart_frame(make_spec(**LIT)).camera
     towards_camera = (-cam.forward).tolist()
     spec = make_spec(**LIT, lights=[{"kind": "directional", "direction": towards_camera, "intensity": 2.0}])
     result = session.render(spec)

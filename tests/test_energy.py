@@ -1,5 +1,5 @@
 """White-furnace energy report: the renderer follows the float64 model cell by cell, and the
-model's own gains and losses are reported as such (REFERENCE.md section 3)."""
+model's own gains and losses are reported as such (docs/model.md, the white furnace)."""
 import io
 import json
 import math
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import shading_model
-from test_chart import FurnaceBudget
+from helpers import FurnaceBudget
 from sdfpbr.cli.main import main
 from sdfpbr.devtools.energy import GRAZING_N_DOT_V, cell_energy, furnace_spec, model_summary
 from sdfpbr.spec.chart_spec import make_spec
@@ -46,7 +46,7 @@ def test_compensated_white_metal_row_is_exactly_white(report):
 
 
 def test_mixed_metallic_row_is_the_mix_of_its_lobes(session, report):
-    """Metallic 0.5 mixes the two lobes, each compensated on its own f0 (REFERENCE.md §3:
+    """Metallic 0.5 mixes the two lobes, each compensated on its own f0 (docs/model.md, the white furnace:
     engines that compensate on a blended f0 lose energy there): every pixel is the average of
     the float64 dielectric and metal expectations within what the chart's DFG table allows it
     (test_chart.FurnaceBudget)."""
@@ -107,7 +107,7 @@ def test_single_scatter_metal_loses_what_the_albedo_says(session):
     res = session.render(spec)
     cells = cell_energy(res, spec)
     rough = next(c for c in cells if c.roughness == 1.0)
-    # REFERENCE §2: E(mu = 1, r = 1) = 1 - ln 2 exactly; the cell's darkest pixel faces the camera.
+    # docs/model.md's test vectors: E(mu = 1, r = 1) = 1 - ln 2 exactly; the cell's darkest pixel faces the camera.
     assert rough.exp_min == pytest.approx(1 - math.log(2), abs=2e-3)
     FurnaceBudget(session, spec, res, res.aov["row"] >= 0).check()   # every pixel is what the model loses
     assert any("loses energy" in line and "multiple scattering is off" in line for line in model_summary(cells, True))

@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.gpu.session import Session
-from sdfpbr.shading.cells import cell_grid
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import make_spec
 
 KW = dict(rows=2, cols=3, size="192x128", labels=False, roughness=(0.4, 0.4), y_axis="metallic")
@@ -14,11 +13,11 @@ VALUES = (-1.0, 0.5, 2.0)
 
 
 @pytest.mark.parametrize("tile", [None, 44])   # 44: tiles that cut through the cells
-def test_each_column_is_the_chart_at_its_exposure(session, tile):
+def test_each_column_is_the_chart_at_its_exposure(session, sibling, tile):
     spec = make_spec(**KW, x_axis="exposure", x_values=VALUES, exposure=0.25)
-    runner = session if tile is None else Session(session.ctx, session.cache, tile=tile)
+    runner = session if tile is None else sibling(tile=tile)
     got = runner.render(spec)
-    grid = cell_grid(spec)
+    grid = chart_frame(spec).grid
     means = []
     for col, ev in enumerate(VALUES):
         plain = session.render(make_spec(**KW, x_axis="roughness", exposure=ev))

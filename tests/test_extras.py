@@ -1,7 +1,6 @@
 """A missing extra is one line, exit 2, naming a command that works for how sdfpbr was
 installed: pip for the running interpreter, from the checkout when sdfpbr runs from one
 (`pip install 'sdfpbr[exr]'` failed for an install made from a checkout)."""
-import os
 import shlex
 import subprocess
 import sys
@@ -12,15 +11,9 @@ import pytest
 import sdfpbr
 from sdfpbr.extras import EXTRAS, install_command
 
+from helpers import blocked
+
 CHECKOUT = Path(sdfpbr.__file__).resolve().parents[1]
-
-
-def blocked(tmp_path, module: str) -> dict:
-    """An environment in which ``module`` fails to import, as if its extra were not installed."""
-    blocker = tmp_path / "blocker"
-    blocker.mkdir(exist_ok=True)
-    (blocker / f"{module}.py").write_text("raise ImportError('blocked for this test')\n")
-    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(blocker), os.environ.get("PYTHONPATH", "")])}
 
 
 def test_the_command_installs_into_this_interpreter_from_this_checkout():

@@ -21,7 +21,7 @@ from sdfpbr.spec import (BUGS, ENTRY_KEYS, FIELD_NAMES, FIELDS, ChartSpec, Light
                          spec_from_mapping, split_entry, sweep_defaults, sweep_values_from_text)
 from sdfpbr.spec.fields import resolve_relative_files, toml_value
 from sdfpbr.spec.material import AXIS_PARAMS
-from sdfpbr.spec.presets import DEFAULT_LIGHTS
+from sdfpbr.spec.presets import DEFAULT_LIGHTS, ENV_PRESETS
 
 CHARTS = sorted((Path(__file__).parent.parent / "charts").glob("*.toml"))
 
@@ -32,19 +32,24 @@ SAMPLES = {
     "base_color": ((1.0, 0.5, 0.0), "1,0.5,0"), "materials": (("gold",) * 5, "gold,gold,gold,gold,gold"),
     "env": ("sky", "sky"), "env_intensity": (2.0, "2"), "lights": ((), "none"), "shadows": (False, None),
     "ao": (False, None), "ground": (False, None), "ibl": (False, None), "tonemap": ("neutral", "neutral"),
-    "exposure": (-1.5, "-1.5"), "reinhard_white": (2.0, "2"), "spp": (4, "4"), "antialias": (False, None), "hdr_precision": ("float16", "float16"),
-    "multiscatter": (False, None), "brdf": ("schlick-ggx", "schlick-ggx"), "camera": ("orthographic", "orthographic"), "stage": ("shared", "shared"), "cell_borders": (False, None),
+    "exposure": (-1.5, "-1.5"), "reinhard_white": (2.0, "2"), "spp": (4, "4"),
+    "antialias": (False, None), "hdr_precision": ("float16", "float16"),
+    "multiscatter": (False, None), "brdf": ("schlick-ggx", "schlick-ggx"),
+    "camera": ("orthographic", "orthographic"), "stage": ("shared", "shared"), "cell_borders": (False, None),
     "camera_azimuth": (30.0, "30"), "camera_elevation": (20.0, "20"), "camera_distance_scale": (1.5, "1.5"),
     "intersect": ("march", "march"), "sphere_radius": (0.5, "0.5"), "spacing": (3.0, "3"), "transparent": (True, None),
     "title": ("Hello", "Hello"), "quality": ("draft", "draft"), "backend": ("egl", "egl"), "device_index": (1, "1"),
-    "ground_color": ((0.5, 0.5, 0.5), "0.5,0.5,0.5"), "backdrop": ((1.0, 1.0, 1.0), "1,1,1"), "ground_roughness": (0.3, "0.3"), "labels": (False, None),
+    "ground_color": ((0.5, 0.5, 0.5), "0.5,0.5,0.5"), "backdrop": ((1.0, 1.0, 1.0), "1,1,1"),
+    "ground_roughness": (0.3, "0.3"), "labels": (False, None),
     "bugs": (("clamp-tonemap",), "clamp-tonemap"), "textures": ("procedural", "procedural"),
     "base_color_texture": ("", ""), "orm_texture": ("", ""), "normal_texture": ("", ""),
-    "x_axis": ("clearcoat", "clearcoat"), "y_axis": ("ior", "ior"), "x_values": ((0.0, 0.5, 1.0, 0.5, 0.0), "0,0.5,1,0.5,0"),
+    "x_axis": ("clearcoat", "clearcoat"), "y_axis": ("ior", "ior"),
+    "x_values": ((0.0, 0.5, 1.0, 0.5, 0.0), "0,0.5,1,0.5,0"),
     "y_values": ((0.0, 0.1, 0.2, 0.3, 0.4), "0,0.1,0.2,0.3,0.4"),
     "base_colors": (((1.0, 0.0, 0.0),) * 5, ";".join(["1,0,0"] * 5)), "clearcoat": ((0.5, 0.5), "0.5"),
     "clearcoat_roughness": ((0.2, 0.2), "0.2"), "sheen_roughness": ((0.3, 0.3), "0.3"), "ior": ((1.3, 1.3), "1.3"),
-    "specular": ((0.5, 0.5), "0.5"), "emissive_strength": ((2.0, 2.0), "2"), "base_color_hue": ((10.0, 200.0), "10:200"),
+    "specular": ((0.5, 0.5), "0.5"), "emissive_strength": ((2.0, 2.0), "2"),
+    "base_color_hue": ((10.0, 200.0), "10:200"),
     "alpha": ((0.5, 0.5), "0.5"), "alpha_mode": ("mask", "mask"), "alpha_cutoff": (0.25, "0.25"),
     "sheen_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"), "specular_color": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
     "emissive": ((1.0, 0.5, 0.5), "1,0.5,0.5"),
@@ -289,7 +294,7 @@ def _value(field, rows):
     if field.kind == "bugs":
         return st.lists(st.sampled_from(field.choices), unique=True, max_size=3).map(tuple)
     if field.kind == "env":
-        return st.sampled_from(("studio", "sky", "uniform", "black"))
+        return st.sampled_from(ENV_PRESETS)
     if field.kind == "text":
         return TEXT
     if field.kind == "lights":

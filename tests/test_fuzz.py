@@ -123,7 +123,8 @@ INVALID_FLAGS = st.one_of(
     st.tuples(st.just("--quality"), _word_outside(tuple(QUALITY_PRESETS))),
     st.tuples(st.just("--backend"), _word_outside(BACKENDS)),
     st.tuples(st.just("--lights"), _word_outside(("default", "none"))),
-    st.tuples(st.just("--materials"), st.lists(PRINTABLE.filter(lambda t: t.strip() not in MATERIAL_PRESETS and "," not in t),
+    st.tuples(st.just("--materials"), st.lists(PRINTABLE.filter(lambda t: t.strip() not in MATERIAL_PRESETS
+                                                                          and "," not in t),
                                                min_size=1, max_size=3).map(",".join).filter(bool)),
     st.tuples(st.just("--env"), PRINTABLE.filter(lambda t: t not in ENV_PRESETS and t)),
     st.tuples(st.sampled_from(["--roughness", "--metallic"]),

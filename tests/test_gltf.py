@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_bugs import PROGRAM_RTOL
-
 from sdfpbr.errors import SpecError
 from sdfpbr.spec.chart_spec import make_spec
+
+from helpers import PROGRAM_RTOL, png_bytes, textured, textured_glb
 
 pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
 sys.path.insert(0, str(Path(__file__).parent / "data"))
@@ -75,7 +75,8 @@ def test_an_asset_whose_materials_make_no_grid_is_refused_by_its_count():
     from sdfpbr.spec.gltf import grid_for
     assert grid_for(6) == (2, 3) and grid_for(64 * 64) == (64, 64)
     for count in (67, 5000):
-        with pytest.raises(SpecError, match=f"the asset's {count} materials make a .* grid, wider than 64 cells.*--material"):
+        with pytest.raises(SpecError, match=f"the asset's {count} materials make a .* grid, "
+                                            "wider than 64 cells.*--material"):
             grid_for(count)
 
 
@@ -157,33 +158,6 @@ def test_cells_render_their_own_material(session):
 LAYER = (1024, 512)   # gpu.textures.GLTF_LAYER_SIZE: a map's texels on the sphere
 
 
-def png_bytes(img: np.ndarray) -> bytes:
-    import io
-
-    import imageio.v3 as iio
-    buf = io.BytesIO()
-    iio.imwrite(buf, img, extension=".png")
-    return buf.getvalue()
-
-
-def textured_glb(path, images, materials, samplers=()):
-    """A .glb whose images (PNG bytes) lie in its binary buffer, one texture each (texture i
-    reads image i with sampler i if given)."""
-    blob, views = b"", []
-    for data in images:
-        views.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data)))
-        blob += data + b"\0" * (-len(data) % 4)
-    doc = gltf_asset(materials)
-    doc.buffers = [pygltflib.Buffer(byteLength=len(blob))]
-    doc.bufferViews = views
-    doc.images = [pygltflib.Image(bufferView=i, mimeType="image/png") for i in range(len(images))]
-    doc.samplers = list(samplers)
-    doc.textures = [pygltflib.Texture(source=i, sampler=i if i < len(samplers) else None) for i in range(len(images))]
-    doc.set_binary_blob(blob)
-    doc.save_binary(str(path))
-    return str(path)
-
-
 def pattern(seed: int) -> np.ndarray:
     """A layer-sized RGB pattern: smooth bands plus noise, so a misplaced texel shows."""
     rng = np.random.default_rng(seed)
@@ -191,12 +165,6 @@ def pattern(seed: int) -> np.ndarray:
     j, i = np.mgrid[:h, :w]
     img = np.stack([128 + 100 * np.sin(i / 40.0), 128 + 100 * np.cos(j / 25.0), 60 + 0 * i], -1)
     return np.clip(img + rng.integers(-20, 21, img.shape), 0, 255).astype(np.uint8)
-
-
-def textured(info_extensions=None, **pbr_extra):
-    return pygltflib.Material(name="textured", pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
-        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.5,
-        baseColorTexture=pygltflib.TextureInfo(index=0, extensions=info_extensions or {}), **pbr_extra))
 
 
 def largest_step_from_png(session, glb: str, png: np.ndarray) -> int:
@@ -312,7 +280,8 @@ def test_a_checker_finer_than_the_layer_renders_as_its_mean_or_as_gl_aliases_it(
     (2i + 1, 2j + 1), black on every one: the sphere renders black."""
     j, i = np.mgrid[:LAYER[1] * 2, :LAYER[0] * 2]
     checker = np.repeat((255 * ((i + j) % 2)).astype(np.uint8)[..., None], 3, -1)
-    glb = textured_glb(tmp_path / "t.glb", [png_bytes(checker)], [textured()], [pygltflib.Sampler(minFilter=min_filter)])
+    glb = textured_glb(tmp_path / "t.glb", [png_bytes(checker)], [textured()],
+                       [pygltflib.Sampler(minFilter=min_filter)])
     plain = np.full((LAYER[1], LAYER[0], 3), want, np.uint8)
     assert largest_step_from_png(session, glb, plain) <= 1
 
@@ -323,9 +292,12 @@ def test_each_cell_reads_its_own_materials_textures(session, tmp_path):
     by factors alone (roughness 0, metallic 1). Every cell reads its own layer: the red and
     green cells take their texture's colour, the textured metal equals the factor metal below
     it (identical cells: the same pixels), the blue cell keeps its factors."""
-    red = np.zeros((8, 16, 3), np.uint8); red[..., 0] = 255
-    green = np.zeros((8, 16, 3), np.uint8); green[..., 1] = 255
-    mr = np.zeros((8, 16, 3), np.uint8); mr[..., 2] = 255
+    red = np.zeros((8, 16, 3), np.uint8)
+    red[..., 0] = 255
+    green = np.zeros((8, 16, 3), np.uint8)
+    green[..., 1] = 255
+    mr = np.zeros((8, 16, 3), np.uint8)
+    mr[..., 2] = 255
     plain = pygltflib.Material(name="plain", pbrMetallicRoughness=pbr((0.2, 0.2, 0.9), 0.0, 0.5))
     metal = pygltflib.Material(name="metal", pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
         baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0, roughnessFactor=1.0,
@@ -424,7 +396,8 @@ def test_khr_textures_scale_their_factors(session, tmp_path):
     a = hdr[(aov["col"] == 0) & (aov["coverage"] == 1)]
     b = hdr[(aov["col"] == 1) & (aov["coverage"] == 1)]
     assert a.shape == b.shape and a.size > 1000
-    np.testing.assert_allclose(a, b, rtol=PROGRAM_RTOL, atol=PROGRAM_RTOL * b.max())   # the same products, rounded in another order
+    # the same products, rounded in another order
+    np.testing.assert_allclose(a, b, rtol=PROGRAM_RTOL, atol=PROGRAM_RTOL * b.max())
 
 
 def test_a_clearcoat_normal_map_tilts_the_coat(session, tmp_path):
@@ -434,7 +407,7 @@ def test_a_clearcoat_normal_map_tilts_the_coat(session, tmp_path):
     brightest pixel lies within 2 pixels of it (the untilted highlight is far from it)."""
     import math
 
-    from sdfpbr.shading.camera import frame
+    from sdfpbr.shading.plan import chart_frame
     tilt = math.radians(25.0)
     texel = np.rint(255 * (0.5 + 0.5 * np.array([math.sin(tilt), 0.0, math.cos(tilt)]))).astype(int)
     light = {"kind": "directional", "direction": [0.3, 0.5, 0.8], "intensity": 3.0, "angular_radius_deg": 0.0}
@@ -442,7 +415,8 @@ def test_a_clearcoat_normal_map_tilts_the_coat(session, tmp_path):
         coat = {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.08,
                 **({"clearcoatNormalTexture": {"index": 0}} if with_map else {})}
         m = pygltflib.Material(name="coat", pbrMetallicRoughness=pbr((0.0, 0.0, 0.0), 0.0, 1.0),
-                               extensions={"KHR_materials_clearcoat": coat, "KHR_materials_specular": {"specularFactor": 0.0}})
+                               extensions={"KHR_materials_clearcoat": coat,
+                                           "KHR_materials_specular": {"specularFactor": 0.0}})
         glb = textured_glb(tmp_path / f"coat{with_map}.glb", [constant_png((*texel, 255))], [m])
         spec = make_spec(gltf=glb, size="160x160", labels=False, env="black", ibl=False, ground=False,
                          camera="orthographic", lights=[light])
@@ -455,7 +429,7 @@ def test_a_clearcoat_normal_map_tilts_the_coat(session, tmp_path):
     ts = texel / 255.0 * 2 - 1
     coat_n = ts[0] * t + ts[1] * np.cross(n, t) + ts[2] * n
     coat_n /= np.maximum(np.linalg.norm(coat_n, axis=-1, keepdims=True), 1e-12)   # (background: zero normals)
-    v = -np.asarray(frame(spec).forward, np.float64)
+    v = -np.asarray(chart_frame(spec).camera.forward, np.float64)
     l = np.asarray(light["direction"], np.float64) / np.linalg.norm(light["direction"])
     h = (v + l) / np.linalg.norm(v + l)
     predicted = np.where(inside, coat_n @ h, -1.0)

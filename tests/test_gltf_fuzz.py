@@ -4,10 +4,8 @@ what is wrong in one line with exit status 2 -- never a traceback, never an outp
 bombs (a small file declaring a huge image) are refused before they are decoded."""
 import io
 import struct
-import sys
 import zlib
 from contextlib import redirect_stderr, redirect_stdout
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +15,7 @@ from hypothesis import strategies as st
 from sdfpbr.cli.main import main
 
 pygltflib = pytest.importorskip("pygltflib", reason="the gltf extra (pygltflib) is not installed")
-sys.path.insert(0, str(Path(__file__).parent))
-from test_gltf import png_bytes  # noqa: E402
+from helpers import png_bytes, textured, textured_glb  # noqa: E402
 
 FUZZ = settings(max_examples=150, deadline=None, database=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -30,7 +27,8 @@ def png_header_only(width: int, height: int) -> bytes:
     def chunk(kind, data):
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
     ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * (4 * min(width, 64) + 1)))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr)
+            + chunk(b"IDAT", zlib.compress(b"\0" * (4 * min(width, 64) + 1)))
             + chunk(b"IEND", b""))
 
 
@@ -47,7 +45,8 @@ numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(
 # Mostly valid values, so that most assets get past their factors to their textures.
 unit = st.one_of(st.none(), st.floats(0, 1), st.floats(0, 1), st.floats(0, 1), numbers)
 def unit_list(n):
-    return st.one_of(st.none(), st.lists(st.floats(0, 1), min_size=n, max_size=n), st.lists(st.floats(0, 1), min_size=n, max_size=n),
+    return st.one_of(st.none(), st.lists(st.floats(0, 1), min_size=n, max_size=n),
+                     st.lists(st.floats(0, 1), min_size=n, max_size=n),
                      st.lists(numbers, max_size=n + 1))
 indices = st.one_of(st.just(0), st.just(0), st.just(0), st.none(), st.integers(-2, 3))
 transform = st.fixed_dictionaries({}, optional={
@@ -74,7 +73,8 @@ def assets(draw):
         alphaMode=draw(st.sampled_from([None, "OPAQUE", "MASK", "BLEND", "mask", ""])),
         alphaCutoff=draw(unit), emissiveFactor=draw(unit_list(3)),
         emissiveTexture=info if draw(st.booleans()) else None,
-        normalTexture=pygltflib.NormalMaterialTexture(index=info.index, scale=draw(numbers)) if draw(st.booleans()) else None)
+        normalTexture=pygltflib.NormalMaterialTexture(index=info.index, scale=draw(numbers))
+                      if draw(st.booleans()) else None)
     doc = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0"), materials=[material])
     doc.buffers = [pygltflib.Buffer(byteLength=len(blob))]
     doc.bufferViews = [pygltflib.BufferView(buffer=draw(st.sampled_from([0, 0, 0, 1])), byteOffset=offset,
@@ -117,7 +117,6 @@ def test_any_gltf_asset_renders_or_is_one_line_exit_2(workdir, cache_dir, doc):
 def test_an_image_bomb_is_refused_before_it_is_decoded(tmp_path, width, height):
     """A 100-byte PNG declaring a 3.6-gigabyte image: refused from its header (a decode would
     allocate it first), naming the size and the limit."""
-    from test_gltf import textured, textured_glb
     glb = textured_glb(tmp_path / "bomb.glb", [png_header_only(width, height)], [textured()])
     err = io.StringIO()
     with redirect_stderr(err), redirect_stdout(io.StringIO()):

@@ -238,7 +238,8 @@ def test_json_nested_100000_deep_is_one_line(tmp_path, container):
     """A 100000-deep JSON array (past Python's recursion limit) and a 100-deep one (within it):
     refused for its nesting, in one line, in a .gltf and in a .glb's JSON chunk alike."""
     for depth in (100000, 100):
-        text = '{"asset": {"version": "2.0"}, "materials": [{"name": "m"}], "extras": ' + "[" * depth + "]" * depth + "}"
+        text = ('{"asset": {"version": "2.0"}, "materials": [{"name": "m"}], "extras": '
+                + "[" * depth + "]" * depth + "}")
         path = tmp_path / f"deep{depth}.{container}"
         path.write_bytes(text.encode() if container == "gltf" else glb(text.encode()))
         assert "nested more than 64 deep" in refusal(path)

@@ -1,6 +1,7 @@
 """A seeded fuzz over the classes of hostile input (RELIABILITY.md, "Hostile inputs"): paths
 that lead out of their folder, special files, sizes, nesting, and cache folders holding
-other files (interrupts: tests/test_interrupts.py, seeded the same way). Each case's expected outcome is derived without the code under test
+other files (interrupts: tests/test_interrupts.py, seeded the same way).
+Each case's expected outcome is derived without the code under test
 (os.path.realpath for confinement, the shape arithmetic for sizes, the depth that was
 written for nesting); every refusal must be a SpecError, never another exception or a hang.
 
@@ -75,7 +76,7 @@ def special_files(tmp: Path) -> dict[str, Path]:
 
 def readers():
     """(name, suffix, read(path)) for each reader of a file an input names."""
-    from sdfpbr.gpu.ibl import load_env_file
+    from sdfpbr.image.env_file import load_env_file
     from sdfpbr.inputs import read_json
     from sdfpbr.spec.chart_spec import load_spec, make_spec
     from sdfpbr.devtools.baseline import load_shadertoy
@@ -168,7 +169,7 @@ def test_deep_nesting_is_refused_in_one_line(tmp_path):
 # ---- sizes: an environment of any aspect keeps at least a row and a column ------------------------
 
 def test_environments_of_any_aspect_fit_with_their_mean():
-    from sdfpbr.gpu.ibl import fit_texture
+    from sdfpbr.image.env_file import fit_texture
     r = rng("sizes")
     for _ in range(12 * SCALE):
         limit = r.choice([16, 64, 16384])
@@ -306,7 +307,8 @@ def test_cache_folders_with_foreign_files_keep_them(tmp_path, monkeypatch):
         monkeypatch.setenv("SDFPBR_CACHE_MAX", r.choice(["1", "64K", "1M", "2M"]))
         arrays, images = ArrayCache(root), ImageCache(root)
         for i in range(r.randint(4, 20)):
-            arrays.put(r.choice(["ibl", "textures", "dfg"]), f"key{i}", {"a": np.full(r.randint(1, 50000), i, np.float32)})
+            arrays.put(r.choice(["ibl", "textures", "dfg"]), f"key{i}",
+                       {"a": np.full(r.randint(1, 50000), i, np.float32)})
             images.put(f"{i:064x}", os.urandom(r.randint(10, 100000)))
         enforce_cap(root, r.choice([0, 1, 1 << 20]))
         if r.random() < 0.5:

@@ -17,12 +17,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from test_chart import FurnaceBudget
+from helpers import FurnaceBudget
 from sdfpbr.gpu.ibl import make_environment
 from sdfpbr.oracle import ibl_integral as oracle
 from sdfpbr.oracle import shading_model
 from sdfpbr.shading.camera import frame_grid, sphere_centers
-from sdfpbr.shading.plan import prefilter_kernel, render_plan
+from sdfpbr.shading.plan import chart_frame, prefilter_kernel, render_plan
 from sdfpbr.spec.chart_spec import make_spec
 from sdfpbr.spec.presets import QUALITY_PRESETS
 
@@ -161,7 +161,7 @@ def test_prefiltered_levels_match_float64_prefilter(session, env_path, quality):
     rng = np.random.default_rng(4)
     with session:
         plan = render_plan(spec).ibl
-        lighting = session.ibl.lighting(make_environment(session.ctx, spec), plan)
+        lighting = session.ibl.lighting(make_environment(session.ctx, chart_frame(spec)), plan)
         for k in range(lighting.lods + 1):
             level = session.ibl.read_level(plan, lighting, k)[..., :3].astype(np.float64).reshape(-1, 3)
             d = oracle.cube_directions(plan.size >> k).reshape(-1, 3)
@@ -298,7 +298,7 @@ def ground_table_errors(session, env_path, quality, count=300):
     spec = make_spec(ibl_spec(env_path, quality), ground=True)
     with session:
         plan = render_plan(spec)
-        env = make_environment(session.ctx, spec)
+        env = make_environment(session.ctx, chart_frame(spec))
         lighting = session.ibl.lighting(env, plan.ibl)
         dfg = session.ibl.dfg(plan)
         uniforms = {"u_ground_color": spec.ground_color, "u_ground_roughness": spec.ground_roughness}

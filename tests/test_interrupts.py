@@ -18,7 +18,8 @@ import pytest
 # process that ``who`` selects ("main": the command's process; "worker": a spawned worker).
 HOOK = textwrap.dedent("""
     import os, signal, sys
-    NAME, TARGET, WHO, ONCE = os.environ["HOOK_MODULE"], os.environ["HOOK_TARGET"], os.environ["HOOK_WHO"], os.environ["HOOK_ONCE"]
+    NAME, TARGET = os.environ["HOOK_MODULE"], os.environ["HOOK_TARGET"]
+    WHO, ONCE = os.environ["HOOK_WHO"], os.environ["HOOK_ONCE"]
     worker = any("multiprocessing" in a for a in sys.orig_argv)
     class Hook:
         def find_spec(self, name, path=None, target=None):
@@ -53,7 +54,8 @@ def run_interrupted(tmp_path, args, module, who="main", target="self", convert=F
     (site / "sitecustomize.py").write_text(HOOK)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]),
            "HOOK_MODULE": module, "HOOK_TARGET": target, "HOOK_WHO": who, "HOOK_ONCE": str(tmp_path / "once"),
-           "SDFPBR_CACHE_DIR": str(tmp_path / "cache"), **({"HOOK_CONVERT": "1"} if convert else {}), **({"HOOK_AT_EXIT": "1"} if at_exit else {})}
+           "SDFPBR_CACHE_DIR": str(tmp_path / "cache"), **({"HOOK_CONVERT": "1"} if convert else {}),
+           **({"HOOK_AT_EXIT": "1"} if at_exit else {})}
     # A test run started in the background inherits SIGINT ignored: give the command the
     # default a terminal's foreground job has, in a process group of its own.
     p = subprocess.run([sys.executable, "-m", "sdfpbr", *args], env=env, capture_output=True, text=True,

@@ -277,12 +277,16 @@ def test_rejects_non_rgba():
 
 def test_default_title_says_what_the_chart_shows():
     assert chart_labels.default_title(make_spec()) == "Roughness × metallic — 5 rows × 5 columns"
-    assert chart_labels.default_title(make_spec(materials=["gold", "copper"])) == "Roughness × measured metals — 2 rows × 5 columns"
+    assert (chart_labels.default_title(make_spec(materials=["gold", "copper"]))
+            == "Roughness × measured metals — 2 rows × 5 columns")
     assert chart_labels.default_title(make_spec(metallic=(1, 1), rows=1)) == "Roughness, metallic 1 — 1 row × 5 columns"
-    assert chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0))) == "Roughness 0.3, metallic 0 — 5 rows × 5 columns"
+    assert (chart_labels.default_title(make_spec(roughness=(0.3, 0.3), metallic=(0, 0)))
+            == "Roughness 0.3, metallic 0 — 5 rows × 5 columns")
     # Parameters by their own names in running text, as on their axes.
-    assert chart_labels.default_title(make_spec(x_axis="ior", y_axis="specular")) == "IOR × specular — 5 rows × 5 columns"
-    assert chart_labels.default_title(make_spec(x_axis="base_color_hue", rows=1)) == "Base colour hue, metallic 0 — 1 row × 5 columns"
+    assert (chart_labels.default_title(make_spec(x_axis="ior", y_axis="specular"))
+            == "IOR × specular — 5 rows × 5 columns")
+    assert (chart_labels.default_title(make_spec(x_axis="base_color_hue", rows=1))
+            == "Base colour hue, metallic 0 — 1 row × 5 columns")
 
 
 def test_a_kept_layout_labels_every_render_alike_and_is_not_changed_by_its_charts():
@@ -336,14 +340,15 @@ def test_no_two_labels_collide_for_any_grid_up_to_64x64(size):
     own camera, as on a render of that grid."""
     from sdfpbr.image.chart_labels import chart_cells, footer_text, default_title
     from sdfpbr.image.layout import label_boxes
-    from sdfpbr.shading.camera import frame
+    from sdfpbr.shading.plan import chart_frame
     width, height = size
     for rows in (1, 2, 5, 11, 20, 33, 64):
         for cols in (1, 3, 7, 16, 24, 40, 64):
             spec = make_spec(rows=rows, cols=cols, width=width, height=height)
-            cells = chart_cells(spec, frame(spec))
+            frame = chart_frame(spec)
+            cells = chart_cells(frame)
             columns, row_values = spec.axis_values("x"), spec.axis_values("y")
-            boxes = label_boxes((height, width), cells, columns, row_values, default_title(spec), footer_text(spec))
+            boxes = label_boxes((height, width), cells, columns, row_values, default_title(spec), footer_text(frame))
             for i, (ta, a) in enumerate(boxes):
                 for tb, b in boxes[i + 1:]:
                     assert not _overlap(a, b), (rows, cols, size, ta, a, tb, b)
@@ -369,7 +374,8 @@ def test_every_label_is_drawn_inside_its_own_box(shape, grid, transparent):
     marked[y0:y0 + shape[0], x0:x0 + shape[1]] = False
     covered = np.zeros_like(marked)
     for text, (left, top, right, bottom) in label_boxes(img.shape, cells, columns, rows, TITLE, FOOTER):
-        box = slice(max(int(np.floor(top)), 0), int(np.ceil(bottom))), slice(max(int(np.floor(left)), 0), int(np.ceil(right)))
+        box = (slice(max(int(np.floor(top)), 0), int(np.ceil(bottom))),
+               slice(max(int(np.floor(left)), 0), int(np.ceil(right))))
         covered[box] = True
         assert marked[box].any(), f"no ink for {text!r}"
     assert not (marked & ~covered).any(), "ink outside every label's box"
@@ -429,10 +435,10 @@ def test_a_long_footer_wraps_and_the_row_axis_title_stays_by_its_labels(side):
 NEW_PROCESS_CANVAS = """
 import hashlib, sys
 from sdfpbr.image.chart_labels import labelled_canvas
-from sdfpbr.shading.camera import frame
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import make_spec
 spec = make_spec(rows=2, cols=3, width=240, height=160)
-canvas, origin = labelled_canvas(spec, frame(spec))
+canvas, origin = labelled_canvas(spec, chart_frame(spec))
 print(hashlib.sha256(canvas.tobytes()).hexdigest(), canvas.shape, origin, "PIL" in sys.modules)
 """
 
@@ -441,7 +447,8 @@ def _canvas_in_a_new_process(cache_dir):
     import os
     import subprocess
     import sys
-    r = subprocess.run([sys.executable, "-c", NEW_PROCESS_CANVAS], env={**os.environ, "SDFPBR_CACHE_DIR": str(cache_dir)},
+    r = subprocess.run([sys.executable, "-c", NEW_PROCESS_CANVAS],
+                       env={**os.environ, "SDFPBR_CACHE_DIR": str(cache_dir)},
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     *canvas, pillow = r.stdout.split()
@@ -531,11 +538,11 @@ def test_a_chart_without_axes_sits_centred_on_its_page():
     from pathlib import Path
 
     from sdfpbr.image import chart_labels
-    from sdfpbr.shading.camera import frame
+    from sdfpbr.shading.plan import chart_frame
     spec = make_spec(gltf=str(Path(__file__).parents[1] / "charts" / "materials.glb"), size="768x512")
-    canvas, (x, y) = chart_labels.labelled_canvas(spec, frame(spec))
+    canvas, (x, y) = chart_labels.labelled_canvas(spec, chart_frame(spec))
     left, right = x, canvas.shape[1] - x - spec.width
     assert left == right, (left, right)
     plain = make_spec(size="768x512")
-    canvas, (x, _) = chart_labels.labelled_canvas(plain, frame(plain))
+    canvas, (x, _) = chart_labels.labelled_canvas(plain, chart_frame(plain))
     assert x > canvas.shape[1] - x - plain.width       # a chart with row labels keeps their room

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import shading_model
-from sdfpbr.shading.camera import frame
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import make_spec
 from sdfpbr.features.reference import render_reference
 
@@ -25,7 +25,7 @@ def disc_scene(kind: str, theta: float, turn_deg: float = 1.0):
     """A light of angular radius theta (seen from the sphere's centre) behind the camera, turned
     by turn_deg so its image is off-centre (at half that angle on the sphere); returns (spec,
     axis, radiance L of the light)."""
-    cam = frame(make_spec(**MIRROR))
+    cam = chart_frame(make_spec(**MIRROR)).camera
     axis = -cam.forward * math.cos(math.radians(turn_deg)) + cam.right * math.sin(math.radians(turn_deg))
     if kind == "directional":
         E = 2.0
@@ -41,7 +41,7 @@ def disc_scene(kind: str, theta: float, turn_deg: float = 1.0):
 def disc_image(spec, axis, theta):
     """Per pixel: whether the camera ray hits the sphere, and the angle between its mirror
     reflection and the light's axis; and the margin of one edge (see below)."""
-    cam = frame(spec)
+    cam = chart_frame(spec).camera
     ro, rd = cam.pixel_rays()
     r = spec.sphere_radius
     b = (ro * rd).sum(-1)
@@ -58,7 +58,7 @@ def disc_image(spec, axis, theta):
 def disc_view_ratio(spec, axis):
     """Per pixel, V.H at the disc's centre over N.V: the chart sizes a disc's half vectors by
     the former (brdf.glsl disc_half_radius), a mirror's true half vector inside the image is N."""
-    cam = frame(spec)
+    cam = chart_frame(spec).camera
     ro, rd = cam.pixel_rays()
     b = (ro * rd).sum(-1)
     disc = b * b - ((ro * ro).sum(-1) - spec.sphere_radius ** 2)
@@ -134,7 +134,7 @@ def test_the_reference_lights_a_lambert_sphere_by_a_sphere_light_as_by_its_point
     position = [-20.0, 30.0, 40.0]
     point = {"kind": "point", "position": position, "intensity": 2500.0, "range": 1e9}
     a, b = (make_spec(**base, lights=[light]) for light in (point, dict(point, radius=2.0)))
-    ro, rd = frame(a).pixel_rays()
+    ro, rd = chart_frame(a).camera.pixel_rays()
     bq = (ro * rd).sum(-1)
     disc = bq * bq - ((ro * ro).sum(-1) - a.sphere_radius ** 2)
     hit = disc > 0

@@ -3,14 +3,13 @@ and the float64 model (sdfpbr.oracle.lobes): GLSL against float64 per lobe, the 
 furnace against the mirror's directional albedo, the chart's split-sum furnace against the
 mirror, and a scene that does not use a lobe does not compile it."""
 import dataclasses
+import functools
 import shutil
 
 import numpy as np
 import pytest
-from test_chart import chart_dfg_table, dfg_read_error
-from test_bugs import PROGRAM_RTOL
-from test_shading import rounding_bound
-from test_reference import FURNACE, check_converged, interior, luminance, primary_hits, table_bias
+from helpers import (PROGRAM_RTOL, REFERENCE_FURNACE, chart_dfg_table, check_converged, dfg_read_error, interior,
+                     luminance, primary_hits, rounding_bound, table_bias)
 
 from sdfpbr.gpu.programs import set_uniforms
 from sdfpbr.oracle import ibl_integral as ibl_oracle
@@ -31,7 +30,8 @@ LOBE_MATERIALS = {
               dict(base_color=(0.3, 0.3, 0.6), roughness=0.5, sheen_color=(1.0, 0.6, 0.8), sheen_roughness=0.4)),
     "specular": (Material(base_color=(0.2, 0.5, 0.2), roughness=0.4, ior=2.2, specular=0.7,
                           specular_color=(1.0, 0.6, 0.3)),
-                 dict(base_color=(0.2, 0.5, 0.2), roughness=0.4, ior=2.2, specular=0.7, specular_color=(1.0, 0.6, 0.3))),
+                 dict(base_color=(0.2, 0.5, 0.2), roughness=0.4, ior=2.2, specular=0.7,
+                      specular_color=(1.0, 0.6, 0.3))),
 }
 LOBE_OPTIONS = {"clearcoat": "CLEARCOAT", "sheen": "SHEEN", "specular": "KHR_SPECULAR"}
 
@@ -74,6 +74,16 @@ void main() {
 """
 
 
+@functools.cache
+def mirror_albedo(points: int, m: Material, n: int = 64, sheen_scaling: str = "exact") -> np.ndarray:
+    """lobes.layered_albedo at np.linspace(0, 1, points), kept for the module: the furnace tests
+    of a lobe (the reference's, the chart's at each quality) read the same float64 quadratures,
+    seconds each."""
+    albedo = lobes.layered_albedo(np.linspace(0.0, 1.0, points), m, n=n, sheen_scaling=sheen_scaling)
+    albedo.setflags(write=False)
+    return albedo
+
+
 def _units(rng, n):
     v = rng.normal(size=(n, 3))
     return v / np.linalg.norm(v, axis=1, keepdims=True)
@@ -94,7 +104,8 @@ def test_glsl_layers_match_the_float64_mirror(ctx, session, tmp_path, lobe):
     v = np.where((v * n).sum(1, keepdims=True) < 0, -v, v)
     l = _units(rng, count)
     n_dot_v = np.clip((n * v).sum(1), shading_model.MIN_N_DOT_V, 1)
-    e = shading_model.single_scatter_albedo(n_dot_v, np.full(count, max(m.roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)), "gltf")
+    e = shading_model.single_scatter_albedo(
+        n_dot_v, np.full(count, max(m.roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS)), "gltf")
     cases = np.zeros((count, 4, 4), np.float32)
     cases[:, 0, :3], cases[:, 1, :3], cases[:, 2, :3], cases[:, 3, 0] = n, v, l, e
     root = tmp_path / "shaders"
@@ -148,13 +159,13 @@ def test_reference_furnace_matches_the_mirror_per_lobe(session, lobe):
     """Under the uniform environment with one bounce, each pixel of the reference integrates
     f cos over the hemisphere: the float64 directional albedo of the layered material."""
     m, keys = LOBE_MATERIALS[lobe]
-    spec = make_spec(**{**FURNACE, **keys, "metallic": 0.0, "antialias": False})
+    spec = make_spec(**{**REFERENCE_FURNACE, **keys, "metallic": 0.0, "antialias": False})
     res = render_reference(spec, samples=256, max_bounces=1, seed=5, session=session)
     hits = primary_hits(spec)
     mask = interior(spec, hits, 0.15)
     assert mask.sum() > 500 and res.non_finite == 0
     grid = np.linspace(0.0, 1.0, 257)
-    albedo = lobes.layered_albedo(grid, m)
+    albedo = mirror_albedo(grid.size, m)
     ndotv = (hits[3] * hits[4]).sum(-1)
     want = np.stack([np.interp(ndotv, grid, albedo[:, c]).mean(-1) for c in range(3)], -1)
     check_converged(luminance(res.hdr)[mask], luminance(want)[mask], res.stderr[mask],
@@ -191,7 +202,8 @@ def sheen_factorisation_gap(n_dot_v, m, n=64):
     v_dot_l = (np.sqrt(1.0 - n_dot_v ** 2)[:, None, None] * np.sqrt(1.0 - n_dot_l ** 2)[None, :, None]
                * np.cos(phi)[None, None, :] + n_dot_v[:, None, None] * n_dot_l[None, :, None])
     f0 = max(lobes.dielectric_f0(m.ior, m.specular_color))
-    fresnel = m.specular * (f0 + (1.0 - f0) * shading_model.fresnel_weight(np.sqrt(np.maximum(0.5 * (1.0 + v_dot_l), 0.0))))
+    fresnel = m.specular * (f0 + (1.0 - f0)
+                            * shading_model.fresnel_weight(np.sqrt(np.maximum(0.5 * (1.0 + v_dot_l), 0.0))))
     kernel = (1.0 - fresnel) * (n_dot_l * w)[None, :, None] / np.pi * (2.0 * np.pi * w)[None, None, :]
     cosine_mean = (scale * (2.0 * n_dot_l * w)[None, :]).sum(1)
     return np.abs((kernel * scale[:, :, None]).sum((1, 2)) - kernel.sum((1, 2)) * cosine_mean)
@@ -258,7 +270,8 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
     the quadrature above N.V 0.05.)"""
     sampled = render_plan(make_spec(quality=quality)).options.get("IBL_METHOD") == "sampled"
     m, keys = LOBE_MATERIALS[lobe]
-    spec = furnace_spec(make_spec(**keys, width=96, height=96, rows=1, cols=1, metallic=0.0, quality=quality), white=False)
+    spec = furnace_spec(make_spec(**keys, width=96, height=96, rows=1, cols=1, metallic=0.0, quality=quality),
+                        white=False)
     res = session.render(spec)
     aov = res.aov
     mask = (aov["row"] == 0) & (aov["ndotv"] >= 0.2)
@@ -266,11 +279,11 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
     mu = aov["ndotv"][mask].astype(np.float64)
 
     def albedo_on(grid, order=64):
-        albedo = lobes.layered_albedo(grid, m, n=order)
+        albedo = mirror_albedo(grid.size, m, n=order)
         if lobe == "sheen" and not sampled:
             black = dataclasses.replace(m, base_color=(0.0, 0.0, 0.0))
-            albedo = albedo + lobes.layered_albedo(grid, black, sheen_scaling="view", n=order) \
-                - lobes.layered_albedo(grid, black, n=order)
+            albedo = albedo + mirror_albedo(grid.size, black, n=order, sheen_scaling="view") \
+                - mirror_albedo(grid.size, black, n=order)
         return albedo
     grid, finer = np.linspace(0.0, 1.0, 257), np.linspace(0.0, 1.0, 513)
     albedo, albedo_finer = albedo_on(grid), albedo_on(finer)
@@ -290,7 +303,8 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
     bound = core + mirror_error + 1e-5 * (1.0 + want.max(-1))
     if m.clearcoat > 0.0:
         r_c = np.full(mu.shape, max(m.clearcoat_roughness, shading_model.MIN_PERCEPTUAL_ROUGHNESS))
-        weight = m.clearcoat * (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0) * shading_model.fresnel_weight(mu))
+        weight = m.clearcoat * (shading_model.DIELECTRIC_F0 + (1.0 - shading_model.DIELECTRIC_F0)
+                                * shading_model.fresnel_weight(mu))
         bound = bound + weight * dfg_read_error(table, mu, r_c, sum(shading_model.dfg_integrate(mu, r_c)[:2]), "E")
     if max(m.sheen_color) > 0.0:
         shade = max(m.sheen_color)
@@ -319,13 +333,13 @@ def test_chart_furnace_matches_the_mirror_per_lobe(session, lobe, quality):
     assert (np.abs(got - want) <= bound[:, None]).all(), (np.abs(got - want).max(-1) / bound).max()
     if lobe == "sheen":   # the two forms of the scaling differ by more than the chart's whole bound,
         # on the base's specular alone too
-        simplified = lobes.layered_albedo(grid, m, sheen_scaling="view")
+        simplified = mirror_albedo(grid.size, m, sheen_scaling="view")
         assert np.abs(simplified - albedo)[grid >= 0.2].max() > 2 * bound.max()
         view = 1.0 - shade * lobes.sheen_albedo_interpolated(mu, r_s)
         assert (base_specular * np.abs(view[:, None] - exact)).max() > 2 * bound.max()
         # and the sampled path's rule tells them apart by more than its own error
         assert np.abs(view[:, None] - exact).max() > 4 * np.abs(rule - exact).max()
-    core_albedo = lobes.layered_albedo(grid, Material(base_color=m.base_color, roughness=m.roughness))
+    core_albedo = mirror_albedo(grid.size, Material(base_color=m.base_color, roughness=m.roughness))
     assert np.abs(albedo - core_albedo).max() > 0.05   # the lobe changes the albedo by far more than the bound
 
 
@@ -523,6 +537,7 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
     leans to V and the horizon, so that misses most pixels by more."""
     from sdfpbr.gpu.ibl import make_environment
     from sdfpbr.shading.camera import frame_grid, sphere_centers
+    from sdfpbr.shading.plan import chart_frame
     sky = LinearSky()
     path = tmp_path / "linear_sky.npy"
     np.save(path, sky.to_equirect(1024))
@@ -555,7 +570,8 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
         n_dot_l = dirs @ n[i]
         h = dirs + v[i]
         n_dot_h = np.clip((h @ n[i]) / np.linalg.norm(h, axis=-1), 0.0, 1.0)
-        f = np.where(n_dot_l > 0, lobes.d_charlie(n_dot_h, alpha[i]) * lobes.v_sheen(np.maximum(n_dot_l, 1e-9), n[i] @ v[i], alpha[i])
+        f = np.where(n_dot_l > 0, lobes.d_charlie(n_dot_h, alpha[i])
+                     * lobes.v_sheen(np.maximum(n_dot_l, 1e-9), n[i] @ v[i], alpha[i])
                      * n_dot_l, 0.0)
         return np.sum(f * weight)
     grids = sphere_grid(300), sphere_grid(150)
@@ -575,7 +591,8 @@ def test_the_sheen_gathers_its_light_where_its_lobe_leans(session, tmp_path):
     # The chart's SH9 of the map against the exact one of 1 + g . d (E = pi + 2 pi / 3 g . n),
     # read as lobes_ibl.glsl reads it: along the lobe's axis, bands 1 and 2 scaled.
     with session.ctx:
-        sh = session.ibl.lighting(make_environment(session.ctx, spec), render_plan(spec).ibl).sh.astype(np.float64)
+        sh = session.ibl.lighting(make_environment(session.ctx, chart_frame(spec)),
+                                  render_plan(spec).ibl).sh.astype(np.float64)
     exact_sh = np.zeros((9, 3))
     exact_sh[0], exact_sh[1], exact_sh[2], exact_sh[3] = np.pi, *(2 * np.pi / 3 * sky.g[[1, 2, 0], None])
     t = v - n_dot_v[:, None] * n

@@ -31,7 +31,8 @@ def with_cache(session, monkeypatch, root):
 
 
 def entries(root):
-    return sorted(p.name for p in (root / plates.PLATE_KIND).glob("*.npz")) if (root / plates.PLATE_KIND).is_dir() else []
+    return (sorted(p.name for p in (root / plates.PLATE_KIND).glob("*.npz"))
+            if (root / plates.PLATE_KIND).is_dir() else [])
 
 
 def assert_same_render(a, b):
@@ -126,7 +127,7 @@ def test_the_bench_draws_its_plates(session, monkeypatch, tmp_path, draws):
     draws.clear()
     with session:
         chart = ChartDraw(session, plan)
-        scene = chart_scene(session, spec, plan)
+        scene = chart_scene(session, plan)
         try:
             plates.bind_frame(session, plan, scene, chart.programs, cached=False)
         finally:
@@ -145,7 +146,7 @@ def test_a_frame_bound_again_reads_the_plates_it_kept(session, monkeypatch, tmp_
     plan = render_plan(spec)
     with session:
         chart = ChartDraw(session, plan)
-        scene = chart_scene(session, spec, plan)
+        scene = chart_scene(session, plan)
         try:
             plates.bind_frame(session, plan, scene, chart.programs)
             assert len(draws) == 3 and len(entries(root)) == 3

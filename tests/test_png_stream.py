@@ -68,7 +68,8 @@ def test_a_strided_view_and_png_bytes_agree_with_the_file_writer(tmp_path):
     np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "v.png")), view)
 
 
-@pytest.mark.parametrize("bad", [np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4, 4), np.float32), np.zeros((0, 4, 4), np.uint8)])
+@pytest.mark.parametrize("bad", [np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4, 4), np.float32),
+                                 np.zeros((0, 4, 4), np.uint8)])
 def test_what_is_not_an_rgba8_image_is_refused(bad):
     with pytest.raises(ValueError):
         png_bytes(bad)

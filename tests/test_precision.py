@@ -38,7 +38,7 @@ def test_the_mirror_keeps_float64_by_default():
 
 
 def test_filament_fp16_roughness_keeps_alpha_squared_a_normal_half():
-    """REFERENCE §1: 0.089 is the smallest perceptual roughness (to 3 digits) whose alpha^2 =
+    """docs/model.md, conventions: 0.089 is the smallest perceptual roughness (to 3 digits) whose alpha^2 =
     r^4 is a normal half; 0.045, the fp32 clamp, lands deep in the subnormals."""
     r_star = HALF_NORMAL_MIN ** 0.25
     assert shading_model.MIN_PERCEPTUAL_ROUGHNESS_FP16 == math.ceil(r_star * 1000) / 1000
@@ -65,7 +65,8 @@ def test_d_peak_in_the_textbook_form_underflows_in_half():
     overflowing. In float16 this form needs r >= 0.3; the half-safe form (above) 0.0625."""
     r_normal = 2.0 ** (-14 / 8)
     assert 0.296 < r_normal < 0.298
-    errors = {r: _rel(shading_model.d_ggx(1.0, r * r, dtype=HALF), shading_model.d_ggx(1.0, r * r)) for r in ROUGHNESS_GRID}
+    errors = {r: _rel(shading_model.d_ggx(1.0, r * r, dtype=HALF), shading_model.d_ggx(1.0, r * r))
+              for r in ROUGHNESS_GRID}
     assert all(e < 1e-2 for r, e in errors.items() if r >= r_normal)
     assert any(e > 1e-2 for r, e in errors.items() if 0.1 < r < r_normal)
     r_flush = 2.0 ** (-25 / 8)   # r^8 below half the smallest subnormal rounds to 0

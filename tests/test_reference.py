@@ -12,122 +12,20 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.oracle import lobes, shading_model
-from sdfpbr.shading.camera import frame_grid, sphere_centers
+from sdfpbr.oracle import shading_model
+from sdfpbr.shading.camera import sphere_centers
 from sdfpbr.features.reference import batch_size, integrator, render_reference
 from sdfpbr.spec.chart_spec import Light, make_spec
+
+from helpers import BIAS, SUB, check_converged, interior, luminance, primary_hits, table_bias
+from helpers import REFERENCE_FURNACE as FURNACE
 
 # These tests trace the shared stage's grid camera in float64 (primary_hits); the cells stage
 # has its own in test_reference_cells.py.
 SHARED = dict(stage="shared")
-FURNACE = dict(env="uniform", lights="none", ground=False, rows=1, cols=1, base_color=(1.0, 1.0, 1.0),
-               width=40, height=40, **SHARED)
-SUB = 6   # subsamples per pixel edge for the expected values
-# What a pixel carries besides noise where it reads no table: float32 sums (~1e-5), held to 1e-4.
-BIAS = 1e-4
-
-
-def luminance(rgb):
-    return np.asarray(rgb, float) @ np.array([0.2126, 0.7152, 0.0722])
-
-
-def mean_and_se(lum, lum_se, mask):
-    """The mean of a reference's pixel values over ``mask`` and its standard error (the pixels'
-    estimates are independent: their variances add)."""
-    return lum[mask].mean(), np.sqrt((np.asarray(lum_se, np.float64)[mask] ** 2).sum()) / mask.sum()
-
-
-def primary_hits(spec, sub=SUB):
-    """Per pixel and subsample, the sphere hit by the camera ray: (hit, row, col, normal, view),
-    arrays of shape (H, W, sub*sub[, 3]), traced in float64 as camera.glsl and a ray-sphere test."""
-    cam = frame_grid(spec)
-    h, w = spec.height, spec.width
-    offsets = (np.arange(sub) + 0.5) / sub
-    ox, oy = np.meshgrid(offsets, offsets)
-    px = np.arange(w)[None, :, None] + ox.ravel()[None, None, :]
-    py = (h - 1 - np.arange(h))[:, None, None] + oy.ravel()[None, None, :]   # GL rows from the bottom
-    ndc_x, ndc_y = 2 * px / w - 1, 2 * py / h - 1
-    sx, sy = ndc_x * (w / h) * cam.half_height, ndc_y * cam.half_height
-    rd = cam.forward + sx[..., None] * cam.right + sy[..., None] * cam.up
-    rd = rd / np.linalg.norm(rd, axis=-1, keepdims=True)
-    ro = np.broadcast_to(cam.position, rd.shape)
-    t_best = np.full(rd.shape[:-1], np.inf)
-    row = np.full(rd.shape[:-1], -1)
-    col = np.full(rd.shape[:-1], -1)
-    centers = sphere_centers(spec)
-    for j in range(spec.rows):
-        for i in range(spec.cols):
-            oc = ro - centers[j, i]
-            b = (oc * rd).sum(-1)
-            disc = b * b - ((oc * oc).sum(-1) - spec.sphere_radius ** 2)
-            t = -b - np.sqrt(np.maximum(disc, 0))
-            better = (disc > 0) & (t > 0) & (t < t_best)
-            t_best = np.where(better, t, t_best)
-            row, col = np.where(better, j, row), np.where(better, i, col)
-    hit = np.isfinite(t_best)
-    p = ro + rd * np.where(hit, t_best, 0)[..., None]
-    normal = (p - centers[np.maximum(row, 0), np.maximum(col, 0)]) / spec.sphere_radius
-    return hit, row, col, normal, -rd
-
-
-def interior(spec, hits, min_ndotv):
-    """Pixels whose every subsample hits the same sphere at NdotV >= min_ndotv."""
-    hit, row, col, normal, view = hits
-    ndotv = (normal * view).sum(-1)
-    same = hit.all(-1) & (row == row[..., :1]).all(-1) & (col == col[..., :1]).all(-1)
-    return same & (ndotv.min(-1) >= min_ndotv)
-
-
-def table_bias(session, spec, hits, want, model="gltf", sheen=False):
-    """Per pixel, the relative bias the reference's tables give a pixel of value ``want``
-    (tools/reference/tables.py: the float64 quadrature in a 128^2 float32 table, read
-    bilinearly, GPUs holding the filter's fractions in 8 bits): the energy compensation scales
-    a pixel by at most E / E_read (f0 = 1, less below), at the worst of the pixel's
-    subsamples; the sheen's albedo scaling min(1 - c E_s(N.V), 1 - c E_s(N.L)) moves a pixel of
-    radiance up to 1 by c times the read error at N.V plus the worst at any N.L; plus BIAS for
-    float32."""
-    from sdfpbr.spec.material import MIN_PERCEPTUAL_ROUGHNESS
-    from sdfpbr.features.reference.tables import compensation_table
-    from test_chart import dfg_read_error
-    table = compensation_table(model, session.cache, sheen).astype(np.float64)
-    hit, row, col, normal, view = hits
-    mu = np.clip((normal * view).sum(-1), shading_model.MIN_N_DOT_V, 1.0).ravel()
-    cells = np.stack([np.maximum(row, 0), np.maximum(col, 0)], -1).reshape(-1, 2)
-
-    def per_subsample(name):
-        return spec.material_array(name)[cells[:, 0], cells[:, 1]]
-    roughness = np.maximum(per_subsample("roughness"), MIN_PERCEPTUAL_ROUGHNESS)
-    a, b, _ = shading_model.dfg_integrate(mu, roughness, model=model, n=32)
-    relative = (dfg_read_error(table, mu, roughness, a + b, "E") / (a + b)).reshape(hit.shape).max(-1)
-    if not sheen:
-        return relative + BIAS
-    sheen_r = np.maximum(per_subsample("sheen_roughness"), MIN_PERCEPTUAL_ROUGHNESS)
-    shade = per_subsample("sheen_color").max(-1)
-    at_view = dfg_read_error(table, mu, sheen_r, lobes.sheen_albedo(mu, sheen_r), 3)
-    at_light = 0.0
-    n_dot_l = np.maximum(np.linspace(0.0, 1.0, 1025) ** 2, shading_model.MIN_N_DOT_V)
-    for r_s in np.unique(sheen_r):
-        rs = np.full(n_dot_l.shape, r_s)
-        at_light = max(at_light, float(dfg_read_error(table, n_dot_l, rs, lobes.sheen_albedo(n_dot_l, rs), 3).max()))
-    absolute = (shade * (at_view + at_light)).reshape(hit.shape).max(-1)
-    return relative + absolute / np.abs(want) + BIAS
-
-
-def check_converged(got, want, stderr, k=5.0, bias=BIAS):
-    """Per pixel within k standard errors plus the bias bound, and the mean over all pixels
-    (a far tighter test of bias) within 4 standard errors of that mean plus the bound."""
-    got, want = np.asarray(got, float), np.asarray(want, float)
-    se = np.asarray(stderr, float)
-    assert np.isfinite(se).all() and (se > 0).all()
-    bound = bias * np.abs(want)                   # bias: relative, one for all pixels or one each
-    excess = np.abs(got - want) - (k * se + bound)
-    assert excess.max() <= 0, f"{(excess > 0).sum()} of {excess.size} pixels off, worst by {excess.max():.3g}"
-    mean_diff = abs((got - want).mean())
-    assert mean_diff <= 4 * np.sqrt((se ** 2).sum()) / se.size + bound.mean(), mean_diff
-
 
 def furnace_curve(mu, metallic, roughness, multiscatter):
-    """Directional albedo of the white material under the uniform environment (REFERENCE.md
+    """Directional albedo of the white material under the uniform environment (docs/model.md,
     §2-3, float64), interpolated from a dense NdotV grid (spacing 2e-3: error < 1e-6)."""
     grid = np.linspace(0.0, 1.0, 513)
     albedo = shading_model.furnace_expected(grid, np.ones(3), metallic, roughness, multiscatter=multiscatter)[:, 0]
@@ -151,7 +49,7 @@ def test_uniform_environment_converges_to_directional_albedo(session, metallic, 
                     bias=table_bias(session, spec, hits, want)[m] if multiscatter else BIAS)
     np.testing.assert_array_equal(res.hdr[..., 0], res.hdr[..., 2])   # white stays white
     if metallic == 1.0 and multiscatter:
-        np.testing.assert_allclose(want[m], 1.0, atol=1e-9)   # REFERENCE.md §3: the sphere vanishes
+        np.testing.assert_allclose(want[m], 1.0, atol=1e-9)   # docs/model.md, the white furnace: the sphere vanishes
 
 
 def test_white_lambert_sphere_converges_to_its_albedo(session):
@@ -206,7 +104,8 @@ def test_a_resumed_run_equals_the_straight_run_bit_for_bit(session, scene):
 
 # The heaviest reference found: 100 mirrors under 16 lights, each path up to 64 bounces.
 LONG_PATHS = dict(width=32, height=32, rows=10, cols=10, base_color=(1.0, 1.0, 1.0), metallic=1.0,
-                  roughness=(0.0, 0.3), lights=tuple(Light("directional", direction=(np.cos(0.39 * k), 0.6, np.sin(0.39 * k)),
+                  roughness=(0.0, 0.3), lights=tuple(Light("directional",
+                                                           direction=(np.cos(0.39 * k), 0.6, np.sin(0.39 * k)),
                                                            intensity=0.3, angular_radius_deg=3.0) for k in range(16)),
                   **SHARED)
 

@@ -14,12 +14,11 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import shading_model
-from sdfpbr.shading.camera import frame_cell
-from sdfpbr.shading.cells import cell_grid
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import Light, make_spec
 from sdfpbr.features.reference import render_reference
 
-from test_reference import BIAS, check_converged, luminance, mean_and_se
+from helpers import BIAS, check_converged, luminance, mean_and_se
 
 
 def grid_offsets(n):
@@ -31,7 +30,8 @@ def cell_rays(spec, offsets):
     """Camera rays of every pixel at ``offsets`` ((K, 2) within the pixel square, GL
     orientation: x right, y up) on the cells stage: ro, rd (H, W, K, 3) float64 and the
     pixel's cell (H, W, 2) as (col, row). Pixels outside the grid belong to the nearest cell."""
-    cam, g = frame_cell(spec), cell_grid(spec)
+    frame = chart_frame(spec)
+    cam, g = frame.camera, frame.grid
     h, w = spec.height, spec.width
     px = np.broadcast_to(np.arange(w, dtype=float)[None, :], (h, w))
     py = np.broadcast_to((h - 1 - np.arange(h, dtype=float))[:, None], (h, w))   # GL rows from the bottom
@@ -92,7 +92,7 @@ def test_white_lambert_sphere_on_white_floor_converges_to_one(session):
 
 def cell_blocks(spec, image):
     """(rows, cols, cell_h, cell_w, ...) view of the grid's cells in ``image`` (rows top-down)."""
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     block = image[g.top:g.top + g.rows * g.cell_height, g.left:g.left + g.cols * g.cell_width]
     block = block.reshape(g.rows, g.cell_height, g.cols, g.cell_width, *image.shape[2:])
     return np.moveaxis(block, 2, 1)
@@ -113,7 +113,7 @@ def test_same_material_gives_statistically_identical_cells(session):
     errors say (rms z about 1), while a one-pixel misalignment is many standard errors off."""
     spec = make_spec(stage="cells", rows=2, cols=3, width=102, height=66, roughness=(0.35, 0.35),
                      metallic=(0.5, 0.5), base_color=(0.75, 0.75, 0.75), lights=SUN_AND_POINT)
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     assert (g.cell_width, g.cell_height) == (34, 33)
     res = render_reference(spec, samples=32, seed=12, session=session)
     assert res.non_finite == 0
@@ -277,7 +277,8 @@ def test_floor_direct_light_matches_the_closed_form(session):
         * SUN_E * SUN_DIR[1]
     # The 6 x 6 midpoint rule's own error over the pixel, (4/3) of its step to 12 x 12 (h^2).
     _, rd12, _ = cell_rays(spec, grid_offsets(12))
-    f_cos12 = shading_model.brdf(np.broadcast_to([0.0, 1.0, 0.0], rd12.shape), -rd12, np.broadcast_to(SUN_DIR, rd12.shape),
+    f_cos12 = shading_model.brdf(np.broadcast_to([0.0, 1.0, 0.0], rd12.shape),
+                                 -rd12, np.broadcast_to(SUN_DIR, rd12.shape),
                           FLOOR, 0.0, spec.ground_roughness) * SUN_E * SUN_DIR[1]
     want6, want12 = luminance(f_cos.mean(-2))[lit], luminance(f_cos12.mean(-2))[lit]
     check_converged(luminance(ref.hdr)[lit], want6, ref.stderr[lit], bias=4 / 3 * np.abs(want6 - want12) / want6 + BIAS)

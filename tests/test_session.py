@@ -38,8 +38,8 @@ def test_the_plan_names_every_program_a_render_compiles(cache_dir):
         # The vertex stage is linked into every fragment program, not compiled alone; a fresh
         # bake copies levels to the disk cache but never back; the probe's turn runs only in
         # a light orbit (Session.turning_light); and the chart is drawn by the fragment program
-        # and its edge pass, or by the compute program (Session.chart_stage).
-        unused = ({plan.chart_compute} if session.chart_stage == "fragment"
+        # and its edge pass, or by the compute program (Session.chart_shader).
+        unused = ({plan.chart_compute} if session.chart_shader == "fragment"
                   else {plan.chart, plan.edge_pass, plan.sphere_pass, plan.instances_vertex} - {None})
         assert planned - compiled == {plan.vertex.digest, plan.ibl.copy_to_cube.digest, plan.ibl.turn_probe.digest,
                                       *(s.digest for s in unused)}
@@ -64,7 +64,8 @@ def test_a_program_is_the_same_text_whatever_the_options_it_never_reads():
     for name in ("normal-map-srgb", "orm-srgb"):
         bug, correct, buggy = bug_pair(make_spec(), name)
         plan, buggy_plan = render_plan(correct), render_plan(buggy)
-        assert dict(buggy_plan.ibl.stage_probe.options)[bug.option] and not dict(plan.ibl.stage_probe.options).get(bug.option)
+        assert dict(buggy_plan.ibl.stage_probe.options)[bug.option]
+        assert not dict(plan.ibl.stage_probe.options).get(bug.option)
         assert buggy_plan.ibl.stage_probe.text == plan.ibl.stage_probe.text
         assert buggy_plan.chart.text != plan.chart.text
         assert f"#define {bug.option} 1" in buggy_plan.chart.text

@@ -1,4 +1,4 @@
-"""GLSL against the float64 numpy model and REFERENCE.md: BRDF, DFG LUT, tone mappers, IBL."""
+"""GLSL against the float64 numpy model and docs/model.md's test vectors: BRDF, DFG LUT, tone mappers, IBL."""
 import shutil
 
 import numpy as np
@@ -6,11 +6,11 @@ import pytest
 
 from sdfpbr.oracle import dfg_bake, display, shading_model
 from sdfpbr.shading.compose import shader_dir
-from sdfpbr.shading.plan import compose_program as compose, display_options, render_plan
+from sdfpbr.shading.plan import chart_frame, compose_program as compose, display_options, render_plan
 from sdfpbr.gpu.programs import set_uniforms
-from sdfpbr.spec.chart_spec import QUALITY_PRESETS, make_spec
-from test_bugs import PROGRAM_RTOL
-from test_chart import dfg_read
+from sdfpbr.spec.chart_spec import QUALITY_PRESETS, TONEMAPPERS, make_spec
+
+from helpers import dfg_read, rounding_bound
 
 BRDF_KERNEL = """
 #include "common.glsl"
@@ -38,29 +38,6 @@ def _kernel_root(tmp_path):
     shutil.copytree(shader_dir(), root)
     (root / "brdf_test_main.glsl").write_text(BRDF_KERNEL)
     return root
-
-
-def rounding_bound(f, args):
-    """Per case and channel, the float32 evaluation's error bound for f(*args) (each arg (N,) or
-    (N, k) float64; f returns (N, 3)): the forward bound of a computation test_bugs.PROGRAM_RTOL
-    deep (256 roundings) -- that many ulps of the result, plus that many of every input passed
-    through the condition sum_j |df/dx_j| |x_j| (forward differences in float64, a relative
-    step of 1e-6). It takes each step as backward stable; one that is not, such as exp of an
-    argument near 20 (the sheen's visibility), turns one rounding into ~20 ulps, inside the 256.
-    Sharp highlights get the wide bound their slope asks for; smooth shading a tight one."""
-    want = f(*args)
-    condition = np.zeros_like(want)
-    for i, arg in enumerate(args):
-        arg = np.asarray(arg, np.float64)
-        columns = arg.reshape(len(arg), -1)
-        for c in range(columns.shape[1]):
-            x = columns[:, c]
-            step = 1e-6 * np.maximum(np.abs(x), 1e-3)
-            shifted = columns.copy()
-            shifted[:, c] = x + step
-            moved = f(*(shifted.reshape(arg.shape) if k == i else a for k, a in enumerate(args)))
-            condition += np.abs(moved - want) / step[:, None] * np.abs(x)[:, None]
-    return PROGRAM_RTOL * (condition + np.abs(want))
 
 
 def _random_unit(rng, n):
@@ -171,7 +148,7 @@ def test_dfg_rule_bias_falls_with_samples():
 
 
 def test_default_lut_hits_reference_vectors(ctx, session):
-    """The LUT the chart uses, sampled bilinearly as dfg.glsl does, against REFERENCE.md §2."""
+    """The LUT the chart uses, sampled bilinearly as dfg.glsl does, against docs/model.md's test vectors."""
     q = QUALITY_PRESETS["default"]
     source = compose("dfg_main.glsl", {"BRDF_MODEL": "gltf"})
     table = session.ibl.compute_dfg_table(source, q.dfg_size, q.dfg_samples)
@@ -186,7 +163,7 @@ def test_default_lut_hits_reference_vectors(ctx, session):
         assert abs(got_b - b) < 6e-3, (r, mu)
 
 
-TONEMAP_TABLE = {  # REFERENCE.md §4: gray in 0.18, 1, 4
+TONEMAP_TABLE = {  # docs/model.md, tone mapping: gray in 0.18, 1, 4
     "reinhard": (0.152542, 0.5, 0.8),
     "aces": (0.266899, 0.803797, 0.973417),
     "aces-hill": (0.105591, 0.619115, 0.909014),
@@ -194,7 +171,7 @@ TONEMAP_TABLE = {  # REFERENCE.md §4: gray in 0.18, 1, 4
 }
 
 
-@pytest.mark.parametrize("name", sorted(TONEMAP_TABLE) + ["none", "clamp", "reinhard-extended"])
+@pytest.mark.parametrize("name", TONEMAPPERS)
 def test_display_program_matches_reference(ctx, session, name):
     import moderngl
     values = np.array([0.18, 1.0, 4.0, 0.001, 0.01, 0.5], np.float32)
@@ -202,7 +179,8 @@ def test_display_program_matches_reference(ctx, session, name):
     hdr[0, :, :3] = values[:, None] * np.array([1.0, 1.0, 1.0])
     hdr[0, 5, :3] = (0.9, 0.3, 0.05)                      # a coloured input too
     hdr[..., 3] = 1
-    src = compose("display_main.glsl", display_options(make_spec(tonemap=name, cell_borders=False)))   # pixels, no cells
+    # pixels, no cells
+    src = compose("display_main.glsl", display_options(make_spec(tonemap=name, cell_borders=False)))
     program = session.programs.fragment(src)
     tex = ctx.texture((len(values), 1), 4, hdr.tobytes(), dtype="f4")
     target = ctx.texture((len(values), 1), 4, dtype="f4")
@@ -226,7 +204,7 @@ def test_display_program_matches_reference(ctx, session, name):
 def test_uniform_environment_bakes_to_one_and_irradiance_pi(ctx, session):
     from sdfpbr.gpu.ibl import make_environment
     spec = make_spec(env="uniform", lights="none", quality="draft")
-    env = make_environment(session.ctx, spec)
+    env = make_environment(session.ctx, chart_frame(spec))
     ibl = render_plan(spec).ibl
     lighting = session.ibl.lighting(env, ibl)
     levels = [session.ibl.read_level(ibl, lighting, k) for k in range(lighting.lods + 1)]
@@ -242,7 +220,7 @@ def test_studio_sh_matches_float64_projection(ctx, session):
     from sdfpbr.gpu.ibl import make_environment
     from sdfpbr.spec.chart_spec import make_spec
     spec = make_spec(env="studio", quality="draft")
-    env = make_environment(session.ctx, spec)
+    env = make_environment(session.ctx, chart_frame(spec))
     ibl = render_plan(spec).ibl
     lighting = session.ibl.lighting(env, ibl)
     # Reference: sample the environment function through a fine bake read back at level 0.
@@ -251,7 +229,8 @@ def test_studio_sh_matches_float64_projection(ctx, session):
     c = (np.arange(size) + 0.5) / size * 2 - 1
     s, t = np.meshgrid(c, c)
     one = np.ones_like(s)
-    dirs = [np.stack(d, -1) for d in ((one, -t, -s), (-one, -t, s), (s, one, t), (s, -one, -t), (s, -t, one), (-s, -t, -one))]
+    dirs = [np.stack(d, -1) for d in ((one, -t, -s), (-one, -t, s), (s, one, t),
+                                      (s, -one, -t), (s, -t, one), (-s, -t, -one))]
     dirs = np.stack(dirs)
     dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
     solid = (2 / size) ** 2 / (1 + s ** 2 + t ** 2) ** 1.5

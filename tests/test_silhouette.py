@@ -4,9 +4,9 @@ centre, for layouts up to 8192² and down to spheres a few pixels wide. No GL.""
 import numpy as np
 import pytest
 
-from sdfpbr.shading.camera import frame_cell, frame_grid, sphere_centers
-from sdfpbr.shading.cells import cell_sphere_radius_px
-from sdfpbr.shading.silhouette import SILHOUETTE_RING_PAD_PX, silhouette_ring
+from sdfpbr.shading.camera import frame_grid, sphere_centers
+from sdfpbr.shading.plan import chart_frame, edge_rings
+from sdfpbr.shading.silhouette import SILHOUETTE_RING_PAD_PX
 from sdfpbr.spec.chart_spec import make_spec
 
 # A pixel's box is crossed by the silhouette when its centre lies within half the box's
@@ -52,9 +52,11 @@ CELLS = [dict(width=1024, height=1024), dict(width=8192, height=8192), dict(widt
 @pytest.mark.parametrize("options", CELLS, ids=[",".join(f"{k}={v}" for k, v in c.items()) for c in CELLS])
 def test_a_cells_ring_holds_every_pixel_its_silhouette_crosses(options):
     spec = make_spec(**options)
-    ring, instances = silhouette_ring(spec)
+    frame = chart_frame(spec)
+    shapes = edge_rings(frame)
+    ring, instances = shapes.triangles, shapes.instances
     assert instances == spec.rows * spec.cols
-    cam = frame_cell(spec)
+    cam = frame.camera
     y, x = np.mgrid[0:cam.height, 0:cam.width] + 0.5
     distance = silhouette_distance_px(cam, np.zeros(3), spec.sphere_radius, x, y)
     crossed = np.abs(distance) < CROSSED_PX
@@ -63,7 +65,7 @@ def test_a_cells_ring_holds_every_pixel_its_silhouette_crosses(options):
     assert inside.all(), f"{(~inside).sum()} of {crossed.sum()} crossed pixels outside the ring"
     # and the ring is no wider than it says: nothing further than its pad (plus a pixel's
     # rasterization slack) from the silhouette
-    if cell_sphere_radius_px(spec) > 2 * SILHOUETTE_RING_PAD_PX + 2:   # not a disc drawn whole
+    if frame.sphere_radius_px > 2 * SILHOUETTE_RING_PAD_PX + 2:   # not a disc drawn whole
         far = np.abs(distance) > SILHOUETTE_RING_PAD_PX + 1.5
         assert not covered(ring, x[far], y[far]).any()
 
@@ -75,7 +77,8 @@ SHARED = [dict(stage="shared", width=400, height=300), dict(stage="shared", rows
 @pytest.mark.parametrize("options", SHARED, ids=["default", "2x7", "orbit"])
 def test_the_shared_stages_rings_hold_every_pixel_a_silhouette_crosses(options):
     spec = make_spec(**options)
-    ring, instances = silhouette_ring(spec)
+    shapes = edge_rings(chart_frame(spec))
+    ring, instances = shapes.triangles, shapes.instances
     assert instances == 1
     cam = frame_grid(spec)
     y, x = np.mgrid[0:cam.height, 0:cam.width] + 0.5
@@ -88,8 +91,9 @@ def test_the_shared_stages_rings_hold_every_pixel_a_silhouette_crosses(options):
 def test_the_check_can_fail():
     """A ring a third of a pixel wide misses crossed pixels: the check above is not vacuous."""
     spec = make_spec(width=512, height=512)
-    ring, _ = silhouette_ring(spec, pad=0.15)
-    cam = frame_cell(spec)
+    frame = chart_frame(spec)
+    ring = edge_rings(frame, pad=0.15).triangles
+    cam = frame.camera
     y, x = np.mgrid[0:cam.height, 0:cam.width] + 0.5
     crossed = np.abs(silhouette_distance_px(cam, np.zeros(3), spec.sphere_radius, x, y)) < CROSSED_PX
     assert not covered(ring, x[crossed], y[crossed]).all()

@@ -3,19 +3,18 @@ same material in every cell has equal cells (after shifting by the cell offset),
 grounded on its own floor, and the labels sit on the spheres."""
 import numpy as np
 import pytest
-from test_bugs import PROGRAM_RTOL
-from test_reference import luminance, mean_and_se
+from helpers import PROGRAM_RTOL, luminance, mean_and_se
 
 from sdfpbr.image.chart_labels import chart_cells
-from sdfpbr.shading.camera import CELL_ELEVATION_DEG, FOV_Y_DEG, frame_cell
-from sdfpbr.shading.cells import cell_grid
+from sdfpbr.shading.camera import CELL_ELEVATION_DEG, FOV_Y_DEG
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.spec.chart_spec import make_spec
 
 SAME = dict(stage="cells", roughness=(0.3, 0.3), metallic=(1.0, 1.0), labels=False)
 
 
 def cells_of(spec, image):
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     return [image[g.top + r * g.cell_height:g.top + (r + 1) * g.cell_height,
                   g.left + c * g.cell_width:g.left + (c + 1) * g.cell_width]
             for r in range(spec.rows) for c in range(spec.cols)]
@@ -52,13 +51,13 @@ def test_every_sphere_stands_on_its_own_floor_with_no_horizon_in_view(session):
     assert CELL_ELEVATION_DEG > FOV_Y_DEG / 2
     spec = make_spec(stage="cells", width=240, height=200, rows=2, cols=3, labels=False)
     res = session.render(spec)
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     grid = (slice(g.top, g.top + g.rows * g.cell_height), slice(g.left, g.left + g.cols * g.cell_width))
     assert np.isfinite(res.aov["depth"][grid]).all()
     floor = res.aov["row"][grid] < 0
     assert np.abs(res.aov["normal"][grid][floor] - [0.0, 1.0, 0.0]).max() <= 1e-6
     # Grounded: the contact point under each sphere projects into its own cell.
-    cam = frame_cell(spec)
+    cam = chart_frame(spec).camera
     (x, y), _ = (v[0] for v in cam.project(np.array([[0.0, -spec.sphere_radius, 0.0]])))
     assert 0 <= x < g.cell_width and 0 <= y < g.cell_height
 
@@ -83,7 +82,7 @@ def test_the_key_lights_penumbra_stays_inside_the_cell(shape):
     the seam with the next cell."""
     from sdfpbr.spec.chart_spec import KEY_LIGHT
     spec = make_spec(stage="cells", rows=1, cols=1, width=shape[0], height=shape[1])
-    points = _border_floor_points(frame_cell(spec), spec.sphere_radius)
+    points = _border_floor_points(chart_frame(spec).camera, spec.sphere_radius)
     to_centre = -points / np.linalg.norm(points, axis=1)[:, None]   # the sphere is centred at the origin
     light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
     apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))
@@ -94,7 +93,7 @@ def test_the_key_lights_penumbra_stays_inside_the_cell(shape):
 def _cell_floor_points(spec):
     """Where the rays through every pixel of a one-cell spec meet its floor, (h, w, 3), the
     sphere at the origin."""
-    ro, rd = frame_cell(spec).pixel_rays()
+    ro, rd = chart_frame(spec).camera.pixel_rays()
     return ro + ((-spec.sphere_radius - ro[..., 1]) / rd[..., 1])[..., None] * rd
 
 
@@ -137,8 +136,9 @@ def test_the_shadow_catchers_fade_leaves_the_key_lights_shadow_whole(shape):
     to_centre = -points / np.linalg.norm(points, axis=-1, keepdims=True)
     light = np.asarray(KEY_LIGHT.direction) / np.linalg.norm(KEY_LIGHT.direction)
     apart = np.arccos(np.clip(to_centre @ light, -1.0, 1.0))
-    touching = np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=-1)) + np.radians(KEY_LIGHT.angular_radius_deg)
-    bands = catcher_bands(spec)
+    touching = (np.arcsin(spec.sphere_radius / np.linalg.norm(points, axis=-1))
+                + np.radians(KEY_LIGHT.angular_radius_deg))
+    bands = catcher_bands(spec, chart_frame(spec).grid)
     _assert_bands_keep_the_shadow_whole(bands, apart <= touching)
     assert bands[2] == CATCHER_BAND_MAX   # the key light shines from behind: its shadow falls to the front
 
@@ -159,7 +159,7 @@ def test_the_shadow_catchers_fade_leaves_a_point_lights_shadow_whole(position):
     points = _cell_floor_points(spec)
     segment = np.asarray(light.position) - points
     t = np.clip((-points * segment).sum(-1) / (segment * segment).sum(-1), 0.0, 1.0)
-    _assert_bands_keep_the_shadow_whole(catcher_bands(spec),
+    _assert_bands_keep_the_shadow_whole(catcher_bands(spec, chart_frame(spec).grid),
                                         np.linalg.norm(points + t[..., None] * segment, axis=-1) < r)
 
 
@@ -168,7 +168,10 @@ def test_the_catchers_bands_follow_the_cell_and_the_lights_not_the_materials():
     """Per-cell materials (a glTF asset's, colours, axis values) change no band; the lights and
     the camera do; with no light to keep whole every side fades over the widest band."""
     from pathlib import Path
-    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, catcher_bands
+    from sdfpbr.shading.catcher import CATCHER_BAND_MAX, catcher_bands as bands_of
+
+    def catcher_bands(spec):
+        return bands_of(spec, chart_frame(spec).grid)
     plain = make_spec(rows=2, cols=3, transparent=True)
     listed = make_spec(plain, base_colors=[(i / 5, 0.5, 0.5) for i in range(6)], x_values=[0, 0.3, 1])
     asset = make_spec(plain, gltf=str(Path(__file__).parents[1] / "charts" / "materials.glb"))
@@ -200,7 +203,7 @@ def test_shadows_leave_the_cells_border_as_it_is(session, shape):
 def test_labels_sit_on_the_spheres(session):
     spec = make_spec(stage="cells", width=300, height=200, rows=2, cols=3)
     res = session.render(spec)
-    for cell in chart_cells(spec, res.camera):
+    for cell in chart_cells(res.frame):
         y, x = int(round(cell.cy)), int(round(cell.cx))
         assert res.aov["row"][y, x] == cell.row and res.aov["col"][y, x] == cell.col
 
@@ -246,7 +249,7 @@ def bounce_pair(session):
     from sdfpbr.spec.presets import QUALITY_PRESETS
     spec = make_spec(width=480, height=366, rows=2, cols=3, roughness=(0, 0.6), metallic=(0, 1),
                      base_color=(0.9, 0.2, 0.05))
-    step = bounce_step(spec)
+    step = bounce_step(chart_frame(spec))
     assert step > 2 and render_plan(spec).options["BOUNCE_PLATE"]
     plate = session.render(spec)
     default = QUALITY_PRESETS["default"]
@@ -287,7 +290,7 @@ def test_bounce_plate_is_the_per_pixel_bounce_at_its_texels(bounce_pair):
     cell's frame, from the plate's origin), the interpolated bounce is that texel's: the same
     shading at the same point, so the pixel equals the per-pixel render within float rounding."""
     spec, step, plate, direct, _, floor = bounce_pair
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     bottom = spec.height - g.top - g.rows * g.cell_height
     gl_y, x = np.mgrid[spec.height - 1:-1:-1, :spec.width]          # GL rows, top row first
     cell_x = (x - g.left) % g.cell_width                             # the cell's frame
@@ -301,7 +304,7 @@ def cell_bounce_ratios(spec, plate, direct, unlit, floor):
     """Each cell's total bounce on its floor (the floor's light less the unlit floor's), as the
     plate's over the per-pixel render's."""
     lum = np.array([0.2126, 0.7152, 0.0722])
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     out = []
     for r in range(spec.rows):
         for c in range(spec.cols):
@@ -321,8 +324,7 @@ def bounce_interpolation_bound(spec, step):
     f''/f ~ 6/d^2, most where the visible floor comes nearest, d ~ R; interpolating over h
     misses h^2 f''/8, i.e. 0.75 (h/R)^2 of it. Plus 0.5 % for the per-pixel estimate's own
     steps (its ray count and ring change with the floor point), which the plate smooths."""
-    from sdfpbr.shading.cells import cell_sphere_radius_px
-    return 0.75 * (step / cell_sphere_radius_px(spec)) ** 2 + 0.005
+    return 0.75 * (step / chart_frame(spec).sphere_radius_px) ** 2 + 0.005
 
 
 def test_bounce_plate_carries_each_cells_own_bounce(bounce_pair):
@@ -358,7 +360,7 @@ def test_edge_coverage_adds_up_to_the_disc_area(session):
     spec = make_spec(stage="cells", camera="orthographic", rows=2, cols=2, width=160, height=160,
                      ground=False, labels=False)
     coverage = session.render(spec).aov["coverage"]
-    g = cell_grid(spec)
+    g = chart_frame(spec).grid
     r_px = CELL_FILL * g.cell_height / 2
     want = np.pi * r_px ** 2
     for cell in cells_of(spec, coverage):
@@ -411,8 +413,11 @@ def test_sphere_plate_only_where_it_saves_shading():
     """Slots are the cells' materials with metallic set aside; the plate is used where two
     shadings per slot are fewer than one per cell, and for opaque spheres (textured too, but
     not by a glTF asset's per-cell maps) on the cells stage's one-ray-per-pixel path."""
-    from sdfpbr.shading.cells import sphere_plate
+    from sdfpbr.shading.cells import sphere_plate as plate_of
     from sdfpbr.shading.plan import render_plan
+
+    def sphere_plate(spec):
+        return plate_of(spec, chart_frame(spec).plate)
     layout = sphere_plate(make_spec(rows=3, cols=4))
     assert layout.slots.tolist() == [[0, 1, 2, 3]] * 3 and layout.slot_cells == ((0, 0), (1, 0), (2, 0), (3, 0))
     assert sphere_plate(make_spec(rows=4, cols=3, x_axis="metallic", y_axis="roughness")).slots.tolist() \
@@ -465,7 +470,8 @@ def test_sphere_plate_averages_a_small_sphere_over_the_pixel_box(session, monkey
     centre = session.render(spec)
     inside = averaged.aov["coverage"] == 1
     assert inside.sum() > 0.2 * inside.size
-    error = lambda r: np.abs(r.hdr - box.hdr)[inside].mean()
+    def error(r):
+        return np.abs(r.hdr - box.hdr)[inside].mean()
     assert error(averaged) < 0.5 * error(centre)
 
 
@@ -643,7 +649,8 @@ def _sample_cube(cube: np.ndarray, d: np.ndarray) -> np.ndarray:
     fy = np.clip((t + 1) / 2 * size - 0.5, 0, size - 1)
     x0, y0 = np.minimum(fx.astype(int), size - 2), np.minimum(fy.astype(int), size - 2)
     wx, wy = (fx - x0)[..., None], (fy - y0)[..., None]
-    row = lambda yy: cube[face, yy, x0] * (1 - wx) + cube[face, yy, x0 + 1] * wx
+    def row(yy):
+        return cube[face, yy, x0] * (1 - wx) + cube[face, yy, x0 + 1] * wx
     return row(y0) * (1 - wy) + row(y0 + 1) * wy
 
 
@@ -682,7 +689,7 @@ def test_the_floor_parallax_table_is_its_integral(session):
     plan = render_plan(spec)
     assert plan.ibl.floor_parallax is not None
     with session:
-        scene = chart_scene(session, spec, plan)
+        scene = chart_scene(session, plan)
         try:
             environment = session.ibl.lighting(scene.environment, plan.ibl)
             probe_lighting = session.ibl.stage_lighting(plan.ibl, plan.ibl.stage_probe, environment, scene.textures,
@@ -696,7 +703,8 @@ def test_the_floor_parallax_table_is_its_integral(session):
     size = table.shape[1]
     directions = cube_directions(size)
     rule = _hammersley(plan.ibl.floor_parallax_samples)
-    grid = lambda m: (np.stack(np.meshgrid(np.arange(m), np.arange(m)), -1).reshape(-1, 2) + 0.5) / m
+    def grid(m):
+        return (np.stack(np.meshgrid(np.arange(m), np.arange(m)), -1).reshape(-1, 2) + 0.5) / m
     fine, coarse = grid(256), grid(128)
     shifts = np.random.default_rng(5).random((16, 2))
     scale = np.abs(table).max()

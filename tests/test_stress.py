@@ -10,18 +10,20 @@ from contextlib import redirect_stdout
 
 import numpy as np
 import pytest
-from test_chart import FurnaceBudget
+from helpers import FurnaceBudget
 
 from sdfpbr.oracle import shading_model
 
 from sdfpbr.oracle import furnace
 from sdfpbr.devtools.stress import cases as stress_cases, checks, runner
 from sdfpbr.devtools.stress import report as stress_report
-from sdfpbr.shading.camera import frame, frame_grid
+from sdfpbr.shading.camera import frame_grid
+from sdfpbr.shading.plan import chart_frame
 from sdfpbr.cli.main import main
 from sdfpbr.spec.chart_spec import Light, load_spec, make_spec
 
-SMALL = dict(width=144, height=128, rows=2, cols=3, quality="draft", roughness=(0.3, 1.0), stage="shared")   # the checks trace the grid camera
+# the checks trace the grid camera
+SMALL = dict(width=144, height=128, rows=2, cols=3, quality="draft", roughness=(0.3, 1.0), stage="shared")
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +90,7 @@ def test_firefly_check_skips_a_smooth_spheres_reflection_of_the_lit_floor(sessio
     assert (spec.ground, spec.shadows, spec.ibl, spec.spp, spec.ground_roughness) == (True, True, True, 4, 0.045)
     assert spec.lights[0].intensity == 1e6 and spec.lights[0].angular_radius_deg == 1e-3
     res = session.render(spec, aovs=True)
-    camera = frame(spec)
+    camera = chart_frame(spec).camera
     lum = res.hdr.astype(np.float64).max(-1)
     y, x = 147, 93
     assert res.aov["row"][y, x] == 2 and res.aov["col"][y, x] == 2
@@ -117,7 +119,8 @@ def test_furnace_check_passes_the_renderer_and_catches_a_pixel_just_over_its_tol
     res = session.render(spec)
     table = furnace.FurnaceTable()
     worst, bad, tested = checks.furnace_error(res.hdr, res.aov, spec, table)
-    tested_spheres = checks.interior_mask(checks.surface_ids(res.aov, 3)) & (res.aov["ndotv"] >= checks.FURNACE_MIN_NDOTV)
+    tested_spheres = (checks.interior_mask(checks.surface_ids(res.aov, 3))
+                      & (res.aov["ndotv"] >= checks.FURNACE_MIN_NDOTV))
     budget = FurnaceBudget(session, spec, res, tested_spheres & (res.aov["row"] >= 0))
     allowed = ((budget.interpolation + budget.spread + budget.filter) / budget.model).max() + 1e-5
     assert bad == 0 and tested > 3000 and worst <= allowed < 0.5 * checks.FURNACE_RTOL[spec.quality]
@@ -157,10 +160,9 @@ def test_monotonic_cases_pass_and_a_swapped_column_fails(session):
     assert checks.monotonic_error(hdr, res.aov, case.spec, case.probe)[0]
 
 
-def test_tiles_check_sees_a_changed_pixel(session):
-    from sdfpbr.gpu.session import Session
+def test_tiles_check_sees_a_changed_pixel(session, sibling):
     spec = make_spec(**SMALL)
-    tiled = Session(session.ctx, session.cache, tile=stress_cases.TILED_TILE).render(spec)
+    tiled = sibling(tile=stress_cases.TILED_TILE).render(spec)
     plain = session.render(spec)
     assert checks.tiles_equal(tiled, plain)
     plain.hdr[0, 0, 0] += 1e-6

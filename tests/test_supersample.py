@@ -24,7 +24,7 @@ HEAVY = dict(rows=1, cols=2, roughness=(1.0, 1.0), quality="high", spp=64, width
 @pytest.fixture(scope="module")
 def compute(session):
     """The compute variant on the same context, in tiles smaller than the image."""
-    return Session(session.ctx, session.cache, chart_stage="compute", tile=32)
+    return Session(session.ctx, session.cache, chart_shader="compute", tile=32)
 
 
 def draw_per(s: Session, spec, per_draw: int | None) -> Session:
@@ -42,8 +42,19 @@ def software(session) -> bool:
     return any(name in session.renderer.lower() for name in SOFTWARE_RENDERERS)
 
 
+@pytest.fixture(scope="module")
+def heavy(session):
+    """The heavy chart as a session that has learnt nothing of its loop limit draws it, and
+    what the session learnt: one render (~4 CPU s on llvmpipe) for the three tests below."""
+    spec = make_spec(**HEAVY)
+    chosen = draw_per(session, spec, None).render(spec)
+    learned = dict(session.samples_per_draw)
+    session.samples_per_draw.clear()
+    return chosen, learned
+
+
 @pytest.mark.parametrize("stage", ["fragment", "compute"])
-def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(session, compute, stage):
+def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(request, session, compute, stage):
     """One sample a draw keeps every invocation to one ray's loops, far under the limit; the
     chart drawn as the session chooses must agree with it to float rounding (the sums run in
     another order). Before the draws were split, llvmpipe's one draw lost the floor's bounce
@@ -51,7 +62,7 @@ def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(s
     images, here in tiles."""
     s = session if stage == "fragment" else compute
     spec = make_spec(**HEAVY)
-    chosen = draw_per(s, spec, None).render(spec)
+    chosen = request.getfixturevalue("heavy")[0] if s is session else draw_per(s, spec, None).render(spec)
     one_by_one = draw_per(s, spec, 1).render(spec)
     np.testing.assert_allclose(chosen.hdr, one_by_one.hdr, rtol=1e-4, atol=1e-6 * float(one_by_one.hdr.max()))
     np.testing.assert_allclose(chosen.alpha, one_by_one.alpha, atol=1e-5)
@@ -60,12 +71,12 @@ def test_a_heavy_supersampled_chart_adds_up_to_its_samples_drawn_one_at_a_time(s
     s.samples_per_draw.clear()
 
 
-def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session):
+def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session, heavy):
     """An independent check of the same: the floor is smooth beside the sphere, so the mean of
     64 points of each pixel's box is the pixel-centre value within the floor's change across a
     pixel (< 1 % here, away from the silhouettes and the shadow's edge)."""
     spec = make_spec(**HEAVY)
-    many = draw_per(session, spec, None).render(spec)
+    many = heavy[0]
     one = session.render(dataclasses.replace(spec, spp=1))
     floor = (one.aov["coverage"] == 0) & (many.aov["coverage"] == 0)
     # away from any edge: the pixel and its 8 neighbours all floor
@@ -73,21 +84,20 @@ def test_the_floor_of_a_heavy_supersampled_chart_is_its_one_sample_floor(session
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
             core &= np.roll(np.roll(floor, dy, 0), dx, 1)
-    lum = lambda r: r.hdr @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    def lum(r):
+        return r.hdr @ np.array([0.2126, 0.7152, 0.0722], np.float32)
     ratio = lum(many)[core] / lum(one)[core]
     assert core.sum() > 200
     assert np.percentile(ratio, 5) > 0.97, np.percentile(ratio, [0, 5, 50])
     session.samples_per_draw.clear()
 
 
-def test_the_session_remembers_how_many_samples_a_draw_may_take(session):
-    spec = make_spec(**HEAVY)
-    draw_per(session, spec, None).render(spec)
+def test_the_session_remembers_how_many_samples_a_draw_may_take(session, heavy):
+    _, learned = heavy
     if software(session):   # 64 in one draw were cut; a quarter or less were not
-        assert len(session.samples_per_draw) == 1 and 1 <= list(session.samples_per_draw.values())[0] <= 16
+        assert len(learned) == 1 and 1 <= list(learned.values())[0] <= 16
     else:
-        assert session.samples_per_draw == {}
-    session.samples_per_draw.clear()
+        assert learned == {}
 
 
 def test_a_supersampled_half_float_chart_adds_up_in_float32(session):

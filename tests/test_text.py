@@ -166,7 +166,8 @@ def test_without_the_fallback_fonts_cjk_is_refused_naming_the_package(tmp_path, 
         drawable_text("材料", font)
     assert "U+6750 CJK UNIFIED IDEOGRAPH-6750 (材)" in str(caught.value)
     assert "install Debian's fonts-wqy-microhei" in str(caught.value)
-    with pytest.raises(SpecError, match=re.escape("U+1F642 SLIGHTLY SMILING FACE") + ".*install Debian's fonts-symbola"):
+    with pytest.raises(SpecError, match=re.escape("U+1F642 SLIGHTLY SMILING FACE")
+                                        + ".*install Debian's fonts-symbola"):
         drawable_text(f"ok {EMOJI}", font)
 
 

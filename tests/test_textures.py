@@ -3,7 +3,7 @@ factors are the decoded texel values (sRGB curve for base colour, identity for O
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from test_bugs import PROGRAM_RTOL
+from helpers import PROGRAM_RTOL
 
 from sdfpbr.errors import SpecError
 from sdfpbr.oracle.display import srgb_eotf
@@ -95,7 +95,8 @@ def test_normal_map_tilts_toward_plus_y_up(session, tmp_path):
     r_up, r_flat = session.render(specs["up"]), session.render(specs["flat"])
     r_flip = session.render(make_spec(specs["up"], bugs=("normal-map-green-flip",)))
     m = _interior(r_flat) & (r_flat.aov["normal"][..., 1] < 0.5)   # the front, not the lit cap
-    lum = lambda r: r.hdr[m].mean()
+    def lum(r):
+        return r.hdr[m].mean()
     assert lum(r_up) > 1.2 * lum(r_flat) > 1.2 * lum(r_flip)
 
 
@@ -227,7 +228,8 @@ def test_mapped_normals_lose_the_sky_their_reflection_turns_below_the_sphere(ses
     ref = render_reference(spec, samples=256, seed=2, session=session)
     chart = session.render(spec)
     sphere = chart.aov["coverage"] == 1
-    lum = lambda h: h[..., :3].astype(np.float64).mean(-1)
+    def lum(h):
+        return h[..., :3].astype(np.float64).mean(-1)
     ref_mean = lum(ref.hdr)[sphere].mean()
     se = np.sqrt((ref.stderr.astype(np.float64)[sphere] ** 2).sum()) / sphere.sum()
     chart_mean = lum(chart.hdr)[sphere].mean()

@@ -1,5 +1,5 @@
-"""Writes charts/materials.glb (the gallery's and the tests' asset): six glTF materials, one per lobe the chart renders (run with
-`python tests/data/make_materials_glb.py`; the tests also build assets with gltf_asset())."""
+"""Writes charts/materials.glb (the gallery's and the tests' asset): six glTF materials, one per lobe the chart renders
+(run with `python tests/data/make_materials_glb.py`; the tests also build assets with gltf_asset())."""
 from pathlib import Path
 
 import pygltflib
