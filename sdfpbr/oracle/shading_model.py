@@ -305,8 +305,8 @@ def dfg_integrate(n_dot_v, perceptual_roughness, model="gltf", n=64):
     height-correlated Smith, "schlick-ggx": k = alpha/2); E = A + B. C is the Lambert weight
     of the glTF dielectric coupling under uniform light (independent of roughness).
     n is the Gauss-Legendre order per dimension of each of the three theta pieces (the
-    splitting makes every piece smooth: n = 32 already agrees with n = 512 to 1e-9, so the
-    default 64 leaves a wide margin and keeps tables fast). n_dot_v is clamped
+    splitting makes every piece smooth: against n = 512, n = 32 is off by up to 6.8e-7 (at
+    n_dot_v 1e-4, r 0.045), n = 48 by 5.7e-9, the default 64 by 9e-11). n_dot_v is clamped
     to >= 1e-4; alpha < 1e-4 uses the delta-lobe limit A = 1 - Fc(mu), B = Fc(mu).
     """
     _check_model(model)
