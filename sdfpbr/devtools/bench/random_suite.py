@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from ...spec.chart_spec import ChartSpec, Light, make_spec
+from ...spec.presets import QUALITY_LEVELS
 from .regions import REGIONS, region_masks
 
 REGION_MIN_PIXELS = 12    # a region with fewer pixels is not judged (too small to mean anything)
@@ -264,7 +265,7 @@ def bias_map(chart_hdr: np.ndarray, ref_hdr: np.ndarray) -> np.ndarray:
 class RandomConfig:
     count: int = 50
     seed: int = 1
-    presets: tuple[str, ...] = ("draft", "default", "high")
+    presets: tuple[str, ...] = QUALITY_LEVELS
     size: tuple[int, int] = (128, 128)
     ref_samples: int = 1024          # the first reference samples a seed; four times more while too noisy
     max_ref_samples: int = 4096         # 2 x 4096 spp at 128²: about 1 min on 2 idle cores

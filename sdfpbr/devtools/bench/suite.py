@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ...errors import SpecError, did_you_mean
 from ...spec.chart_spec import QUALITY_PRESETS, ChartSpec, Light, make_spec
+from ...spec.presets import QUALITY_LEVELS
 
 # The scene suite. Each scene is a set of spec overrides on the default chart.
 SCENES: dict[str, dict] = {
@@ -45,7 +46,7 @@ SCENE_NOTES = {
     "grey": "5x5 cells stage, grey base, sun and point light (the earlier default)",
     "lobes": "5x5 cells stage, roughness x clearcoat over sheen and ior 2 (the KHR lobes)",
 }
-BASE_PRESETS = ("draft", "default", "high")
+BASE_PRESETS = QUALITY_LEVELS   # the presets for use; seed002 is the baseline beside them
 
 # Ablation: one feature off at a time on the default scene (preset "default"). The spec has one
 # IBL switch (diffuse and specular IBL go together).
