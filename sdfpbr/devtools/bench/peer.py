@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import SpecError
-from ...image.colour import REC709_LUMINANCE
+from ...image.colour import luminance
 from ...spec.chart_spec import ChartSpec
 from .regions import REGIONS, region_masks
 
@@ -36,7 +36,6 @@ EXTRA = "peer"
 VARIANT = "llvm_ad_rgb"
 MIN_LLVM = 16                  # the Dr.Jit LLVM backend's runtime (the issue's measurement: LLVM 19)
 NOISE_SIGMAS = 4.0             # a region agrees when |reference - peer| <= this many combined sigmas
-LUMINANCE = np.array(REC709_LUMINANCE)
 
 
 # ---- availability --------------------------------------------------------------------------
@@ -212,10 +211,6 @@ def geometry_check(spec: ChartSpec, session=None) -> dict:
 
 # ---- regions and validation ----------------------------------------------------------------
 
-def _luminance(hdr: np.ndarray) -> np.ndarray:
-    return np.asarray(hdr, np.float64)[..., :3] @ LUMINANCE
-
-
 def region_stats(masks: dict, ref_a, ref_b, peer_a, peer_b) -> dict:
     """Per region: pixels, the mean luminance of each renderer (its two seeds averaged), their
     difference relative to the peer's, its sigma from the two seeds' per-pixel differences
@@ -224,7 +219,7 @@ def region_stats(masks: dict, ref_a, ref_b, peer_a, peer_b) -> dict:
     their noise so estimated, summed: about 1 where the two images differ by noise alone, pixel
     by pixel (a region's mean can agree while its pixels do not, as in a turned environment
     whose light is spread alike)."""
-    la, lb, pa, pb = (_luminance(x) for x in (ref_a, ref_b, peer_a, peer_b))
+    la, lb, pa, pb = (luminance(x) for x in (ref_a, ref_b, peer_a, peer_b))
     out = {}
     for name in REGIONS:
         m = masks.get(name)

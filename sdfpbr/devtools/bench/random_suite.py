@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from ...spec.chart_spec import ChartSpec, Light, make_spec
+from ...image.colour import luminance
 from ...spec.presets import QUALITY_LEVELS
 from .regions import REGIONS, region_masks
 
@@ -228,12 +229,6 @@ def scene_spec(scene: RandomScene, size: tuple[int, int], preset: str, backend: 
 
 
 # ---- regions ----------------------------------------------------------------------------------
-
-def luminance(hdr: np.ndarray) -> np.ndarray:
-    """Rec. 709 luminance of linear RGB, in float64."""
-    from ...image.colour import luminance as rec709
-    return rec709(np.asarray(hdr, np.float64)[..., :3])
-
 
 def region_means(hdr: np.ndarray, masks: dict) -> dict[str, float | None]:
     lum = luminance(hdr)
