@@ -104,7 +104,14 @@ vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
     float metallic = cell_texel(cell, 0).a;
     vec3 dielectric = sphere_plate_tile(2 * slot), metal = sphere_plate_tile(2 * slot + 1);
     // The ends exactly (a NaN at one end stays out of the other).
-    return metallic <= 0.0 ? dielectric : metallic >= 1.0 ? metal : mix(dielectric, metal, metallic);
+    vec3 radiance = metallic <= 0.0 ? dielectric : metallic >= 1.0 ? metal : mix(dielectric, metal, metallic);
+#if BOUNCE_CACHE
+    // The cell's own bounce back from its floor (the plate's slot stands for several cells).
+    Material m = cell_material(cell, n_geo);
+    vec3 dfg = dfg_lookup(max(dot(n_geo, v), MIN_N_DOT_V), m.perceptual_roughness);
+    radiance += bounce_gather(m, p, n_geo, v, dfg, cell);
+#endif
+    return radiance;
 #else
     return shade_sphere(p, n_geo, v, cell, pixel_size);
 #endif

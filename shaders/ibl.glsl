@@ -162,11 +162,6 @@ LobeFit lobe_fit(float perceptual_roughness, float n_dot_v) {
 #endif
 }
 
-// The share of a lobe the lookup reads along N at the widest level (0 without IBL_TWO_LOBE).
-float ibl_tail_share(float perceptual_roughness, float n_dot_v) {
-    return lobe_fit(perceptual_roughness, n_dot_v).tail;
-}
-
 vec3 shade_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 dfg) {
     SpecularLookup look = specular_lookup(n, v, n_dot_v, m.perceptual_roughness, m.alpha);
 #if IBL_TWO_LOBE

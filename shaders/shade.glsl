@@ -127,16 +127,9 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     }
 #endif
 #if FLOOR_PARALLAX
-    // The floor as the sphere's point sees it, not its centre (floor_parallax.glsl).
-    if (!ground) {
-        vec3 floor_e = floor_parallax_irradiance(n) * INV_PI;
-#if IBL_METHOD == split_sum
-        vec3 tail = ibl_tail_share(m.perceptual_roughness, n_dot_v) * floor_e;
-#else
-        vec3 tail = vec3(0.0);   // each sample of the sampled lobe reads the probe with its own parallax
-#endif
-        ibl += ibl_mix(m, dfg, tail, tail, floor_e);
-    }
+    // The floor as the sphere's point sees it, not its centre (floor_parallax.glsl): its
+    // diffuse. The specular reads the probe with its own parallax (scene.glsl stage_parallax).
+    if (!ground) ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_parallax_irradiance(n) * INV_PI);
 #endif
 #if NEIGHBOUR_LIGHT
     // The base layer's specular share of the sky (without its diffuse), which the neighbours
@@ -177,8 +170,10 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_sphere_irradiance_over_pi(p, n));
     }
 #endif
-#if FLOOR_RETURN
-    if (!ground) ibl += floor_return(m, n_geo, v, dfg);   // the sphere's own light back from its floor
+#if BOUNCE_CACHE && !SPHERE_PLATE_PASS
+    // The sphere's own light back from its floor (the sphere plate leaves it to the chart,
+    // which reads each cell's own cache: the plate's slot stands for several cells).
+    if (!ground) ibl += bounce_gather(m, p, n, v, dfg, cell);
 #endif
 #if USE_TEXTURES
     ibl *= occlusion;   // the ORM occlusion darkens indirect light only
@@ -245,8 +240,8 @@ vec3 shade_sphere(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 // The sphere's light as a few bounce rays sample it: each punctual light's highlight spread as
 // if the light were `spread` radians wide (the rays' spacing), and its specular reflection (of
 // the lights and of the environment) weighted by `specular`, the share the rays can resolve
-// (stage_bounce.glsl). With what its floor gives back (FLOOR_RETURN): the floor's light
-// returned by the sphere reaches the floor again (default chart 0.0292 -> 0.0289 mean FLIP).
+// (stage_bounce.glsl). With what its floor gives back (BOUNCE_CACHE, the last draw's): each
+// draw of the cache carries one more round trip between the sphere and its floor.
 vec3 shade_sphere_for_bounce(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, float spread, float specular) {
     return shade_point(p, n_geo, v, cell, pixel_size, false, spread, specular, true, true);
 }

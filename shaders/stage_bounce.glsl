@@ -52,7 +52,9 @@ vec3 sphere_reflected_sky(vec3 q, Material m) {
 }
 #endif
 
-vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
+// with_specular (a literal at each call): the floor's specular reflection of the sphere towards
+// v too; without it, what the floor sends every way (its diffuse), the bounce cache's.
+vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool with_specular) {
     float dist = length(q);
     float ff = sphere_occlusion(-q.y / dist, max(dist / u_radius, 1.0 + 1e-4));
     if (ff < BOUNCE_MIN_FF) return vec3(0.0);
@@ -83,6 +85,7 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
         sum += share * cos_q * radiance;
         weight += share * cos_q;
 #if AO_METHOD == analytic && !BUG_FEWTAP_IBL
+        if (!with_specular) continue;
         vec3 h = normalize(w + v);
         specular += share * d_ggx(max(h.y, 0.0), floor_material.alpha)
                   * vis_smith_ggx_correlated(cos_q, n_dot_v, floor_material.alpha)
@@ -123,4 +126,8 @@ vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
     specular *= 2.0 * PI * cap * energy_compensation(vec3(DIELECTRIC_F0), dfg.x + dfg.y);
 #endif
     return albedo * sum / weight + specular + reflected;
+}
+
+vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
+    return sphere_bounce_toward(q, v, cell, pixel_size, true);
 }

@@ -34,7 +34,7 @@
 #if NEIGHBOUR_LIGHT
 #include "neighbours.glsl"
 #endif
-#if FLOOR_RETURN
-#include "floor_return.glsl"
+#if BOUNCE_CACHE
+#include "bounce_cache.glsl"
 #endif
 #include "shade.glsl"

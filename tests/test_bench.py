@@ -323,7 +323,7 @@ def test_end_to_end_reads_a_childs_own_peak_memory_not_the_bench_process_size(tm
 
 def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     """The bench keeps a reference until what the path tracer runs changes: editing a
-    chart-only shader (the floor return), or a comment, a docstring or the spacing of what it
+    chart-only shader (the bounce cache), or a comment, a docstring or the spacing of what it
     runs, keeps hours of references; editing the path tracer's code renders them again. The
     oracle enters by the values of the compensation table it gives the path tracer: a table
     one ulp off is another key, the same values in a new array the same key. The preset is not
@@ -344,7 +344,7 @@ def test_a_reference_is_keyed_by_the_code_it_runs(tmp_path, monkeypatch):
     path = shaders / "reference_path.glsl"
     path.write_text(path.read_text().replace("\n", "\n// a note /* and more */\n", 1) + "\n/* a\n block */\n\n   \n")
     assert key() in keys
-    for module, kept in (("floor_return.glsl", True), ("reference_path.glsl", False)):
+    for module, kept in (("bounce_cache.glsl", True), ("reference_path.glsl", False)):
         path = shaders / module
         path.write_text(path.read_text() + "\nconst float AN_EDIT = 1.0;\n")
         assert (key() in keys) == kept, module

@@ -397,7 +397,7 @@ def test_cell_names_in_a_row_share_one_baseline(size):
 
 
 REFERENCE_FOOTER_PARTS = ["tone map aces", "exposure +0 EV", "env studio", "BRDF gltf",
-                          "path-traced reference, 16 spp, 4 bounces, rel. stderr 8.66%"]
+                          "path-traced reference, 16 spp, 32 bounces, rel. stderr 8.66%"]
 
 
 @pytest.mark.parametrize("side", [128, 256, 512, 1024])

@@ -12,7 +12,6 @@ import numpy as np
 from ..cache import content_key
 from ..image.colour import BACKGROUND
 from ..shading.camera import Camera
-from ..shading.cells import FLOOR_RETURN_G
 from ..shading.plan import ChartFrame
 from ..shading.material_table import material_table, upload as upload_materials
 from ..spec.chart_spec import MAX_GRID, ChartSpec
@@ -170,7 +169,6 @@ def chart_uniforms(frame: ChartFrame) -> dict:
     }
     if frame.stage == "cells":
         u.update(frame.grid.uniforms(spec.height))
-        u["u_floor_return"] = FLOOR_RETURN_G
         if frame.catcher_band is not None:
             u["u_catcher_band"] = frame.catcher_band
     if directional:

@@ -36,9 +36,10 @@ PLATE_CACHE_MAX_BYTES = 16 << 20
 
 # What the plate passes bind onto the scene, each frame anew: a frame's plates are keyed by the
 # scene without the last frame's.
-PLATE_TEXTURES = ("u_floor_plate", "u_bounce_plate", "u_slot_cells", "u_sphere_slots", "u_sphere_plate")
-PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_tile", "u_bounce_step", "u_sphere_origin", "u_sphere_tile",
-                  "u_sphere_tiles_x")
+PLATE_TEXTURES = ("u_floor_plate", "u_bounce_cache", "u_bounce_plate", "u_slot_cells", "u_sphere_slots",
+                  "u_sphere_plate")
+PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_cache_tile", "u_bounce_tile", "u_bounce_step", "u_sphere_origin",
+                  "u_sphere_tile", "u_sphere_tiles_x")
 
 
 def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached: bool = True) -> None:
@@ -49,6 +50,8 @@ def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached
     scene.forget(PLATE_TEXTURES, PLATE_UNIFORMS)
     if plan.floor_plate is not None:
         _floor_plate(session, plan, scene, cached)
+    if plan.bounce_cache is not None:
+        _bounce_cache(session, plan, scene, cached)
     if plan.bounce_plate is not None:
         _bounce_plate(session, plan, scene, cached)
     if plan.sphere_plate is not None:
@@ -194,6 +197,21 @@ def _floor_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
     origin, size = plan.frame.plate
     scene.uniforms["u_plate_origin"] = origin
     scene.replace_texture("u_floor_plate", *_plate_pass(session, plan, plan.floor_plate, scene, size, cached=cached))
+
+
+def _bounce_cache(session, plan: RenderPlan, scene, cached: bool) -> None:
+    """Each cell's bounce cache (bounce_cache.glsl), drawn plan.bounce_iterations times, each
+    draw reading the last (all zero before the first): one more round trip between the sphere
+    and its floor a draw. A tile of bounce_cache_tile texels a side per cell."""
+    grid = plan.frame.grid
+    tile = plan.bounce_cache_tile
+    size = (grid.cols * tile, grid.rows * tile)
+    scene.uniforms["u_bounce_cache_tile"] = tile
+    zero = np.zeros((size[1], size[0], 4), np.float32)
+    scene.replace_texture("u_bounce_cache", session.ctx.texture(size, 4, zero, dtype="f4"), key=array_key(zero))
+    for _ in range(plan.bounce_iterations):
+        scene.replace_texture("u_bounce_cache", *_plate_pass(session, plan, plan.bounce_cache, scene, size,
+                                                             cached=cached))
 
 
 def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:

@@ -11,19 +11,6 @@ from ..spec.chart_spec import ChartSpec
 
 CELL_FILL = 0.62   # the sphere's radius over the cell's half height (or half width if narrower)
 
-# The irradiance a cells-stage sphere gets back from its floor of its own light, per unit
-# floor albedo and sphere radiance (floor_return.glsl): G(n.y) at the sphere's point with
-# normal n, for n.y = -1, -1 + 1/16, ..., 1. A sphere of uniform radiance K resting on a
-# Lambertian floor of albedo rho makes its radiance rho K (R / d)^3 at distance d from the
-# centre; G = integral over the floor in front of the point of (R / d)^3 cos cos / r^2 dA,
-# scale-free, integrated in float64 (tests/test_stage.py integrates it again). At n.y = -1
-# the point touches the floor, which fills its view at (R / d)^3 = 1: pi.
-FLOOR_RETURN_G = (3.14159, 2.39706, 1.81598, 1.39546, 1.08806, 0.85885, 0.68457, 0.54977, 0.44399,
-                  0.35996, 0.29254, 0.23801, 0.19361, 0.15728, 0.12744, 0.10286, 0.0826, 0.0659,
-                  0.05214, 0.04084, 0.03159, 0.02407, 0.018, 0.01315, 0.00933, 0.00638, 0.00415,
-                  0.00252, 0.00138, 0.00065, 0.00022, 0.00004, 0.0)
-
-
 @dataclass(frozen=True)
 class CellGrid:
     """Where the cells lie in the image: whole pixels each, so cells are shifted copies."""

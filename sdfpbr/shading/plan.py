@@ -26,7 +26,7 @@ from ..spec.presets import (BRDF_MODELS, CAMERAS, INTERSECTIONS, NORMAL_METHODS,
 from .camera import (Camera, cell_sphere_box, frame_cell, frame_grid, ground_height, silhouettes_apart,
                      sphere_centers, sphere_discs)
 from .catcher import catcher_band_pixels
-from .cells import (FLOOR_RETURN_G, CellGrid, SpherePlate, cell_border_mask, cell_border_px, cell_grid,
+from .cells import (CellGrid, SpherePlate, cell_border_mask, cell_border_px, cell_grid,
                     cell_sphere_radius_px, plate_frame, sphere_plate)
 from .silhouette import SILHOUETTE_RING_PAD_PX, box_triangles, silhouette_ring
 from .compose import ComposedSource, OptionSchema, Value, compose
@@ -63,11 +63,11 @@ SCHEMA = OptionSchema(
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "IBL_TWO_TAP", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
-           "FLOOR_RETURN", "FLOOR_PARALLAX")
+           "BOUNCE_CACHE", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
             "HIDDEN_SKY_SAMPLES",
-            "SPHERE_SAMPLES", "EDGE_SAMPLES", "FLOOR_RETURN_STEPS", "SHEEN_CENTROID_MU_STEPS",
+            "SPHERE_SAMPLES", "EDGE_SAMPLES", "BOUNCE_GATHER_SAMPLES", "SHEEN_CENTROID_MU_STEPS",
             "SHEEN_CENTROID_R_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
@@ -302,11 +302,13 @@ def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict,
     # the bounce rays' share of its reflection (shade.glsl).
     opts["BOUNCE_MIRROR_DIRECTIONS"] = (q.bounce_mirror_directions if "BOUNCE_RAYS" in opts and opts["STAGE_PROBE"]
                                         else 0)
-    # A cells-stage sphere's own light back from its floor (floor_return.glsl): the probe's
-    # floor is every cell's, without the cell's bounce.
-    opts["FLOOR_RETURN"] = q.floor_return and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
-    if opts["FLOOR_RETURN"]:
-        opts["FLOOR_RETURN_STEPS"] = len(FLOOR_RETURN_G)
+    # A cells-stage sphere's own light back from its floor, and on to the floor again, one
+    # round trip a draw of the bounce cache (bounce_cache.glsl): the probe's floor is every
+    # cell's, without the cell's bounce.
+    opts["BOUNCE_CACHE"] = ("BOUNCE_RAYS" in opts and opts["STAGE_PROBE"] and q.bounce_iterations > 0
+                            and not opts.get("BUG_FEWTAP_IBL", False))
+    if opts["BOUNCE_CACHE"]:
+        opts["BOUNCE_GATHER_SAMPLES"] = max(q.bounce_gather_samples, 1)
     # The floor seen from each sphere point, not from the centre the probe sees it from
     # (floor_parallax.glsl): a table over the normal, baked from the probe.
     opts["FLOOR_PARALLAX"] = q.floor_parallax and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
@@ -411,7 +413,8 @@ class IBLPlan:
 
 
 # The programs of a frame, in the order they draw (RenderPlan.frame_programs).
-FRAME_PROGRAMS = ("floor-plate", "bounce-plate", "sphere-plate", "chart", "chart-spheres", "chart-edges", "display")
+FRAME_PROGRAMS = ("floor-plate", "bounce-cache", "bounce-plate", "sphere-plate", "chart", "chart-spheres",
+                  "chart-edges", "display")
 
 
 @dataclass(frozen=True, eq=False)
@@ -462,6 +465,9 @@ class RenderPlan:
     dfg_samples: int
     ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
     floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
+    bounce_cache: ComposedSource | None = None  # BOUNCE_CACHE: one round trip sphere -> floor, a draw
+    bounce_iterations: int = 0                  # its draws
+    bounce_cache_tile: int = 0                  # its texels a side per cell
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
     sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
@@ -509,14 +515,16 @@ class RenderPlan:
         """The programs each frame runs, by the names `sdfpbr shader --program` takes
         (FRAME_PROGRAMS, in their order): the cells stage's plates where the plan has them, the
         chart, its sphere and edge passes where it has them, the display."""
-        programs = dict(zip(FRAME_PROGRAMS, (self.floor_plate, self.bounce_plate, self.sphere_plate, self.chart,
+        programs = dict(zip(FRAME_PROGRAMS, (self.floor_plate, self.bounce_cache, self.bounce_plate,
+                                             self.sphere_plate, self.chart,
                                              self.sphere_pass, self.edge_pass, self.display)))
         return {name: source for name, source in programs.items() if source is not None}
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys."""
         out = [self.vertex, self.chart, self.display, self.dfg]
-        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_plate, self.sphere_plate,
+        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_cache, self.bounce_plate,
+                            self.sphere_plate,
                             self.sphere_pass, self.edge_pass, self.instances_vertex) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
@@ -560,7 +568,8 @@ def _stage_probe(chart: dict) -> ComposedSource | None:
     if not chart["STAGE_PROBE"]:
         return None
     return compose_program("stage_probe_main.glsl", {**chart, "USE_TEXTURES": False, "SHADOW_CATCHER": False,
-                                                     "SEE_THROUGH": False, "FLOOR_PARALLAX": False})
+                                                     "SEE_THROUGH": False, "FLOOR_PARALLAX": False,
+                                                     "BOUNCE_CACHE": False})
 
 
 def _floor_plate(chart: dict) -> ComposedSource | None:
@@ -568,7 +577,7 @@ def _floor_plate(chart: dict) -> ComposedSource | None:
     spheres' textures (the floor has none)."""
     if not chart["FLOOR_PLATE"]:
         return None
-    return compose_program("stage_floor_main.glsl", {**chart, "USE_TEXTURES": False})
+    return compose_program("stage_floor_main.glsl", {**chart, "USE_TEXTURES": False, "BOUNCE_CACHE": False})
 
 
 def _bounce_plate(chart: dict) -> ComposedSource | None:
@@ -577,6 +586,14 @@ def _bounce_plate(chart: dict) -> ComposedSource | None:
     if not chart.get("BOUNCE_PLATE"):
         return None
     return compose_program("stage_bounce_main.glsl", {**chart, "SHADOW_CATCHER": False})
+
+
+def _bounce_cache(chart: dict) -> ComposedSource | None:
+    """One draw of each cell's bounce cache: the bounce plate's shading at the cache's floor
+    points, the floor's diffuse only (what it sends back up to the sphere)."""
+    if not chart.get("BOUNCE_CACHE"):
+        return None
+    return compose_program("bounce_cache_main.glsl", {**chart, "SHADOW_CATCHER": False})
 
 
 def _sphere_plate(chart: dict) -> ComposedSource | None:
@@ -648,6 +665,8 @@ def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
         floor_plate=_floor_plate(chart), bounce_plate=bounce_plate, sphere_plate=_sphere_plate(chart),
+        bounce_cache=_bounce_cache(chart), bounce_iterations=q.bounce_iterations if chart.get("BOUNCE_CACHE") else 0,
+        bounce_cache_tile=q.bounce_cache_texels,
         sphere_layout=layout, bounce_step=bounce_step(frame) if bounce_plate else 1,
         edge_pass=edge_pass, sphere_pass=sphere_pass,
         instances_vertex=compose_program("grid_instances_vert.glsl") if edge_pass or sphere_pass else None)

@@ -171,7 +171,13 @@ class Quality:
     # on an edge.
     ground_ibl_samples: int = 1024
     floor_plate: bool = True         # cells stage: the floor's static light shaded once per cell pixel
-    floor_return: bool = True        # cells stage: the sphere's own light back from its floor
+    # cells stage: the light between a sphere and its floor, one round trip more per draw of
+    # the bounce cache (bounce_cache.glsl; 0: the sphere gets none of its own light back), on
+    # a tile of bounce_cache_texels a side per cell, read by each sphere point from
+    # bounce_gather_samples directions a lobe
+    bounce_iterations: int = 2
+    bounce_cache_texels: int = 32
+    bounce_gather_samples: int = 8
     # cells stage: the floor seen from each sphere point rather than the centre, a table over
     # the normal of floor_parallax_size texels a cube face, floor_parallax_samples directions each
     floor_parallax: bool = True
@@ -201,7 +207,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=512, sh_size=16, sphere_samples_radius=0,
                      ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, bounce_mirror_directions=8,
-                     hidden_sky_samples=8,
+                     hidden_sky_samples=8, bounce_iterations=1, bounce_gather_samples=4,
                      ground_ibl_size=64, neighbour_light=False),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
@@ -215,7 +221,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
                     # the studio a polished sphere mirrors onto its floor from 64 directions: 128²
                     # 0.0143 -> 0.0138 (the floor in front of the polished metals 0.92 -> 0.69 %
                     # dark; 256: 0.66 %); the 1024² frame 790 / 776 ms with 16 / 64 here
-                    bounce_mirror_directions=64),
+                    bounce_mirror_directions=64, bounce_iterations=4, bounce_gather_samples=32),
     # A Shadertoy-style raymarcher's approach on our scene (docs/model.md): every sphere in the SDF, 100 steps to a
     # fixed 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.

@@ -28,7 +28,8 @@ def register(subparsers) -> None:
                    help="stop once the mean relative standard error over sphere pixels is <= E (e.g. 0.01)")
     p.add_argument("--seed", type=int, default=0, help="random seed; the same seed gives bit-identical output")
     p.add_argument("--bounces", type=int, metavar="B",
-                   help="surface interactions per path (default 4; 1 = direct light only, no interreflection)")
+                   help="surface interactions per path (default: enough for the light between a white sphere "
+                        "and a white floor to converge; 1 = direct light only, no interreflection)")
     p.add_argument("-v", "--verbose", action="store_true", help="print samples, error and timings")
     add_chart_options(p)
     p.set_defaults(run=run)

@@ -1,0 +1,28 @@
+#include "common.glsl"
+#include "loop_guard.glsl"
+#include "hit.glsl"
+#include "scene.glsl"
+#include "camera.glsl"
+#include "surface_shading.glsl"
+#include "stage_bounce.glsl"
+
+// One draw of the cells stage's bounce cache (bounce_cache.glsl): per cell, the diffuse
+// radiance its floor sends up of the light its sphere bounces onto it, the sphere shaded with
+// the last draw's cache bound (all zero before the first). Texel (i, j) of a cell's tile is
+// the floor point bounce_cache_point gives; the floor there is seen from the sphere's centre
+// (its Fresnel weight on the diffuse), and its texel about a texel wide (the sphere's texture
+// level of detail).
+layout(location = 0) out vec4 out_bounce;
+
+void bounce_cache_texel() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    g_cell = texel / u_bounce_cache_tile;   // (col, row from the top), as the bounce plate's
+    vec3 q = bounce_cache_point(vec2(texel - g_cell * u_bounce_cache_tile));
+    float spacing = 2.0 * u_radius / float(u_bounce_cache_tile);
+    out_bounce = vec4(sphere_bounce_toward(q, normalize(-q), g_cell, spacing, false), 1.0);
+}
+
+void main() {
+    bounce_cache_texel();
+    loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
+}
