@@ -90,11 +90,33 @@ vec3 sphere_plate_tile(int index) {
 }
 #endif
 
-// The light a sphere point sends to the camera: shaded here, or (SPHERE_PLATE) the cell's
-// slot from the plate as a dielectric and as a metal, mixed by the cell's metallic (the
-// shading is linear in it). The plate leaves the sphere's shading out of this program: a
-// software rasterizer runs both sides of a branch.
-vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
+#if GATHER_PLATE
+uniform sampler2D u_gather_plate;  // each cell's sphere's light back from its floor (stage_gather_main.glsl)
+uniform ivec2 u_gather_tile;
+uniform float u_gather_step;
+#endif
+
+// What the sphere point p gets back from its floor's bounce cache where shade_point leaves it
+// out: read from the gather plate at the pixel's position, or gathered here where the sphere
+// plate stands for several cells.
+vec3 sphere_gather(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell) {
+#if GATHER_PLATE
+    vec2 at = clamp((position - u_plate_origin - 0.5) / u_gather_step, vec2(0.0), vec2(u_gather_tile - 1));
+    return texture(u_gather_plate, (vec2(cell * u_gather_tile) + at + 0.5) / vec2(textureSize(u_gather_plate, 0))).rgb;
+#elif BOUNCE_CACHE && SPHERE_PLATE
+    Material m = cell_material(cell, n_geo);
+    vec3 dfg = dfg_lookup(max(dot(n_geo, v), MIN_N_DOT_V), m.perceptual_roughness);
+    return bounce_gather(m, p, n_geo, v, dfg, cell);
+#else
+    return vec3(0.0);
+#endif
+}
+
+// The light a sphere point sends to the camera (seen through `position`): shaded here, or
+// (SPHERE_PLATE) the cell's slot from the plate as a dielectric and as a metal, mixed by the
+// cell's metallic (the shading is linear in it). The plate leaves the sphere's shading out of
+// this program: a software rasterizer runs both sides of a branch.
+vec3 sphere_radiance(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 #if SPHERE_PIXELS == skipped
     // The spheres' pixels are drawn over by the sphere pass (SPHERE_PIXELS only, on each
     // sphere's box): a software rasterizer would shade the sphere for every floor pixel too.
@@ -105,15 +127,9 @@ vec3 sphere_radiance(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
     vec3 dielectric = sphere_plate_tile(2 * slot), metal = sphere_plate_tile(2 * slot + 1);
     // The ends exactly (a NaN at one end stays out of the other).
     vec3 radiance = metallic <= 0.0 ? dielectric : metallic >= 1.0 ? metal : mix(dielectric, metal, metallic);
-#if BOUNCE_CACHE
-    // The cell's own bounce back from its floor (the plate's slot stands for several cells).
-    Material m = cell_material(cell, n_geo);
-    vec3 dfg = dfg_lookup(max(dot(n_geo, v), MIN_N_DOT_V), m.perceptual_roughness);
-    radiance += bounce_gather(m, p, n_geo, v, dfg, cell);
-#endif
-    return radiance;
+    return radiance + sphere_gather(position, p, n_geo, v, cell);
 #else
-    return shade_sphere(p, n_geo, v, cell, pixel_size);
+    return shade_sphere(p, n_geo, v, cell, pixel_size) + sphere_gather(position, p, n_geo, v, cell);
 #endif
 }
 
@@ -124,7 +140,7 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #if EDGE_PIXELS == skipped
     // The sphere pass keeps only the pixels whose ray meets a sphere (chart_pixel): the floor
     // and the background are the chart pass's (and an edge's outer ray the edge pass's).
-    return vec4(sphere_radiance(ro + rd * hit.t, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
+    return vec4(sphere_radiance(position, ro + rd * hit.t, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
 #endif
 #endif
 #if FLOOR_PLATE
@@ -138,9 +154,9 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
     vec3 p = ro + rd * hit.t;
     float pixel_size = footprint.x + footprint.y * hit.t;
 #if FLOOR_PLATE
-    vec3 radiance = hit.cell.x < 0 ? plate.rgb : sphere_radiance(p, hit.normal, -rd, hit.cell, pixel_size);
+    vec3 radiance = hit.cell.x < 0 ? plate.rgb : sphere_radiance(position, p, hit.normal, -rd, hit.cell, pixel_size);
 #else
-    vec3 radiance = hit.cell.x < 0 ? shade_ground(p, -rd, pixel_size) : sphere_radiance(p, hit.normal, -rd, hit.cell, pixel_size);
+    vec3 radiance = hit.cell.x < 0 ? shade_ground(p, -rd, pixel_size) : sphere_radiance(position, p, hit.normal, -rd, hit.cell, pixel_size);
 #endif
 #if BOUNCE_PLATE
     if (hit.cell.x < 0) radiance += bounce_plate(position);

@@ -170,10 +170,12 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_sphere_irradiance_over_pi(p, n));
     }
 #endif
-#if BOUNCE_CACHE && !SPHERE_PLATE_PASS
+#if BOUNCE_CACHE && !SPHERE_PLATE_PASS && !GATHER_PLATE
     // The sphere's own light back from its floor (the sphere plate leaves it to the chart,
     // which reads each cell's own cache: the plate's slot stands for several cells).
     if (!ground) ibl += bounce_gather(m, p, n, v, dfg, cell);
+#elif BOUNCE_CACHE && GATHER_PLATE
+    if (!ground && bounce_ray) ibl += bounce_gather(m, p, n, v, dfg, cell);   // the chart's from the plate
 #endif
 #if USE_TEXTURES
     ibl *= occlusion;   // the ORM occlusion darkens indirect light only

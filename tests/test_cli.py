@@ -110,7 +110,8 @@ def test_shader_command_prints_each_program_of_the_frame(capsys):
     assert "// composed by sdfpbr from display_main.glsl" in capsys.readouterr().out
     assert main(["shader", "--program", "sphere-plate", "--spp", "4"]) == 2   # stratified rays: no plate
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "runs no sphere-plate program; it runs: floor-plate, bounce-plate, chart" in err
+    runs = "floor-plate, bounce-cache, bounce-plate, gather-plate, chart"
+    assert err.count("\n") == 1 and f"runs no sphere-plate program; it runs: {runs}" in err
 
 
 def test_features_left_out_are_absent_from_the_source():

@@ -30,6 +30,15 @@ def with_cache(session, monkeypatch, root):
     return root
 
 
+def plate_draws(spec) -> int:
+    """The plates a frame of ``spec`` draws: floor, bounce, gather and sphere plates where its
+    plan has them, and one per draw of the bounce cache."""
+    from sdfpbr.shading.plan import render_plan
+    plan = render_plan(spec)
+    return (sum(s is not None for s in (plan.floor_plate, plan.bounce_plate, plan.gather_plate, plan.sphere_plate))
+            + plan.bounce_iterations)
+
+
 def entries(root):
     return (sorted(p.name for p in (root / plates.PLATE_KIND).glob("*.npz"))
             if (root / plates.PLATE_KIND).is_dir() else [])
@@ -47,7 +56,8 @@ def test_a_chart_drawn_again_reads_its_plates(session, monkeypatch, tmp_path, dr
     root = with_cache(session, monkeypatch, tmp_path)
     spec = make_spec(**BASE)
     first = session.render(spec)
-    assert len(draws) == 3 and len(entries(root)) == 3       # floor, bounce and sphere plates
+    n = plate_draws(spec)
+    assert n == 6 and len(draws) == n and len(entries(root)) == n   # floor, 2 cache, bounce, gather, sphere
     draws.clear()
     again = session.render(spec)
     assert draws == []
@@ -101,7 +111,7 @@ def test_a_uniform_the_scene_does_not_set_keeps_the_plate_out(session, monkeypat
         return values
     monkeypatch.setattr(frame, "chart_uniforms", without_ground)
     session.render(make_spec(**BASE))
-    assert len(draws) == 3 and draws[0].endswith("floor_main.glsl")
+    assert len(draws) == plate_draws(make_spec(**BASE)) and draws[0].endswith("floor_main.glsl")
     assert entries(root) == []   # nor the plates after it: their keys would hold its key
 
 
@@ -110,7 +120,7 @@ def test_plates_over_the_size_cap_are_drawn_every_time(session, monkeypatch, tmp
     spec = make_spec(**BASE)
     monkeypatch.setattr(plates, "PLATE_CACHE_MAX_BYTES", 0)
     first = session.render(spec)
-    assert len(draws) == 3 and entries(root) == []
+    assert len(draws) == plate_draws(spec) and entries(root) == []
     monkeypatch.undo()
     with_cache(session, monkeypatch, tmp_path)
     assert_same_render(first, session.render(spec))
@@ -133,7 +143,7 @@ def test_the_bench_draws_its_plates(session, monkeypatch, tmp_path, draws):
         finally:
             scene.release()
             chart.release()
-    assert len(draws) == 3
+    assert len(draws) == plate_draws(spec)
 
 
 def test_a_frame_bound_again_reads_the_plates_it_kept(session, monkeypatch, tmp_path, draws):
@@ -148,10 +158,11 @@ def test_a_frame_bound_again_reads_the_plates_it_kept(session, monkeypatch, tmp_
         chart = ChartDraw(session, plan)
         scene = chart_scene(session, plan)
         try:
+            n = plate_draws(spec)
             plates.bind_frame(session, plan, scene, chart.programs)
-            assert len(draws) == 3 and len(entries(root)) == 3
+            assert len(draws) == n and len(entries(root)) == n
             plates.bind_frame(session, plan, scene, chart.programs)
-            assert len(draws) == 3 and len(entries(root)) == 3
+            assert len(draws) == n and len(entries(root)) == n
             assert len(scene.textures) == len({name for name, _ in scene.textures})
         finally:
             scene.release()

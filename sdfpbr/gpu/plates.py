@@ -36,10 +36,10 @@ PLATE_CACHE_MAX_BYTES = 16 << 20
 
 # What the plate passes bind onto the scene, each frame anew: a frame's plates are keyed by the
 # scene without the last frame's.
-PLATE_TEXTURES = ("u_floor_plate", "u_bounce_cache", "u_bounce_plate", "u_slot_cells", "u_sphere_slots",
-                  "u_sphere_plate")
-PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_cache_tile", "u_bounce_tile", "u_bounce_step", "u_sphere_origin",
-                  "u_sphere_tile", "u_sphere_tiles_x")
+PLATE_TEXTURES = ("u_floor_plate", "u_bounce_cache", "u_bounce_plate", "u_gather_plate", "u_slot_cells",
+                  "u_sphere_slots", "u_sphere_plate")
+PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_cache_tile", "u_bounce_tile", "u_bounce_step", "u_gather_tile",
+                  "u_gather_step", "u_sphere_origin", "u_sphere_tile", "u_sphere_tiles_x")
 
 
 def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached: bool = True) -> None:
@@ -54,6 +54,8 @@ def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached
         _bounce_cache(session, plan, scene, cached)
     if plan.bounce_plate is not None:
         _bounce_plate(session, plan, scene, cached)
+    if plan.gather_plate is not None:
+        _gather_plate(session, plan, scene, cached)
     if plan.sphere_plate is not None:
         _sphere_plate(session, plan, scene, cached)
     bindings = scene.bind()
@@ -214,24 +216,50 @@ def _bounce_cache(session, plan: RenderPlan, scene, cached: bool) -> None:
                                                              cached=cached))
 
 
-def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
-    """Each cell's sphere's bounce on its floor (stage_bounce_main.glsl): a tile per cell of
-    texels ``step`` cell pixels apart over the plate's extent, one more texel past its far
-    edge so that every position interpolates. The bounce varies over the sphere's size (as its
-    form factor, ~ 1/d^2 at distance d): with h = R / 8 between texels, bilinear interpolation
-    errs by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
-    (tests/test_stage.py)."""
+def _plate_grid(session, plan: RenderPlan, step: int) -> tuple[tuple[int, int], int]:
+    """A tile per cell of texels ``step`` cell pixels apart over the plate's extent, one more
+    texel past its far edge so that every position interpolates; coarser for an image so wide
+    that the tiles would not fit one texture. (tile, step)."""
     grid = plan.frame.grid
-    origin, (width, height) = plan.frame.plate
-    step = plan.bounce_step
-    while True:   # coarser for an image so wide that the tiles would not fit one texture
+    _, (width, height) = plan.frame.plate
+    while True:
         tile = (math.ceil((width - 0.5) / step) + 1, math.ceil((height - 0.5) / step) + 1)
         if max(grid.cols * tile[0], grid.rows * tile[1]) <= session.max_texture_size:
-            break
+            return tile, step
         step *= 2
-    scene.uniforms.update(u_plate_origin=origin, u_bounce_tile=tile, u_bounce_step=float(step))
+
+
+def _bounce_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
+    """Each cell's sphere's bounce on its floor (stage_bounce_main.glsl) on _plate_grid's texels
+    ``bounce_step`` cell pixels apart. The bounce varies over the sphere's size (as its form
+    factor, ~ 1/d^2 at distance d): with h = R / 8 between texels, bilinear interpolation errs
+    by about 0.75 (h / R)^2 of it (1.2 %) on the floor nearest the sphere, less further out
+    (tests/test_stage.py)."""
+    grid = plan.frame.grid
+    tile, step = _plate_grid(session, plan, plan.bounce_step)
+    scene.uniforms.update(u_plate_origin=plan.frame.plate[0], u_bounce_tile=tile, u_bounce_step=float(step))
     size = (grid.cols * tile[0], grid.rows * tile[1])
     scene.replace_texture("u_bounce_plate", *_plate_pass(session, plan, plan.bounce_plate, scene, size, cached=cached))
+
+
+def _gather_plate(session, plan: RenderPlan, scene, cached: bool) -> None:
+    """Each cell's sphere's light back from its bounce cache (stage_gather_main.glsl) on
+    _plate_grid's texels half the bounce plate's step apart, drawn only over each tile's texels
+    round the sphere's box (one texel beyond it each way, for the interpolation)."""
+    grid = plan.frame.grid
+    (ox, oy), _ = plan.frame.plate
+    tile, step = _plate_grid(session, plan, max(plan.bounce_step // 2, 1))
+    scene.uniforms.update(u_plate_origin=(ox, oy), u_gather_tile=tile, u_gather_step=float(step))
+    x0, y0, x1, y1 = plan.frame.sphere_box
+
+    def span(lo, hi, origin, count):   # texels whose centre (origin + 0.5 + i step) is within a texel of [lo, hi]
+        first = max(math.floor((lo - origin - 0.5) / step), 0)
+        return first, min(math.ceil((hi - origin - 0.5) / step) + 1, count - 1) - first + 1
+    (bx, bw), (by, bh) = span(x0, x1, ox, tile[0]), span(y0, y1, oy, tile[1])
+    boxes = [(c * tile[0] + bx, r * tile[1] + by, bw, bh) for r in range(grid.rows) for c in range(grid.cols)]
+    size = (grid.cols * tile[0], grid.rows * tile[1])
+    scene.replace_texture("u_gather_plate", *_plate_pass(session, plan, plan.gather_plate, scene, size, boxes,
+                                                         cached))
 
 
 def _sphere_plate(session, plan: RenderPlan, scene, cached: bool) -> None:

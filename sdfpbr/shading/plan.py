@@ -63,7 +63,7 @@ SCHEMA = OptionSchema(
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "IBL_TWO_TAP", "GROUND_IBL",
            "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
-           "BOUNCE_CACHE", "FLOOR_PARALLAX")
+           "BOUNCE_CACHE", "GATHER_PLATE", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
             "HIDDEN_SKY_SAMPLES",
@@ -309,6 +309,9 @@ def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict,
                             and not opts.get("BUG_FEWTAP_IBL", False))
     if opts["BOUNCE_CACHE"]:
         opts["BOUNCE_GATHER_SAMPLES"] = max(q.bounce_gather_samples, 1)
+    # ... which the chart's sphere points read from a plate on the bounce plate's grid
+    # (stage_gather_main.glsl), where there is one.
+    opts["GATHER_PLATE"] = opts["BOUNCE_CACHE"] and opts["BOUNCE_PLATE"]
     # The floor seen from each sphere point, not from the centre the probe sees it from
     # (floor_parallax.glsl): a table over the normal, baked from the probe.
     opts["FLOOR_PARALLAX"] = q.floor_parallax and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
@@ -413,8 +416,8 @@ class IBLPlan:
 
 
 # The programs of a frame, in the order they draw (RenderPlan.frame_programs).
-FRAME_PROGRAMS = ("floor-plate", "bounce-cache", "bounce-plate", "sphere-plate", "chart", "chart-spheres",
-                  "chart-edges", "display")
+FRAME_PROGRAMS = ("floor-plate", "bounce-cache", "bounce-plate", "gather-plate", "sphere-plate", "chart",
+                  "chart-spheres", "chart-edges", "display")
 
 
 @dataclass(frozen=True, eq=False)
@@ -469,6 +472,7 @@ class RenderPlan:
     bounce_iterations: int = 0                  # its draws
     bounce_cache_tile: int = 0                  # its texels a side per cell
     bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
+    gather_plate: ComposedSource | None = None  # GATHER_PLATE: each sphere's light back from the cache, as coarse
     sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
     sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
     bounce_step: int = 1                        # cell pixels between the bounce plate's texels
@@ -516,7 +520,7 @@ class RenderPlan:
         (FRAME_PROGRAMS, in their order): the cells stage's plates where the plan has them, the
         chart, its sphere and edge passes where it has them, the display."""
         programs = dict(zip(FRAME_PROGRAMS, (self.floor_plate, self.bounce_cache, self.bounce_plate,
-                                             self.sphere_plate, self.chart,
+                                             self.gather_plate, self.sphere_plate, self.chart,
                                              self.sphere_pass, self.edge_pass, self.display)))
         return {name: source for name, source in programs.items() if source is not None}
 
@@ -524,7 +528,7 @@ class RenderPlan:
         """Every composed program, for cache keys."""
         out = [self.vertex, self.chart, self.display, self.dfg]
         out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_cache, self.bounce_plate,
-                            self.sphere_plate,
+                            self.gather_plate, self.sphere_plate,
                             self.sphere_pass, self.edge_pass, self.instances_vertex) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
@@ -596,6 +600,13 @@ def _bounce_cache(chart: dict) -> ComposedSource | None:
     return compose_program("bounce_cache_main.glsl", {**chart, "SHADOW_CATCHER": False})
 
 
+def _gather_plate(chart: dict) -> ComposedSource | None:
+    """What each cell's sphere gets back from its bounce cache, on the bounce plate's grid."""
+    if not chart.get("GATHER_PLATE"):
+        return None
+    return compose_program("stage_gather_main.glsl", {**chart, "SHADOW_CATCHER": False})
+
+
 def _sphere_plate(chart: dict) -> ComposedSource | None:
     """Each slot's sphere at metallic 0 and 1, once per cell pixel: the chart's shading of it."""
     if not chart.get("SPHERE_PLATE"):
@@ -664,7 +675,8 @@ def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
         dfg=dfg_source(frame.brdf_model, bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
-        floor_plate=_floor_plate(chart), bounce_plate=bounce_plate, sphere_plate=_sphere_plate(chart),
+        floor_plate=_floor_plate(chart), bounce_plate=bounce_plate, gather_plate=_gather_plate(chart),
+        sphere_plate=_sphere_plate(chart),
         bounce_cache=_bounce_cache(chart), bounce_iterations=q.bounce_iterations if chart.get("BOUNCE_CACHE") else 0,
         bounce_cache_tile=q.bounce_cache_texels,
         sphere_layout=layout, bounce_step=bounce_step(frame) if bounce_plate else 1,

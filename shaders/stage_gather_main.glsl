@@ -1,0 +1,39 @@
+#include "common.glsl"
+#include "loop_guard.glsl"
+#include "hit.glsl"
+#include "scene.glsl"
+#include "camera.glsl"
+#include "surface_shading.glsl"
+#include "ray_sphere.glsl"
+
+// The cells stage's gather plate (GATHER_PLATE): what each cell's sphere gets back from its
+// floor's bounce cache (bounce_cache.glsl bounce_gather), on a grid of texels u_gather_step
+// cell pixels apart (half the bounce plate's: near the sphere's foot it changes faster than
+// the floor's bounce), a tile per cell over the plate's extent, drawn over the sphere's box
+// and interpolated by the chart. Per pixel the gather's 2 x BOUNCE_GATHER_SAMPLES reads of the cache cost a
+// 512² default chart 40 % of its draw on llvmpipe; what it reads varies over the floor's
+// scale, not a pixel's. Texels whose ray passes the sphere by take the sphere's point nearest
+// the ray, so that the interpolation runs on smoothly up to the silhouette.
+layout(location = 0) out vec4 out_gather;
+uniform vec2 u_plate_origin;
+uniform ivec2 u_gather_tile;
+uniform float u_gather_step;
+
+void gather_plate_texel() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    g_cell = texel / u_gather_tile;
+    vec2 position = u_plate_origin + 0.5 + vec2(texel - g_cell * u_gather_tile) * u_gather_step;
+    vec3 rd;
+    vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
+    float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
+    vec3 n = normalize(t > 0.0 ? ro + rd * t : ro + rd * max(dot(-ro, rd), 0.0));
+    vec3 v = -rd;
+    Material m = cell_material(g_cell, n);
+    vec3 dfg = dfg_lookup(max(dot(n, v), MIN_N_DOT_V), m.perceptual_roughness);
+    out_gather = vec4(bounce_gather(m, n * u_radius, n, v, dfg, g_cell), 1.0);
+}
+
+void main() {
+    gather_plate_texel();
+    loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
+}
