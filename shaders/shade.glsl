@@ -57,89 +57,102 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 }
 
 
-// Radiance leaving a surface point towards the camera: IBL (occluded by AO) plus punctual
-// lights (shadowed on the ground where shadows are composed in).
-// pixel_size: the world size of a pixel at p (texture level of detail). `ground` is a literal
-// at every call (shade_sphere, shade_ground below): after inlining, each keeps only its own
-// code (a runtime test let llvmpipe run the ground's occlusion for every sphere point too).
-// `blocked` (a literal too): the ground's light as its sphere blocks it (occlusion, shadows);
-// false gives the open floor a shadow catcher divides by. `light_spread`, `light_specular`:
-// the bounce rays' (shade_sphere_for_bounce), 0 and 1 (literals) elsewhere; `bounce_ray` (a
-// literal) true there.
 #if SPHERE_PLATE_PASS
 float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at metallic 0 and 1
 #endif
 
-vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
-                 float light_specular, bool blocked, bool bounce_ray) {
+// A point as shade_point shades it: its material (the maps applied on a sphere), its normals,
+// the view, and the DFG LUT's entry there.
+struct Surface {
+    vec3 p;
+    vec3 n_geo;          // the geometry's normal
+    vec3 n;              // the shading normal (a normal map's)
+    vec3 v;
+    ivec2 cell;
+    float pixel_size;    // the world size of a pixel at p (texture level of detail)
+    Material m;
+    float n_dot_v;
+    vec3 dfg;
+    float e_single;
+    float occlusion;     // the ORM map's (1 without maps)
+};
+
+Surface surface_at(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground) {
 #if STAGE_PROBE
     g_shading_point = p;   // for the probe's parallax correction
 #endif
-    Material m = ground ? ground_material() : cell_material(cell, n_geo);
+    Surface s;
+    s.p = p;
+    s.n_geo = n_geo;
+    s.v = v;
+    s.cell = cell;
+    s.pixel_size = pixel_size;
+    s.m = ground ? ground_material() : cell_material(cell, n_geo);
 #if SPHERE_PLATE_PASS
-    if (!ground) m.metallic = g_plate_metallic;
+    if (!ground) s.m.metallic = g_plate_metallic;
 #endif
-    vec3 n = n_geo;
+    s.n = n_geo;
+    s.occlusion = 1.0;
 #if USE_TEXTURES
-    float occlusion = 1.0;
     if (!ground) {   // glTF: texture values scale the cell's factors
         SurfaceTexels tx = sample_surface(n_geo, pixel_size, cell);
-        apply_texels(m, cell, tx);
-        occlusion = tx.orm.r;
-        n = tx.normal;
+        apply_texels(s.m, cell, tx);
+        s.occlusion = tx.orm.r;
+        s.n = tx.normal;
     }
 #endif
 #if BUG_UNCLAMPED_NDOTV
-    float n_dot_v = dot(n, v);
+    s.n_dot_v = dot(s.n, v);
 #else
-    float n_dot_v = max(dot(n, v), MIN_N_DOT_V);
+    s.n_dot_v = max(dot(s.n, v), MIN_N_DOT_V);
 #endif
-    vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
-    float e_single = dfg.x + dfg.y;
-    vec3 color = vec3(0.0);
-#if USE_AO
-    float ao = ground && !blocked ? 1.0 : ambient_occlusion(p, n_geo, cell);
-#endif
+    s.dfg = dfg_lookup(s.n_dot_v, s.m.perceptual_roughness);
+    s.e_single = s.dfg.x + s.dfg.y;
+    return s;
+}
+
 #if USE_IBL
+// The environment's light on the point as the IBL method integrates it: the spheres per pixel
+// (sampled) or by the split sum, the ground from its table.
+vec3 environment_ibl(Surface s, bool ground) {
 #if IBL_METHOD == sampled && !BUG_FEWTAP_IBL
-    // The spheres integrate the environment per pixel.
-    vec3 ibl = !ground ? shade_ibl_sampled(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
+    return !ground ? shade_ibl_sampled(s.m, s.n, s.v, s.n_dot_v, s.dfg) : ground_ibl_term(s.m, s.n, s.v, s.n_dot_v, s.dfg);
 #else
-    vec3 ibl = !ground ? shade_ibl(m, n, v, n_dot_v, dfg) : ground_ibl_term(m, n, v, n_dot_v, dfg);
+    return !ground ? shade_ibl(s.m, s.n, s.v, s.n_dot_v, s.dfg) : ground_ibl_term(s.m, s.n, s.v, s.n_dot_v, s.dfg);
 #endif
+}
+
 #if !BUG_FEWTAP_IBL
-    vec3 diffuse_ibl = ibl_diffuse(m, dfg, n);   // the sphere's diffuse share of ibl (the rest is its specular)
-#endif
-#if USE_TEXTURES && !BUG_FEWTAP_IBL
-    if (!ground) {
-        // A mapped normal can turn the mirror direction below the sphere's own surface, which
-        // blocks that light (the reference's convention): the specular fades as r sinks
-        // (Filament's horizon occlusion, (1 + r . n_geo)^2 clamped). 256² against 2048 spp:
-        // hammered 0.1109 -> 0.0908 mean FLIP, riveted 0.0510 -> 0.0509; a fade as narrow as
-        // the lobe (a step for a mirror) measured 0.0860 and 0.0527.
-        float horizon = saturate(1.0 + dot(reflect(-v, n), n_geo));
-        ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
-    }
+// A sphere's environment light as its surface and its floor shape it; diffuse_ibl is its
+// diffuse share. `light_specular` < 1: a bounce ray's, whose smooth sphere's mirrored sky the
+// floor gets in closed form (stage_bounce.glsl).
+vec3 sphere_environment(Surface s, vec3 ibl, vec3 diffuse_ibl, float light_specular) {
+#if USE_TEXTURES
+    // A mapped normal can turn the mirror direction below the sphere's own surface, which
+    // blocks that light (the reference's convention): the specular fades as r sinks
+    // (Filament's horizon occlusion, (1 + r . n_geo)^2 clamped). 256² against 2048 spp:
+    // hammered 0.1109 -> 0.0908 mean FLIP, riveted 0.0510 -> 0.0509; a fade as narrow as
+    // the lobe (a step for a mirror) measured 0.0860 and 0.0527.
+    float horizon = saturate(1.0 + dot(reflect(-s.v, s.n), s.n_geo));
+    ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
 #endif
 #if BOUNCE_MIRROR_DIRECTIONS > 0
-    if (!ground && light_specular < 1.0) {   // the bounce rays: a smooth sphere's mirrored sky is closed-form
-        ibl = diffuse_ibl + (ibl - diffuse_ibl) * mix(1.0, light_specular, mirrored_sky_share(reflect(-v, n).y));
-    }
+    if (light_specular < 1.0)
+        ibl = diffuse_ibl + (ibl - diffuse_ibl) * mix(1.0, light_specular, mirrored_sky_share(reflect(-s.v, s.n).y));
 #endif
 #if FLOOR_PARALLAX
     // The floor as the sphere's point sees it, not its centre (floor_parallax.glsl): its
     // diffuse. The specular reads the probe with its own parallax (scene.glsl stage_parallax).
-    if (!ground) ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_parallax_irradiance(n) * INV_PI);
+    ibl += ibl_mix(s.m, s.dfg, vec3(0.0), vec3(0.0), floor_parallax_irradiance(s.n) * INV_PI);
 #endif
-#if NEIGHBOUR_LIGHT
-    // The base layer's specular share of the sky (without its diffuse), which the neighbours
-    // hide by their share of the lobe rather than by the AO's cosine-weighted share.
-    vec3 sky_specular = ibl - diffuse_ibl;
+    return ibl;
+}
 #endif
-#if LAYERED_IBL
-    if (!ground) ibl = layer_ibl(m, n, v, n_dot_v, ibl, diffuse_ibl, bounce_ray);
-#endif
+
 #if USE_AO
+// The environment light the stage leaves the point: ao, the cosine-weighted share of its sky
+// it sees. `blocked` false: the open floor (shadow catcher, see-through spheres) keeps it all.
+vec3 occluded_environment(Surface s, vec3 ibl, float ao, bool ground, bool blocked) {
 #if STAGE == cells && AO_METHOD == analytic && !BUG_FEWTAP_IBL
     if (ground) {
         // The ground: its sphere hides a cosine-weighted share of the diffuse light and the
@@ -150,87 +163,160 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
         // other: the cosine-weighted average over the whole sky left the studio's floor up to
         // 17 % bright beside the sphere, and the lobe's share of the table's specular (as if
         // the sphere hid the lobe's mean sky) left its reflection 15 % off in front of it.
-        if (blocked) {   // the open floor (shadow catcher, see-through spheres) keeps it all
-            vec3 diffuse = m.base_color_linear * dfg.z * sh_irradiance(n) * INV_PI;
-            HiddenSky hidden = sky_behind_sphere(p, v, m.alpha);
+        if (blocked) {
+            vec3 diffuse = s.m.base_color_linear * s.dfg.z * sh_irradiance(s.n) * INV_PI;
+            HiddenSky hidden = sky_behind_sphere(s.p, s.v, s.m.alpha);
             vec3 specular = ibl - diffuse;
-            ibl = max(diffuse - m.base_color_linear * dfg.z * (1.0 - ao) * hidden.diffuse, vec3(0.0))
-                + max(specular - hidden.specular * energy_compensation(vec3(DIELECTRIC_F0), e_single), vec3(0.0));
+            ibl = max(diffuse - s.m.base_color_linear * s.dfg.z * (1.0 - ao) * hidden.diffuse, vec3(0.0))
+                + max(specular - hidden.specular * energy_compensation(vec3(DIELECTRIC_F0), s.e_single), vec3(0.0));
         }
-    } else
+        return ibl;
+    }
 #endif
-    ibl *= ao;
+    return ibl * ao;
+}
+#endif
+
+#if NEIGHBOUR_LIGHT
+// The shared stage: a sphere's neighbours hide their share of its sky's specular (sky_specular,
+// which they hide by their share of the lobe rather than by the AO's cosine-weighted share) and
+// give their own light there; the floor gets the spheres' light where the AO took the sky away.
+vec3 neighbours_environment(Surface s, vec3 ibl, vec3 sky_specular, float ao, bool ground, bool blocked) {
+    if (!ground) {
+        NeighbourLight near = neighbour_light(s.p, s.n, reflect(-s.v, s.n), s.m.alpha, s.cell);
+        ibl += sky_specular * (1.0 - min(near.lobe_share, 1.0) - ao)
+             + ibl_mix(s.m, s.dfg, near.specular, near.specular, near.irradiance_over_pi);
+    } else if (blocked) {
+        ibl += ibl_mix(s.m, s.dfg, vec3(0.0), vec3(0.0), floor_sphere_irradiance_over_pi(s.p, s.n));
+    }
+    return ibl;
+}
+#endif
+
+// The indirect light leaving the point: the environment as the stage lets it reach the point,
+// its neighbours' and (cells stage) its own floor's light. See shade_point for the flags.
+vec3 indirect_light(Surface s, float ao, bool ground, float light_specular, bool blocked, bool bounce_ray) {
+    vec3 ibl = environment_ibl(s, ground);
+#if !BUG_FEWTAP_IBL
+    vec3 diffuse_ibl = ibl_diffuse(s.m, s.dfg, s.n);   // the sphere's diffuse share of ibl (the rest is its specular)
+    if (!ground) ibl = sphere_environment(s, ibl, diffuse_ibl, light_specular);
 #endif
 #if NEIGHBOUR_LIGHT
-    if (!ground) {   // the neighbours hide their share of the sky and give their own light there
-        NeighbourLight near = neighbour_light(p, n, reflect(-v, n), m.alpha, cell);
-        ibl += sky_specular * (1.0 - min(near.lobe_share, 1.0) - ao)
-             + ibl_mix(m, dfg, near.specular, near.specular, near.irradiance_over_pi);
-    } else if (blocked) {   // the floor: the spheres' light where the AO took the sky away
-        ibl += ibl_mix(m, dfg, vec3(0.0), vec3(0.0), floor_sphere_irradiance_over_pi(p, n));
-    }
+    vec3 sky_specular = ibl - diffuse_ibl;
+#endif
+#if LAYERED_IBL
+    if (!ground) ibl = layer_ibl(s.m, s.n, s.v, s.n_dot_v, ibl, diffuse_ibl, bounce_ray);
+#endif
+#if USE_AO
+    ibl = occluded_environment(s, ibl, ao, ground, blocked);
+#endif
+#if NEIGHBOUR_LIGHT
+    ibl = neighbours_environment(s, ibl, sky_specular, ao, ground, blocked);
 #endif
 #if BOUNCE_CACHE && !SPHERE_PLATE_PASS && !GATHER_PLATE
     // The sphere's own light back from its floor (the sphere plate leaves it to the chart,
     // which reads each cell's own cache: the plate's slot stands for several cells).
-    if (!ground) ibl += bounce_gather(m, p, n, v, dfg, cell);
+    if (!ground) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell);
 #elif BOUNCE_CACHE && GATHER_PLATE
-    if (!ground && bounce_ray) ibl += bounce_gather(m, p, n, v, dfg, cell);   // the chart's from the plate
+    if (!ground && bounce_ray) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell);   // the chart's from the plate
 #endif
 #if USE_TEXTURES
-    ibl *= occlusion;   // the ORM occlusion darkens indirect light only
+    ibl *= s.occlusion;   // the ORM occlusion darkens indirect light only
 #endif
-    color += ibl;
+    return ibl;
+}
 #endif
+
 #if NUM_DIR_LIGHTS > 0
+// The directional lights' light, added to color one by one; on the ground `blocked` by the
+// spheres' shadows.
+void add_directional_lights(Surface s, bool ground, float light_spread, float light_specular, bool blocked,
+                            bool bounce_ray, inout vec3 color) {
     for (int i = 0; i < NUM_DIR_LIGHTS; ++i) {
         vec3 l = u_dir_light_direction[i];
-        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(u_dir_light_angular_radius[i], light_spread), e_single,
-                                 light_specular, bounce_ray) * u_dir_light_illuminance[i];
+        vec3 c = lights_brdf_cos(s.m, s.n, s.v, l, s.n_dot_v, max(u_dir_light_angular_radius[i], light_spread),
+                                 s.e_single, light_specular, bounce_ray) * u_dir_light_illuminance[i];
 #if USE_SHADOWS && (STAGE == cells || SCENE_SDF == nearest_cell)
         // The ground receives every light's shadow (each sphere's share of the disc, shadow.glsl;
         // on the cells stage over the pixel's footprint).
-        if (ground && blocked && dot(n, l) > 0.0) {
+        if (ground && blocked && dot(s.n, l) > 0.0) {
 #if STAGE == cells
-            c *= footprint_shadow(p + n_geo * (1e-3 * u_radius), v, pixel_size, l, max(u_dir_light_angular_radius[i], 1e-3));
+            c *= footprint_shadow(s.p + s.n_geo * (1e-3 * u_radius), s.v, s.pixel_size, l,
+                                  max(u_dir_light_angular_radius[i], 1e-3));
 #else
-            c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
+            c *= soft_shadow(s.p + s.n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[i], 1e-3)));
 #endif
         }
 #elif USE_SHADOWS
         // Light 0 is the key light; the ground receives its shadow.
-        if (i == 0 && ground && blocked && dot(n, l) > 0.0)
-            c *= soft_shadow(p + n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
+        if (i == 0 && ground && blocked && dot(s.n, l) > 0.0)
+            c *= soft_shadow(s.p + s.n_geo * (1e-3 * u_radius), l, 1.0 / tan(max(u_dir_light_angular_radius[0], 1e-3)));
 #endif
         color += c;
     }
+}
 #endif
+
 #if NUM_POINT_LIGHTS > 0
+// The point lights' light, added to color one by one; on the ground `blocked` by the spheres.
+void add_point_lights(Surface s, bool ground, float light_spread, float light_specular, bool blocked,
+                      bool bounce_ray, inout vec3 color) {
     for (int i = 0; i < NUM_POINT_LIGHTS; ++i) {
-        vec3 to_light = u_point_light_position[i] - p;
+        vec3 to_light = u_point_light_position[i] - s.p;
         float dist = length(to_light);
         vec3 l = to_light / dist;
         float angle = point_angular_radius(i, dist);
-        vec3 c = lights_brdf_cos(m, n, v, l, n_dot_v, max(angle, light_spread), e_single, light_specular, bounce_ray)
+        vec3 c = lights_brdf_cos(s.m, s.n, s.v, l, s.n_dot_v, max(angle, light_spread), s.e_single, light_specular,
+                                 bounce_ray)
                * u_point_light_intensity[i]
                * point_falloff(dist, u_point_light_range[i]);
 #if USE_SHADOWS && STAGE == cells
         // The sphere's shadow on its floor, over the pixel's footprint (shadow.glsl).
         if (ground && blocked)
-            c *= footprint_point_visibility(p + n_geo * (1e-3 * u_radius), p, v, pixel_size, l, dist, angle);
+            c *= footprint_point_visibility(s.p + s.n_geo * (1e-3 * u_radius), s.p, s.v, s.pixel_size, l, dist, angle);
 #elif USE_SHADOWS && SCENE_SDF == nearest_cell
         // The spheres between the ground and the light, each hiding its share of the light's disc.
         if (ground && blocked)
-            c *= grid_shadow(p + n_geo * (1e-3 * u_radius), l, max(angle, 1e-4), dist);
+            c *= grid_shadow(s.p + s.n_geo * (1e-3 * u_radius), l, max(angle, 1e-4), dist);
 #endif
         color += c;
     }
+}
+#endif
+
+// Radiance leaving a surface point towards the camera: its indirect light (the environment,
+// occluded by AO) plus the punctual lights (shadowed on the ground where shadows are composed
+// in). Each physical term is a function above, its variants chosen by the plan's options.
+// `ground` is a literal at every call (shade_sphere, shade_ground below): after inlining, each
+// keeps only its own code (a runtime test let llvmpipe run the ground's occlusion for every
+// sphere point too). `blocked` (a literal too): the ground's light as its sphere blocks it
+// (occlusion, shadows); false gives the open floor a shadow catcher divides by.
+// `light_spread`, `light_specular`: the bounce rays' (shade_sphere_for_bounce), 0 and 1
+// (literals) elsewhere; `bounce_ray` (a literal) true there.
+vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground, float light_spread,
+                 float light_specular, bool blocked, bool bounce_ray) {
+    Surface s = surface_at(p, n_geo, v, cell, pixel_size, ground);
+    vec3 color = vec3(0.0);
+#if USE_AO
+    float ao = ground && !blocked ? 1.0 : ambient_occlusion(p, n_geo, cell);
+#else
+    float ao = 1.0;
+#endif
+#if USE_IBL
+    vec3 ibl = indirect_light(s, ao, ground, light_specular, blocked, bounce_ray);
+    color += ibl;
+#endif
+#if NUM_DIR_LIGHTS > 0
+    add_directional_lights(s, ground, light_spread, light_specular, blocked, bounce_ray, color);
+#endif
+#if NUM_POINT_LIGHTS > 0
+    add_point_lights(s, ground, light_spread, light_specular, blocked, bounce_ray, color);
 #endif
 #if BUG_AO_ON_DIRECT && USE_AO
     color = (color - ibl) * ao + ibl;   // occlusion now also darkens the lights
 #endif
 #if EMISSION
-    if (!ground) color += surface_emission(m, v);
+    if (!ground) color += surface_emission(s.m, v);
 #endif
     return color;
 }
