@@ -14,6 +14,12 @@
 // (as (R / d)^3), and the whole plane on the tile.
 uniform sampler2D u_bounce_cache;
 uniform int u_bounce_cache_tile;
+uniform bool u_bounce_cache_drawn;   // false before the first draw: nothing to read yet
+
+// A bounce ray's sphere point (in the cache's and the bounce plate's draws) reads the cache
+// from fewer directions: it carries the later round trips, a few per cent of the light, and
+// it is shaded BOUNCE_RAYS times per texel (the gather's reads were most of a cache draw).
+#define BOUNCE_RAY_GATHER_SAMPLES max(BOUNCE_GATHER_SAMPLES / 4, 2)
 
 vec2 bounce_cache_warp(vec2 xz) { return xz / (u_radius + abs(xz)); }
 
@@ -36,9 +42,10 @@ vec3 floor_bounce_along(vec3 origin, vec3 d, ivec2 cell) {
 // The light the sphere's point p (normal n, seen along v, material m, dfg its LUT entry) gets
 // back from its floor's bounce: the cosine-weighted mean over the directions that meet the
 // floor (the diffuse) and the GGX lobe's mean about the mirror direction (the specular), each
-// from BOUNCE_GATHER_SAMPLES fixed Hammersley directions, weighed by the material as the split
-// sum weighs the environment (ibl_mix).
-vec3 bounce_gather(Material m, vec3 p, vec3 n, vec3 v, vec3 dfg, ivec2 cell) {
+// from `samples` fixed Hammersley directions, weighed by the material as the split sum weighs
+// the environment (ibl_mix).
+vec3 bounce_gather(Material m, vec3 p, vec3 n, vec3 v, vec3 dfg, ivec2 cell, int samples) {
+    if (!u_bounce_cache_drawn) return vec3(0.0);
     vec3 r = reflect(-v, n);
     // A point facing up sees the floor only near its horizon, and its mirror ray goes up: the
     // bounce there is under what 8 bits show (n.y 0.75: the floor fills 1 % of the cosine).
@@ -47,7 +54,7 @@ vec3 bounce_gather(Material m, vec3 p, vec3 n, vec3 v, vec3 dfg, ivec2 cell) {
     basis(n, t, b);
     vec3 diffuse = vec3(0.0), specular = vec3(0.0);
     float specular_weight = 0.0;
-    uint count = uint(BOUNCE_GATHER_SAMPLES);
+    uint count = uint(samples);
     for (uint i = 0u; i < count; ++i) {
         vec2 u = hammersley(i, count);
         float s = sqrt(u.x), phi = 2.0 * PI * u.y;

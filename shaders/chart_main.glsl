@@ -106,7 +106,7 @@ vec3 sphere_gather(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell) {
 #elif BOUNCE_CACHE && SPHERE_PLATE
     Material m = cell_material(cell, n_geo);
     vec3 dfg = dfg_lookup(max(dot(n_geo, v), MIN_N_DOT_V), m.perceptual_roughness);
-    return bounce_gather(m, p, n_geo, v, dfg, cell);
+    return bounce_gather(m, p, n_geo, v, dfg, cell, BOUNCE_GATHER_SAMPLES);
 #else
     return vec3(0.0);
 #endif

@@ -216,9 +216,11 @@ vec3 indirect_light(Surface s, float ao, bool ground, float light_specular, bool
 #if BOUNCE_CACHE && !SPHERE_PLATE_PASS && !GATHER_PLATE
     // The sphere's own light back from its floor (the sphere plate leaves it to the chart,
     // which reads each cell's own cache: the plate's slot stands for several cells).
-    if (!ground) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell);
+    if (!ground) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell,
+                                     bounce_ray ? BOUNCE_RAY_GATHER_SAMPLES : BOUNCE_GATHER_SAMPLES);
 #elif BOUNCE_CACHE && GATHER_PLATE
-    if (!ground && bounce_ray) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell);   // the chart's from the plate
+    // The chart's from the plate.
+    if (!ground && bounce_ray) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell, BOUNCE_RAY_GATHER_SAMPLES);
 #endif
 #if USE_TEXTURES
     ibl *= s.occlusion;   // the ORM occlusion darkens indirect light only

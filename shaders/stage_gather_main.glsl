@@ -30,7 +30,7 @@ void gather_plate_texel() {
     vec3 v = -rd;
     Material m = cell_material(g_cell, n);
     vec3 dfg = dfg_lookup(max(dot(n, v), MIN_N_DOT_V), m.perceptual_roughness);
-    out_gather = vec4(bounce_gather(m, n * u_radius, n, v, dfg, g_cell), 1.0);
+    out_gather = vec4(bounce_gather(m, n * u_radius, n, v, dfg, g_cell, BOUNCE_GATHER_SAMPLES), 1.0);
 }
 
 void main() {

@@ -38,8 +38,8 @@ PLATE_CACHE_MAX_BYTES = 16 << 20
 # scene without the last frame's.
 PLATE_TEXTURES = ("u_floor_plate", "u_bounce_cache", "u_bounce_plate", "u_gather_plate", "u_slot_cells",
                   "u_sphere_slots", "u_sphere_plate")
-PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_cache_tile", "u_bounce_tile", "u_bounce_step", "u_gather_tile",
-                  "u_gather_step", "u_sphere_origin", "u_sphere_tile", "u_sphere_tiles_x")
+PLATE_UNIFORMS = ("u_plate_origin", "u_bounce_cache_tile", "u_bounce_cache_drawn", "u_bounce_tile", "u_bounce_step",
+                  "u_gather_tile", "u_gather_step", "u_sphere_origin", "u_sphere_tile", "u_sphere_tiles_x")
 
 
 def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached: bool = True) -> None:
@@ -208,12 +208,13 @@ def _bounce_cache(session, plan: RenderPlan, scene, cached: bool) -> None:
     grid = plan.frame.grid
     tile = plan.bounce_cache_tile
     size = (grid.cols * tile, grid.rows * tile)
-    scene.uniforms["u_bounce_cache_tile"] = tile
-    zero = np.zeros((size[1], size[0], 4), np.float32)
-    scene.replace_texture("u_bounce_cache", session.ctx.texture(size, 4, zero, dtype="f4"), key=array_key(zero))
+    scene.uniforms.update(u_bounce_cache_tile=tile, u_bounce_cache_drawn=False)
+    zero = np.zeros((1, 1, 4), np.float32)   # bound, never read (u_bounce_cache_drawn)
+    scene.replace_texture("u_bounce_cache", session.ctx.texture((1, 1), 4, zero, dtype="f4"), key=array_key(zero))
     for _ in range(plan.bounce_iterations):
         scene.replace_texture("u_bounce_cache", *_plate_pass(session, plan, plan.bounce_cache, scene, size,
                                                              cached=cached))
+        scene.uniforms["u_bounce_cache_drawn"] = True
 
 
 def _plate_grid(session, plan: RenderPlan, step: int) -> tuple[tuple[int, int], int]:

@@ -165,7 +165,7 @@ class Quality:
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
     bounce_mirror_directions: int = 16   # ... and directions of the stage a smooth sphere mirrors onto it
     bounce_texels: int = 8           # ... shaded on a grid of this many texels per sphere radius (0: every pixel)
-    hidden_sky_samples: int = 32     # cells stage: reads of the sky the sphere hides from its floor (ao.glsl)
+    hidden_sky_samples: int = 256    # cells stage: reads of the sky a sphere hides from its foot (ao.glsl)
     # The ground's IBL from a table over the view direction, baked once per environment with
     # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
     # on an edge.
@@ -176,7 +176,7 @@ class Quality:
     # a tile of bounce_cache_texels a side per cell, read by each sphere point from
     # bounce_gather_samples directions a lobe
     bounce_iterations: int = 2
-    bounce_cache_texels: int = 32
+    bounce_cache_texels: int = 16
     bounce_gather_samples: int = 8
     # cells stage: the floor seen from each sphere point rather than the centre, a table over
     # the normal of floor_parallax_size texels a cube face, floor_parallax_samples directions each
@@ -207,21 +207,23 @@ QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=512, sh_size=16, sphere_samples_radius=0,
                      ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, bounce_mirror_directions=8,
-                     hidden_sky_samples=8, bounce_iterations=1, bounce_gather_samples=4,
+                     hidden_sky_samples=32, bounce_iterations=1, bounce_gather_samples=4,
                      ground_ibl_size=64, neighbour_light=False),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
                     ibl_size=256, ibl_samples=256, dfg_size=128, dfg_samples=2048,
-                    # the sky behind the sphere in 256 shares: 128² against its 327680-spp reference
-                    # 0.0180 -> 0.0173 FLIP (64 -> 256), a new 1024² chart 8.3 -> 9.7 s here
-                    ibl_method="sampled", ibl_pixel_samples=256, hidden_sky_samples=256,
+                    # the sky behind the sphere in 1024 shares at its foot (fewer as its disc
+                    # shrinks, ao.glsl): at 256 everywhere 128² against its 327680-spp reference
+                    # went 0.0180 -> 0.0173 FLIP (64 -> 256)
+                    ibl_method="sampled", ibl_pixel_samples=256, hidden_sky_samples=1024,
                     # silhouette pixels' covered part in 4 points: 128² 0.0154 -> 0.0143 FLIP, the
                     # 1024² frame's draws 1.27 -> 1.57 s here
                     edge_samples=4,
                     # the studio a polished sphere mirrors onto its floor from 64 directions: 128²
                     # 0.0143 -> 0.0138 (the floor in front of the polished metals 0.92 -> 0.69 %
                     # dark; 256: 0.66 %); the 1024² frame 790 / 776 ms with 16 / 64 here
-                    bounce_mirror_directions=64, bounce_iterations=4, bounce_gather_samples=32),
+                    bounce_mirror_directions=64, bounce_iterations=4, bounce_gather_samples=32,
+                    bounce_cache_texels=32),
     # A Shadertoy-style raymarcher's approach on our scene (docs/model.md): every sphere in the SDF, 100 steps to a
     # fixed 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
