@@ -162,16 +162,26 @@ def read_json(path: str | Path, what: str, kind: str = "manifest"):
     return parse_json(read_input(path, what, kind), f"{what} {printable(path)}")
 
 
+def outside_refusal(base: str | Path, name, what: str) -> SpecError:
+    """The one message for a file named outside the folder ``base`` (whether or not it exists)."""
+    return SpecError(f"{what}: {name!r} is outside the folder {str(base)!r}; only files inside it are read")
+
+
+def plain_relative(name) -> bool:
+    """Whether ``name`` is a plain relative path: not empty, not absolute, not a home (~) or
+    Windows root, no URI scheme (file:, http:, a drive letter C:), no NUL."""
+    from urllib.parse import urlsplit
+    return (isinstance(name, str) and bool(name) and "\0" not in name and not os.path.isabs(name)
+            and not name.startswith(("\\", "~")) and not urlsplit(name).scheme)
+
+
 def confined(base: str | Path, name: str, what: str) -> Path:
     """The file ``name`` (a relative path an asset or entry gives, percent-decoded by the
-    caller where its format says so) inside the folder ``base``, with symlinks resolved. An
-    absolute path, a URI with a scheme, or a path that leads outside ``base`` (through '..' or
-    a symlink) is refused with the same words whether or not the outside file exists."""
-    from urllib.parse import urlsplit
-    refusal = SpecError(f"{what}: {name!r} is outside the folder {str(base)!r}; only files inside it are read")
-    if not name or "\0" in name or os.path.isabs(name) or name.startswith(("\\", "~")):
-        raise refusal
-    if urlsplit(name).scheme:   # file:, http:, a drive letter (C:): never a file beside the asset
+    caller where its format says so) inside the folder ``base``, with symlinks resolved. A
+    name that is not plain_relative, or a path that leads outside ``base`` (through '..' or a
+    symlink) is refused with the same words whether or not the outside file exists."""
+    refusal = outside_refusal(base, name, what)
+    if not plain_relative(name):
         raise refusal
     root = Path(os.path.realpath(base))
     target = Path(os.path.realpath(root / name))

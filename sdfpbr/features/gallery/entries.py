@@ -16,10 +16,9 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import urlsplit
 
 from ...errors import SpecError
-from ...inputs import check_input, confined
+from ...inputs import check_input, confined, outside_refusal, plain_relative
 from ...spec.chart_spec import ChartSpec, entry_refusal, spec_from_mapping
 from ...spec.checks import text
 from ...spec.presets import MAX_CAPTION
@@ -90,9 +89,8 @@ def inside(root: str | Path, base_dir: str | Path, name: str, what: str) -> Path
     the tree ``root``) if it lies inside ``root`` with symlinks resolved; a SpecError otherwise,
     in the same words whether or not the outside file exists (sdfpbr.inputs.confined). The
     path is returned as named, not resolved: specs and messages show it as before."""
-    refusal = SpecError(f"{what}: {name!r} is outside the folder {str(root)!r}; only files inside it are read")
-    if not isinstance(name, str) or not name or "\0" in name or os.path.isabs(name) \
-            or name.startswith(("\\", "~")) or urlsplit(name).scheme:
+    refusal = outside_refusal(root, name, what)
+    if not plain_relative(name):
         raise refusal
     tree, base = os.path.realpath(root), os.path.realpath(base_dir)
     rel = os.path.relpath(base, tree)
