@@ -193,7 +193,7 @@ def bounce_step(frame: ChartFrame) -> int:
     q = frame.quality
     if q.bounce_texels <= 0:
         return 1
-    return max(1, int(frame.sphere_radius_px // q.bounce_texels))
+    return max(1, round(frame.sphere_radius_px / q.bounce_texels))
 
 
 def sphere_samples(frame: ChartFrame) -> int:
