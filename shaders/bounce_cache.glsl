@@ -6,17 +6,17 @@
 // draws it `bounce_iterations` times (bounce_cache_main.glsl), each time with the sphere lit
 // by the last one: sky -> floor -> sphere -> floor -> ... one round trip more per draw, so the
 // series converges as the preset's effort grows. The sphere reads it here (bounce_gather), the
-// floor's bounce plate through the sphere it shades.
+// floor's bounce prepass through the sphere it shades.
 //
 // A tile of u_bounce_cache_tile texels a side per cell (tile origin cell * tile, as the bounce
-// plate's). Floor point (x, z) (from the sphere's axis) sits at a = x / (R + |x|) in (-1, 1)
+// prepass's). Floor point (x, z) (from the sphere's axis) sits at a = x / (R + |x|) in (-1, 1)
 // on each axis: texels R / 16 apart at the contact for 32 a side, wider as the bounce fades
 // (as (R / d)^3), and the whole plane on the tile.
 uniform sampler2D u_bounce_cache;
 uniform int u_bounce_cache_tile;
 uniform bool u_bounce_cache_drawn;   // false before the first draw: nothing to read yet
 
-// A bounce ray's sphere point (in the cache's and the bounce plate's draws) reads the cache
+// A bounce ray's sphere point (in the cache's and the bounce prepass's draws) reads the cache
 // from fewer directions: it carries the later round trips, a few per cent of the light, and
 // it is shaded BOUNCE_RAYS times per texel (the gather's reads were most of a cache draw).
 #define BOUNCE_RAY_GATHER_SAMPLES max(BOUNCE_GATHER_SAMPLES / 4, 2)

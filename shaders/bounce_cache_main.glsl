@@ -16,7 +16,7 @@ layout(location = 0) out vec4 out_bounce;
 
 void bounce_cache_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
-    g_cell = texel / u_bounce_cache_tile;   // (col, row from the top), as the bounce plate's
+    g_cell = texel / u_bounce_cache_tile;   // (col, row from the top), as the bounce prepass's
     vec3 q = bounce_cache_point(vec2(texel - g_cell * u_bounce_cache_tile));
     float spacing = 2.0 * u_radius / float(u_bounce_cache_tile);
     out_bounce = vec4(sphere_bounce_toward(q, normalize(-q), g_cell, spacing, false), 1.0);

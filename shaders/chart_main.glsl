@@ -16,7 +16,7 @@
 #include "edge_coverage.glsl"
 #endif
 #endif
-#if STAGE == cells && HAS_GROUND && USE_AO && !BOUNCE_PLATE
+#if STAGE == cells && HAS_GROUND && USE_AO && !BOUNCE_PREPASS
 #include "stage_bounce.glsl"   // the light the AO takes from the floor's sky, given back by the sphere
 #endif
 #if SEE_THROUGH && STAGE == cells && HAS_GROUND && USE_SHADOWS && USE_TEXTURES
@@ -59,51 +59,51 @@ vec2 sample_offset(int i) {
     return (vec2(float(i), float((i * u_sample_step) % u_spp)) + 0.5) / float(u_spp);
 }
 
-#if FLOOR_PLATE
-uniform sampler2D u_floor_plate;   // the floor's light without its sphere's bounce (stage_floor_main.glsl)
-uniform vec2 u_plate_origin;       // the cell pixel of its texel (0, 0)
+#if FLOOR_PREPASS
+uniform sampler2D u_floor_prepass;   // the floor's light without its sphere's bounce (stage_floor_main.glsl)
+uniform vec2 u_prepass_origin;       // the cell pixel of its texel (0, 0)
 #endif
-#if BOUNCE_PLATE
-uniform sampler2D u_bounce_plate;  // each cell's sphere's light on its floor, every u_bounce_step pixels
+#if BOUNCE_PREPASS
+uniform sampler2D u_bounce_prepass;  // each cell's sphere's light on its floor, every u_bounce_step pixels
 uniform ivec2 u_bounce_tile;       // texels per cell (stage_bounce_main.glsl)
 uniform float u_bounce_step;
 
-// The bounce at a cell-frame position, interpolated between the plate's texels in its cell's
+// The bounce at a cell-frame position, interpolated between the prepass's texels in its cell's
 // tile (clamped to the tile: a neighbour's sphere lights its own floor, not this one).
-vec3 bounce_plate(vec2 position) {
-    vec2 at = clamp((position - u_plate_origin - 0.5) / u_bounce_step, vec2(0.0), vec2(u_bounce_tile - 1));
-    return texture(u_bounce_plate, (vec2(g_cell * u_bounce_tile) + at + 0.5) / vec2(textureSize(u_bounce_plate, 0))).rgb;
+vec3 bounce_prepass(vec2 position) {
+    vec2 at = clamp((position - u_prepass_origin - 0.5) / u_bounce_step, vec2(0.0), vec2(u_bounce_tile - 1));
+    return texture(u_bounce_prepass, (vec2(g_cell * u_bounce_tile) + at + 0.5) / vec2(textureSize(u_bounce_prepass, 0))).rgb;
 }
 #endif
 
-#if SPHERE_PLATE
-uniform sampler2D u_sphere_plate;  // each slot's sphere per cell pixel, as a dielectric and as a metal
+#if SPHERE_PREPASS
+uniform sampler2D u_sphere_prepass;  // each slot's sphere per cell pixel, as a dielectric and as a metal
 uniform sampler2D u_sphere_slots;  // each cell's slot (texel (col, row))
 uniform ivec2 u_sphere_origin;     // the cell pixel of a tile's texel (0, 0) (stage_sphere_main.glsl)
 uniform ivec2 u_sphere_tile;       // texels of a tile: the cell's pixels and the image's margins
 uniform int u_sphere_tiles_x;
-ivec2 g_plate_texel = ivec2(0);    // the pixel being drawn, in a tile
+ivec2 g_prepass_texel = ivec2(0);    // the pixel being drawn, in a tile
 
-vec3 sphere_plate_tile(int index) {
+vec3 sphere_prepass_tile(int index) {
     ivec2 tile = ivec2(index % u_sphere_tiles_x, index / u_sphere_tiles_x);
-    return texelFetch(u_sphere_plate, tile * u_sphere_tile + g_plate_texel, 0).rgb;
+    return texelFetch(u_sphere_prepass, tile * u_sphere_tile + g_prepass_texel, 0).rgb;
 }
 #endif
 
-#if GATHER_PLATE
-uniform sampler2D u_gather_plate;  // each cell's sphere's light back from its floor (stage_gather_main.glsl)
+#if GATHER_PREPASS
+uniform sampler2D u_gather_prepass;  // each cell's sphere's light back from its floor (stage_gather_main.glsl)
 uniform ivec2 u_gather_tile;
 uniform float u_gather_step;
 #endif
 
 // What the sphere point p gets back from its floor's bounce cache where shade_point leaves it
-// out: read from the gather plate at the pixel's position, or gathered here where the sphere
-// plate stands for several cells.
+// out: read from the gather prepass at the pixel's position, or gathered here where the sphere
+// prepass stands for several cells.
 vec3 sphere_gather(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell) {
-#if GATHER_PLATE
-    vec2 at = clamp((position - u_plate_origin - 0.5) / u_gather_step, vec2(0.0), vec2(u_gather_tile - 1));
-    return texture(u_gather_plate, (vec2(cell * u_gather_tile) + at + 0.5) / vec2(textureSize(u_gather_plate, 0))).rgb;
-#elif BOUNCE_CACHE && SPHERE_PLATE
+#if GATHER_PREPASS
+    vec2 at = clamp((position - u_prepass_origin - 0.5) / u_gather_step, vec2(0.0), vec2(u_gather_tile - 1));
+    return texture(u_gather_prepass, (vec2(cell * u_gather_tile) + at + 0.5) / vec2(textureSize(u_gather_prepass, 0))).rgb;
+#elif BOUNCE_CACHE && SPHERE_PREPASS
     Material m = cell_material(cell, n_geo);
     vec3 dfg = dfg_lookup(max(dot(n_geo, v), MIN_N_DOT_V), m.perceptual_roughness);
     return bounce_gather(m, p, n_geo, v, dfg, cell, BOUNCE_GATHER_SAMPLES);
@@ -113,18 +113,18 @@ vec3 sphere_gather(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell) {
 }
 
 // The light a sphere point sends to the camera (seen through `position`): shaded here, or
-// (SPHERE_PLATE) the cell's slot from the plate as a dielectric and as a metal, mixed by the
-// cell's metallic (the shading is linear in it). The plate leaves the sphere's shading out of
+// (SPHERE_PREPASS) the cell's slot from the prepass as a dielectric and as a metal, mixed by the
+// cell's metallic (the shading is linear in it). The prepass leaves the sphere's shading out of
 // this program: a software rasterizer runs both sides of a branch.
 vec3 sphere_radiance(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 #if SPHERE_PIXELS == skipped
     // The spheres' pixels are drawn over by the sphere pass (SPHERE_PIXELS only, on each
     // sphere's box): a software rasterizer would shade the sphere for every floor pixel too.
     return vec3(0.0);
-#elif SPHERE_PLATE
+#elif SPHERE_PREPASS
     int slot = int(texelFetch(u_sphere_slots, cell, 0).r);
     float metallic = cell_texel(cell, 0).a;
-    vec3 dielectric = sphere_plate_tile(2 * slot), metal = sphere_plate_tile(2 * slot + 1);
+    vec3 dielectric = sphere_prepass_tile(2 * slot), metal = sphere_prepass_tile(2 * slot + 1);
     // The ends exactly (a NaN at one end stays out of the other).
     vec3 radiance = metallic <= 0.0 ? dielectric : metallic >= 1.0 ? metal : mix(dielectric, metal, metallic);
     return radiance + sphere_gather(position, p, n_geo, v, cell);
@@ -143,23 +143,23 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
     return vec4(sphere_radiance(position, ro + rd * hit.t, hit.normal, -rd, hit.cell, footprint.x + footprint.y * hit.t), 1.0);
 #endif
 #endif
-#if FLOOR_PLATE
-    // The plate holds what a miss sees too: the background is the same in every cell.
-    vec4 plate = hit.cell.x < 0 ? texture(u_floor_plate, (position - u_plate_origin) / vec2(textureSize(u_floor_plate, 0)))
+#if FLOOR_PREPASS
+    // The prepass holds what a miss sees too: the background is the same in every cell.
+    vec4 prepass = hit.cell.x < 0 ? texture(u_floor_prepass, (position - u_prepass_origin) / vec2(textureSize(u_floor_prepass, 0)))
                                 : vec4(0.0);
-    if (hit.t < 0.0) return vec4(plate.rgb, 0.0);
+    if (hit.t < 0.0) return vec4(prepass.rgb, 0.0);
 #else
     if (hit.t < 0.0) return vec4(background(rd), 0.0);
 #endif
     vec3 p = ro + rd * hit.t;
     float pixel_size = footprint.x + footprint.y * hit.t;
-#if FLOOR_PLATE
-    vec3 radiance = hit.cell.x < 0 ? plate.rgb : sphere_radiance(position, p, hit.normal, -rd, hit.cell, pixel_size);
+#if FLOOR_PREPASS
+    vec3 radiance = hit.cell.x < 0 ? prepass.rgb : sphere_radiance(position, p, hit.normal, -rd, hit.cell, pixel_size);
 #else
     vec3 radiance = hit.cell.x < 0 ? shade_ground(p, -rd, pixel_size) : sphere_radiance(position, p, hit.normal, -rd, hit.cell, pixel_size);
 #endif
-#if BOUNCE_PLATE
-    if (hit.cell.x < 0) radiance += bounce_plate(position);
+#if BOUNCE_PREPASS
+    if (hit.cell.x < 0) radiance += bounce_prepass(position);
 #elif STAGE == cells && HAS_GROUND && USE_AO
     if (hit.cell.x < 0) radiance += sphere_bounce(p, -rd, g_cell, pixel_size);
 #endif
@@ -178,8 +178,8 @@ vec4 shade_hit(vec2 position, vec3 ro, vec3 rd, Hit hit, vec2 footprint) {
 #endif
 #if SHADOW_CATCHER
     if (hit.cell.x < 0) {
-#if FLOOR_PLATE
-        vec4 catcher = shadow_catcher(radiance, plate.a);
+#if FLOOR_PREPASS
+        vec4 catcher = shadow_catcher(radiance, prepass.a);
 #else
         vec4 catcher = shadow_catcher(radiance, luminance(shade_open_ground(p, -rd, pixel_size)));
 #endif
@@ -235,8 +235,8 @@ void chart_pixel(vec2 frag_coord) {
 #if STAGE == cells
     pixel = cell_pixel(pixel, g_cell);   // the camera then sees this cell's own scene
 #endif
-#if SPHERE_PLATE
-    g_plate_texel = ivec2(pixel) - u_sphere_origin;   // whole pixels: cells are whole pixels apart
+#if SPHERE_PREPASS
+    g_prepass_texel = ivec2(pixel) - u_sphere_origin;   // whole pixels: cells are whole pixels apart
 #endif
     vec2 footprint = pixel_footprint();
     Hit centre;            // the pixel-centre ray's hit, for the AOVs
@@ -268,8 +268,8 @@ void chart_pixel(vec2 frag_coord) {
 #if SPHERE_PIXELS == only
     if (sphere_share == 0.0) discard;   // the chart pass's pixel stands
 #endif
-#if SPHERE_SAMPLES > 1 && !SPHERE_PLATE && SPHERE_PIXELS != skipped
-    // A small sphere's inside pixels average n x n points of their box, as the sphere plate's
+#if SPHERE_SAMPLES > 1 && !SPHERE_PREPASS && SPHERE_PIXELS != skipped
+    // A small sphere's inside pixels average n x n points of their box, as the sphere prepass's
     // do (stage_sphere_main.glsl), so both paths draw the same sphere.
     // The points whose rays meet the sphere (all but a few by the silhouette).
     if (!edge && sphere_share > 0.0) {
@@ -284,9 +284,9 @@ void chart_pixel(vec2 frag_coord) {
     }
 #endif
 #if EDGE_PIXELS != skipped
-#if EDGE_SAMPLES > 1 && !SPHERE_PLATE
+#if EDGE_SAMPLES > 1 && !SPHERE_PREPASS
     // A silhouette pixel's covered part: the mean of its samples whose rays meet the sphere
-    // (as the sphere plate's texel, stage_sphere_main.glsl); the first ray was sample 0.
+    // (as the sphere prepass's texel, stage_sphere_main.glsl); the first ray was sample 0.
     if (edge) {
         vec4 sum = radiance * sphere_share;
         float count = sphere_share;

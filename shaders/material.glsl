@@ -44,7 +44,7 @@ Material cell_material(ivec2 cell, vec3 n_geo) {
 // glTF: texture values scale the cell's factors (roughness before its clamp).
 void apply_texels(inout Material m, ivec2 cell, SurfaceTexels tx) {
     m.base_color_linear *= tx.base_color_linear;
-    m.metallic *= tx.orm.b;   // the factor (cell_material), or the sphere plate's end
+    m.metallic *= tx.orm.b;   // the factor (cell_material), or the sphere prepass's end
     set_roughness(m, cell_texel(cell, 1).x * tx.orm.g);
 #if EMISSION
     m.emission_linear *= tx.emission_linear;

@@ -57,8 +57,8 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 }
 
 
-#if SPHERE_PLATE_PASS
-float g_plate_metallic = 0.0;   // the sphere plate shades each slot's sphere at metallic 0 and 1
+#if SPHERE_PREPASS_PASS
+float g_prepass_metallic = 0.0;   // the sphere prepass shades each slot's sphere at metallic 0 and 1
 #endif
 
 // A point as shade_point shades it: its material (the maps applied on a sphere), its normals,
@@ -88,8 +88,8 @@ Surface surface_at(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, boo
     s.cell = cell;
     s.pixel_size = pixel_size;
     s.m = ground ? ground_material() : cell_material(cell, n_geo);
-#if SPHERE_PLATE_PASS
-    if (!ground) s.m.metallic = g_plate_metallic;
+#if SPHERE_PREPASS_PASS
+    if (!ground) s.m.metallic = g_prepass_metallic;
 #endif
     s.n = n_geo;
     s.occlusion = 1.0;
@@ -213,13 +213,13 @@ vec3 indirect_light(Surface s, float ao, bool ground, float light_specular, bool
 #if NEIGHBOUR_LIGHT
     ibl = neighbours_environment(s, ibl, sky_specular, ao, ground, blocked);
 #endif
-#if BOUNCE_CACHE && !SPHERE_PLATE_PASS && !GATHER_PLATE
-    // The sphere's own light back from its floor (the sphere plate leaves it to the chart,
-    // which reads each cell's own cache: the plate's slot stands for several cells).
+#if BOUNCE_CACHE && !SPHERE_PREPASS_PASS && !GATHER_PREPASS
+    // The sphere's own light back from its floor (the sphere prepass leaves it to the chart,
+    // which reads each cell's own cache: the prepass's slot stands for several cells).
     if (!ground) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell,
                                      bounce_ray ? BOUNCE_RAY_GATHER_SAMPLES : BOUNCE_GATHER_SAMPLES);
-#elif BOUNCE_CACHE && GATHER_PLATE
-    // The chart's from the plate.
+#elif BOUNCE_CACHE && GATHER_PREPASS
+    // The chart's from the prepass.
     if (!ground && bounce_ray) ibl += bounce_gather(s.m, s.p, s.n, s.v, s.dfg, s.cell, BOUNCE_RAY_GATHER_SAMPLES);
 #endif
 #if USE_TEXTURES

@@ -6,21 +6,21 @@
 #include "surface_shading.glsl"
 #include "stage_bounce.glsl"
 
-// The cells stage's bounce plate (BOUNCE_PLATE): the light each cell's sphere bounces onto its
+// The cells stage's bounce prepass (BOUNCE_PREPASS): the light each cell's sphere bounces onto its
 // own floor (stage_bounce.glsl: BOUNCE_RAYS shadings of the sphere per floor point) varies
 // over the scale of the sphere, not of a pixel, so it is shaded on a grid u_bounce_step cell
 // pixels apart and the chart interpolates it (chart_main.glsl). One tile of u_bounce_tile
-// texels per cell (the cell's material), spanning the floor plate's extent: tile texel (i, j)
-// is the pixel centre u_plate_origin + 0.5 + (i, j) u_bounce_step of that cell's frame.
+// texels per cell (the cell's material), spanning the floor prepass's extent: tile texel (i, j)
+// is the pixel centre u_prepass_origin + 0.5 + (i, j) u_bounce_step of that cell's frame.
 layout(location = 0) out vec4 out_bounce;
-uniform vec2 u_plate_origin;
+uniform vec2 u_prepass_origin;
 uniform ivec2 u_bounce_tile;
 uniform float u_bounce_step;
 
-void bounce_plate_texel() {
+void bounce_prepass_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     g_cell = texel / u_bounce_tile;   // (col, row from the top), as grid_cell gives the chart
-    vec2 position = u_plate_origin + 0.5 + vec2(texel - g_cell * u_bounce_tile) * u_bounce_step;
+    vec2 position = u_prepass_origin + 0.5 + vec2(texel - g_cell * u_bounce_tile) * u_bounce_step;
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     float t = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;
@@ -30,6 +30,6 @@ void bounce_plate_texel() {
 }
 
 void main() {
-    bounce_plate_texel();
+    bounce_prepass_texel();
     loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
 }

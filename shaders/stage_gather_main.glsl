@@ -6,23 +6,23 @@
 #include "surface_shading.glsl"
 #include "ray_sphere.glsl"
 
-// The cells stage's gather plate (GATHER_PLATE): what each cell's sphere gets back from its
+// The cells stage's gather prepass (GATHER_PREPASS): what each cell's sphere gets back from its
 // floor's bounce cache (bounce_cache.glsl bounce_gather), on a grid of texels u_gather_step
-// cell pixels apart (half the bounce plate's: near the sphere's foot it changes faster than
-// the floor's bounce), a tile per cell over the plate's extent, drawn over the sphere's box
+// cell pixels apart (half the bounce prepass's: near the sphere's foot it changes faster than
+// the floor's bounce), a tile per cell over the prepass's extent, drawn over the sphere's box
 // and interpolated by the chart. Per pixel the gather's 2 x BOUNCE_GATHER_SAMPLES reads of the cache cost a
 // 512² default chart 40 % of its draw on llvmpipe; what it reads varies over the floor's
 // scale, not a pixel's. Texels whose ray passes the sphere by take the sphere's point nearest
 // the ray, so that the interpolation runs on smoothly up to the silhouette.
 layout(location = 0) out vec4 out_gather;
-uniform vec2 u_plate_origin;
+uniform vec2 u_prepass_origin;
 uniform ivec2 u_gather_tile;
 uniform float u_gather_step;
 
-void gather_plate_texel() {
+void gather_prepass_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     g_cell = texel / u_gather_tile;
-    vec2 position = u_plate_origin + 0.5 + vec2(texel - g_cell * u_gather_tile) * u_gather_step;
+    vec2 position = u_prepass_origin + 0.5 + vec2(texel - g_cell * u_gather_tile) * u_gather_step;
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
@@ -34,6 +34,6 @@ void gather_plate_texel() {
 }
 
 void main() {
-    gather_plate_texel();
+    gather_prepass_texel();
     loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
 }

@@ -9,7 +9,7 @@
 #include "edge_coverage.glsl"
 #endif
 
-// The cells stage's sphere plate (SPHERE_PLATE, sdfpbr/shading/cells.py): each slot's sphere
+// The cells stage's sphere prepass (SPHERE_PREPASS, sdfpbr/shading/cells.py): each slot's sphere
 // shaded once per cell pixel at metallic 0 (tile 2 k) and 1 (tile 2 k + 1), at the points the
 // chart's own rays of that pixel meet it (the centre, or with the analytic edge the covered
 // part's samples, as chart_main.glsl's chart_pixel traces), with the material of a cell of
@@ -40,13 +40,13 @@ void add_sphere_point(vec2 q, vec2 footprint, inout vec3 sum, inout float count)
 }
 #endif
 
-void sphere_plate_texel() {
+void sphere_prepass_texel() {
     ivec2 texel = ivec2(gl_FragCoord.xy);
     ivec2 tile = texel / u_sphere_tile;
     int index = tile.y * u_sphere_tiles_x + tile.x;
     vec2 pixel = vec2(texel - tile * u_sphere_tile + u_sphere_origin);   // as chart_pixel's
     g_cell = ivec2(texelFetch(u_slot_cells, ivec2(index / 2, 0), 0).rg);
-    g_plate_metallic = float(index % 2);
+    g_prepass_metallic = float(index % 2);
     out_radiance = vec4(0.0);
     vec2 footprint = pixel_footprint();
 #if ANALYTIC_AA
@@ -69,7 +69,7 @@ void sphere_plate_texel() {
         return;   // the same ray as the chart's: it reads no texel here
 #endif
     }
-#if ANALYTIC_AA   // (without it the chart takes one ray a pixel, as the plate does below)
+#if ANALYTIC_AA   // (without it the chart takes one ray a pixel, as the prepass does below)
 #if EDGE_SAMPLES > 1
     // A silhouette pixel: the mean of points spread across its covered part
     // (edge_coverage.glsl), those whose rays meet the sphere, as the chart takes them.
@@ -108,6 +108,6 @@ void sphere_plate_texel() {
 }
 
 void main() {
-    sphere_plate_texel();
+    sphere_prepass_texel();
     loop_guard();   // whether its loops ran in full (gpu/loop_guard.py)
 }

@@ -1,5 +1,5 @@
 // What shading a surface point takes (shade.glsl and every module it calls), included by each
-// program that shades one: the chart, the cells stage's probe and its floor plate. The program
+// program that shades one: the chart, the cells stage's probe and its floor prepass. The program
 // includes common, hit and scene first.
 #include "ggx.glsl"
 #include "visibility.glsl"

@@ -90,7 +90,7 @@ def pytest_runtest_setup(item):
 @pytest.fixture(scope="session", autouse=True)
 def cache_dir(tmp_path_factory):
     """The run's own disk cache, for every test (autouse: a CLI subprocess never writes to the
-    user's ~/.cache). Bakes (IBL, DFG, plates) are most of the suite's time, so the xdist
+    user's ~/.cache). Bakes (IBL, DFG, prepasses) are most of the suite's time, so the xdist
     workers share one cache: a bake one worker made, the others read. Workers may write one
     key at once: entries are written whole and renamed into place (test_concurrency)."""
     if os.environ.get("PYTEST_XDIST_WORKER"):

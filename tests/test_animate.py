@@ -301,16 +301,16 @@ def test_an_orbits_other_frames_differ_by_resampling_only(orbit_pair):
         assert metrics.flip_ldr(turned[i].image, direct[i].image)[0] < 0.005, i
 
 
-def test_an_animation_keeps_no_plates(monkeypatch, tmp_path):
-    """Plates save a still chart's start; an animation (its compile spread over its frames)
+def test_an_animation_keeps_no_prepasses(monkeypatch, tmp_path):
+    """Prepasses save a still chart's start; an animation (its compile spread over its frames)
     writes none, not even its first frame's (its bakes: the test above)."""
     from sdfpbr.cache import ArrayCache
-    from sdfpbr.gpu.plates import PLATE_KIND
+    from sdfpbr.gpu.prepasses import PREPASS_KIND
     from sdfpbr.gpu.session import default_session
     session = default_session()
-    monkeypatch.setattr(session, "cache", ArrayCache(tmp_path))   # where plates would go
+    monkeypatch.setattr(session, "cache", ArrayCache(tmp_path))   # where prepasses would go
     spec = make_spec(**SMALL, lights=(Light("directional", direction=(0.2, 0.7, 0.3)),))
     assert animate(spec, 3, "light", progress=False).count == 3
-    assert not list(tmp_path.rglob(f"{PLATE_KIND}/*.npz"))
+    assert not list(tmp_path.rglob(f"{PREPASS_KIND}/*.npz"))
     chart(spec)                                                   # the same first frame, as a still
-    assert list((tmp_path / PLATE_KIND).glob("*.npz"))
+    assert list((tmp_path / PREPASS_KIND).glob("*.npz"))

@@ -67,12 +67,12 @@ EDGE_CASES = [dict(), dict(width=256, height=256, rows=64, cols=64), dict(width=
               camera_elevation=25.0), dict(stage="shared", rows=2, cols=7, width=420, height=160),
               dict(camera="orthographic"), dict(camera_distance_scale=1.7), dict(textures="procedural"),
               dict(alpha=(0.3, 1.0), x_axis="alpha"), dict(transparent=True),
-              # no sphere plate (every cell its own material): the sphere pass too
+              # no sphere prepass (every cell its own material): the sphere pass too
               dict(y_axis="clearcoat", sheen_color=(0.6, 0.3, 0.4), ior=2.0),
               dict(row_materials=("gold", "copper", "silver"), rows=3, cols=4, transparent=True),
               dict(gltf=str(DATA.parent.parent / "charts" / "materials.glb"), width=300, height=200),
               dict(y_axis="clearcoat", width=256, height=256, rows=20, cols=20),
-              # the covered part in four samples (high's): the sphere plate's, the sphere pass's,
+              # the covered part in four samples (high's): the sphere prepass's, the sphere pass's,
               # the shared stage's and a see-through sphere's edges
               dict(edge_samples=4), dict(edge_samples=4, y_axis="clearcoat", sheen_color=(0.6, 0.3, 0.4), ior=2.0),
               dict(edge_samples=4, stage="shared", rows=2, cols=7, width=420, height=160),
@@ -97,7 +97,7 @@ def test_the_edge_pass_draws_what_the_chart_draws_inline(sibling, monkeypatch, o
     spec = make_spec(**{"width": 256, "height": 256, "quality": "draft", **options})
     plan = render_plan(spec, passes=True)
     assert plan.edge_pass is not None and plan.options["EDGE_PIXELS"] == "skipped"
-    assert (plan.sphere_pass is not None) == (plan.options["STAGE"] == "cells" and not plan.options["SPHERE_PLATE"])
+    assert (plan.sphere_pass is not None) == (plan.options["STAGE"] == "cells" and not plan.options["SPHERE_PREPASS"])
     fragment = sibling(chart_shader="fragment", tile=tile)
     with fragment:
         a = render_chart(fragment, spec, plan=render_plan(spec, passes=False))
@@ -150,7 +150,7 @@ def test_boxes_too_small_for_the_spheres_leave_them_unshaded(session, monkeypatc
 
 def test_a_sphere_pass_without_an_edge_pass_draws_the_edges_itself(sibling):
     """Between the two passes' sizes (SPHERE_PASS_MIN_PIXELS, EDGE_PASS_MIN_PIXELS) a chart
-    without the sphere plate has a sphere pass alone, which draws the silhouettes' pixels too."""
+    without the sphere prepass has a sphere pass alone, which draws the silhouettes' pixels too."""
     from sdfpbr.gpu.render import render_chart
     from sdfpbr.shading.plan import render_plan
     spec = make_spec(width=600, height=500, rows=3, cols=4, quality="draft", y_axis="clearcoat")
@@ -168,7 +168,7 @@ def test_a_sphere_pass_without_an_edge_pass_draws_the_edges_itself(sibling):
 
 
 @pytest.mark.parametrize("options, edges, spheres", [
-    (dict(width=1024, height=1024), True, False),            # the default: the sphere plate
+    (dict(width=1024, height=1024), True, False),            # the default: the sphere prepass
     (dict(width=512, height=512), False, False),             # too small to earn a program back
     (dict(width=768, height=768, y_axis="clearcoat"), True, True),
     (dict(width=600, height=500, y_axis="clearcoat"), False, True),

@@ -102,16 +102,16 @@ def test_shader_command_from_another_directory(tmp_path):
 
 
 def test_shader_command_prints_each_program_of_the_frame(capsys):
-    """The default chart's sphere is shaded by the sphere plate's program: `--program` shows it;
+    """The default chart's sphere is shaded by the sphere prepass's program: `--program` shows it;
     a program the chart does not run is one line naming those it does, exit 2."""
-    assert main(["shader", "--program", "sphere-plate"]) == 0
+    assert main(["shader", "--program", "sphere-prepass"]) == 0
     assert "// composed by sdfpbr from stage_sphere_main.glsl" in capsys.readouterr().out
     assert main(["shader", "--display"]) == 0
     assert "// composed by sdfpbr from display_main.glsl" in capsys.readouterr().out
-    assert main(["shader", "--program", "sphere-plate", "--spp", "4"]) == 2   # stratified rays: no plate
+    assert main(["shader", "--program", "sphere-prepass", "--spp", "4"]) == 2   # stratified rays: no prepass
     err = capsys.readouterr().err
-    runs = "floor-plate, bounce-cache, bounce-plate, gather-plate, chart"
-    assert err.count("\n") == 1 and f"runs no sphere-plate program; it runs: {runs}" in err
+    runs = "floor-prepass, bounce-cache, bounce-prepass, gather-prepass, chart"
+    assert err.count("\n") == 1 and f"runs no sphere-prepass program; it runs: {runs}" in err
 
 
 def test_features_left_out_are_absent_from_the_source():
@@ -121,10 +121,10 @@ def test_features_left_out_are_absent_from_the_source():
     # (the lights' loops call lights_brdf_cos with the light's angle, max(...); the helpers
     # themselves may stay, unused)
     for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light",
-                   "lights_brdf_cos(m, n, v, l, n_dot_v, max("):
+                   "lights_brdf_cos(s.m, s.n, s.v, l, s.n_dot_v, max("):
         assert needle in full and needle not in bare, needle
     # One ray a pixel, the edge not anti-aliased: no loop over further samples (llvmpipe would
-    # run its body once although it runs no turn), nor the sphere's shading (the sphere plate).
+    # run its body once although it runs no turn), nor the sphere's shading (the sphere prepass).
     one = render_plan(make_spec(antialias=False)).chart.text
     several = render_plan(make_spec(antialias=False, spp=4)).chart.text
     assert "sample_offset(s)" in several and "sample_offset(s)" not in one

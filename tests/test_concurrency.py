@@ -55,7 +55,7 @@ def gallery(tmp_path_factory):
 
 
 def baked(gallery, cache: Path) -> Path:
-    """``cache`` holding the reference build's bakes (IBL, DFG, plates, labels) and none of its
+    """``cache`` holding the reference build's bakes (IBL, DFG, prepasses, labels) and none of its
     images: a build there renders and writes every image as into an empty cache, without
     baking again (2.1 of a cold build's 2.7 CPU seconds here). For tests whose claims are about
     the images and the build kind; cold caches stay where bakes are part of the claim."""

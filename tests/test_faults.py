@@ -227,7 +227,7 @@ SMALL_CHART = ("chart", "--size", "64x64", "--no-labels")
 
 @pytest.fixture(scope="module")
 def clean_bakes(tmp_path_factory):
-    """A cache a clean 64 x 64 chart baked into (its IBL, DFG and plates; a build of a 64 x 64
+    """A cache a clean 64 x 64 chart baked into (its IBL, DFG and prepasses; a build of a 64 x 64
     entry reads the same): each test below starts from a copy, damages its entries and
     watches them baked again, without baking them cold first (2.5 of a cold chart's 2.9 CPU
     seconds here)."""

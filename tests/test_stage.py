@@ -209,39 +209,41 @@ def test_labels_sit_on_the_spheres(session):
 
 
 @pytest.mark.parametrize("size", [(160, 120), (163, 127)])   # margins beyond the grid: 0/1, 1/2 and 3/4 px
-def test_floor_plate_is_the_per_pixel_floor(session, monkeypatch, size):
+def test_floor_prepass_is_the_per_pixel_floor(session, monkeypatch, size):
     """The floor shaded once per cell pixel and read back by every cell gives, at every pixel
-    whose centre ray meets the floor, what shading that pixel's floor point gives: the plate's
+    whose centre ray meets the floor, what shading that pixel's floor point gives: the prepass's
     texel is the same point (float32 texture, read at its centre), so within float rounding."""
     import dataclasses
     from sdfpbr.spec.presets import QUALITY_PRESETS
     spec = make_spec(width=size[0], height=size[1], rows=2, cols=4)
-    plate = session.render(spec)
-    monkeypatch.setitem(QUALITY_PRESETS, "default", dataclasses.replace(QUALITY_PRESETS["default"], floor_plate=False))
+    prepass = session.render(spec)
+    monkeypatch.setitem(QUALITY_PRESETS, "default",
+                        dataclasses.replace(QUALITY_PRESETS["default"], floor_prepass=False))
     direct = session.render(spec)
-    floor = (plate.aov["row"] < 0) & np.isfinite(plate.aov["depth"]) & (plate.aov["coverage"] == 0)
+    floor = (prepass.aov["row"] < 0) & np.isfinite(prepass.aov["depth"]) & (prepass.aov["coverage"] == 0)
     assert floor.sum() > 0.3 * floor.size
-    np.testing.assert_allclose(plate.hdr[floor], direct.hdr[floor], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(prepass.hdr[floor], direct.hdr[floor], rtol=1e-5, atol=1e-7)
 
 
-def test_floor_plate_holds_the_background_where_no_floor_is_seen(session, monkeypatch):
+def test_floor_prepass_holds_the_background_where_no_floor_is_seen(session, monkeypatch):
     """Where a cell's pixel-centre ray meets no floor (the sky above the horizon: here the top
-    margin of a chart of 64 thin rows), the plate holds the background the chart would draw."""
+    margin of a chart of 64 thin rows), the prepass holds the background the chart would draw."""
     import dataclasses
     from sdfpbr.spec.presets import QUALITY_PRESETS
     spec = make_spec(width=96, height=700, rows=64, cols=1, labels=False)
-    plate = session.render(spec)
-    monkeypatch.setitem(QUALITY_PRESETS, "default", dataclasses.replace(QUALITY_PRESETS["default"], floor_plate=False))
+    prepass = session.render(spec)
+    monkeypatch.setitem(QUALITY_PRESETS, "default",
+                        dataclasses.replace(QUALITY_PRESETS["default"], floor_prepass=False))
     direct = session.render(spec)
-    sky = ~np.isfinite(plate.aov["depth"])
+    sky = ~np.isfinite(prepass.aov["depth"])
     assert sky.sum() > 1000
-    np.testing.assert_allclose(plate.hdr[sky], direct.hdr[sky], rtol=1e-5, atol=1e-7)
-    np.testing.assert_array_equal(plate.alpha[sky], direct.alpha[sky])
+    np.testing.assert_allclose(prepass.hdr[sky], direct.hdr[sky], rtol=1e-5, atol=1e-7)
+    np.testing.assert_array_equal(prepass.alpha[sky], direct.alpha[sky])
 
 
 @pytest.fixture(scope="module")
 def bounce_pair(session):
-    """A chart whose spheres are big enough for the bounce plate (every ~6 px), rendered with it
+    """A chart whose spheres are big enough for the bounce prepass (every ~6 px), rendered with it
     and with the bounce shaded per pixel; each cell a different material, so a bounce read from
     the wrong cell's tile would show."""
     import dataclasses
@@ -250,20 +252,20 @@ def bounce_pair(session):
     spec = make_spec(width=480, height=366, rows=2, cols=3, roughness=(0, 0.6), metallic=(0, 1),
                      base_color=(0.9, 0.2, 0.05))
     step = bounce_step(chart_frame(spec))
-    assert step > 2 and render_plan(spec).options["BOUNCE_PLATE"]
-    plate = session.render(spec)
+    assert step > 2 and render_plan(spec).options["BOUNCE_PREPASS"]
+    prepass = session.render(spec)
     default = QUALITY_PRESETS["default"]
     try:
         QUALITY_PRESETS["default"] = dataclasses.replace(default, bounce_texels=0)
-        assert not render_plan(spec).options["BOUNCE_PLATE"]
+        assert not render_plan(spec).options["BOUNCE_PREPASS"]
         direct = session.render(spec)
         QUALITY_PRESETS["default"] = dataclasses.replace(default, bounce_texels=0, bounce_rays=0,
                                                          bounce_mirror_directions=0)
         unlit = session.render(spec)                    # the floor without the sphere's rays or its mirror image
     finally:
         QUALITY_PRESETS["default"] = default
-    floor = (plate.aov["row"] < 0) & np.isfinite(plate.aov["depth"]) & (plate.aov["coverage"] == 0)
-    return spec, step, plate, direct, unlit, floor
+    floor = (prepass.aov["row"] < 0) & np.isfinite(prepass.aov["depth"]) & (prepass.aov["coverage"] == 0)
+    return spec, step, prepass, direct, unlit, floor
 
 
 def test_the_bounce_rays_weights_are_gauss_radau_on_the_caps_solid_angle():
@@ -285,11 +287,11 @@ def test_the_bounce_rays_weights_are_gauss_radau_on_the_caps_solid_angle():
     assert abs(rule[3] - exact[3]) > 0.01     # degree 3 is beyond a two-node Radau rule
 
 
-def test_bounce_plate_is_the_per_pixel_bounce_at_its_texels(bounce_pair):
-    """Where a floor pixel's centre is one of the plate's texels (every step-th pixel of the
-    cell's frame, from the plate's origin), the interpolated bounce is that texel's: the same
+def test_bounce_prepass_is_the_per_pixel_bounce_at_its_texels(bounce_pair):
+    """Where a floor pixel's centre is one of the prepass's texels (every step-th pixel of the
+    cell's frame, from the prepass's origin), the interpolated bounce is that texel's: the same
     shading at the same point, so the pixel equals the per-pixel render within float rounding."""
-    spec, step, plate, direct, _, floor = bounce_pair
+    spec, step, prepass, direct, _, floor = bounce_pair
     g = chart_frame(spec).grid
     bottom = spec.height - g.top - g.rows * g.cell_height
     gl_y, x = np.mgrid[spec.height - 1:-1:-1, :spec.width]          # GL rows, top row first
@@ -297,12 +299,12 @@ def test_bounce_plate_is_the_per_pixel_bounce_at_its_texels(bounce_pair):
     cell_y = (gl_y - bottom) % g.cell_height
     texel = floor & ((cell_x + g.left) % step == 0) & ((cell_y + bottom) % step == 0)
     assert texel.sum() > 0.5 * floor.sum() / step ** 2
-    np.testing.assert_allclose(plate.hdr[texel], direct.hdr[texel], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(prepass.hdr[texel], direct.hdr[texel], rtol=1e-5, atol=1e-7)
 
 
-def cell_bounce_ratios(spec, plate, direct, unlit, floor):
+def cell_bounce_ratios(spec, prepass, direct, unlit, floor):
     """Each cell's total bounce on its floor (the floor's light less the unlit floor's), as the
-    plate's over the per-pixel render's."""
+    prepass's over the per-pixel render's."""
     lum = np.array([0.2126, 0.7152, 0.0722])
     g = chart_frame(spec).grid
     out = []
@@ -314,7 +316,7 @@ def cell_bounce_ratios(spec, plate, direct, unlit, floor):
             on = cell & floor
             want = ((direct.hdr - unlit.hdr)[on] @ lum).sum()
             assert want > 0
-            out.append(((plate.hdr - unlit.hdr)[on] @ lum).sum() / want)
+            out.append(((prepass.hdr - unlit.hdr)[on] @ lum).sum() / want)
     return np.array(out)
 
 
@@ -323,29 +325,29 @@ def bounce_interpolation_bound(spec, step):
     the sphere's form factor seen from the floor point, ~ 1/d^2 near it, so it curves as
     f''/f ~ 6/d^2, most where the visible floor comes nearest, d ~ R; interpolating over h
     misses h^2 f''/8, i.e. 0.75 (h/R)^2 of it. Plus 0.5 % for the per-pixel estimate's own
-    steps (its ray count and ring change with the floor point), which the plate smooths."""
+    steps (its ray count and ring change with the floor point), which the prepass smooths."""
     return 0.75 * (step / chart_frame(spec).sphere_radius_px) ** 2 + 0.005
 
 
-def test_bounce_plate_carries_each_cells_own_bounce(bounce_pair):
-    """Between texels the plate interpolates: each cell's total bounce on its floor is the
+def test_bounce_prepass_carries_each_cells_own_bounce(bounce_pair):
+    """Between texels the prepass interpolates: each cell's total bounce on its floor is the
     per-pixel total within the interpolation bound (~1.6 % at texels R / 8 apart)."""
-    spec, step, plate, direct, unlit, floor = bounce_pair
-    ratios = cell_bounce_ratios(spec, plate, direct, unlit, floor)
+    spec, step, prepass, direct, unlit, floor = bounce_pair
+    ratios = cell_bounce_ratios(spec, prepass, direct, unlit, floor)
     assert (np.abs(ratios - 1) < bounce_interpolation_bound(spec, step)).all(), ratios
 
 
-def test_bounce_plate_coarsens_to_fit_the_largest_texture(session, bounce_pair):
+def test_bounce_prepass_coarsens_to_fit_the_largest_texture(session, bounce_pair):
     """Tiles that would not fit in one texture (an image wider than the context's largest
     texture at that step) are taken twice as far apart until they do, and the bound follows."""
-    spec, step, plate, direct, unlit, floor = bounce_pair
+    spec, step, prepass, direct, unlit, floor = bounce_pair
     kept = session.max_texture_size
     try:
         session.max_texture_size = spec.cols * (spec.width // spec.cols // step + 2) - 1   # one step too fine
         coarse = session.render(spec)
     finally:
         session.max_texture_size = kept
-    assert not np.array_equal(coarse.hdr, plate.hdr)   # another grid than the plate's own
+    assert not np.array_equal(coarse.hdr, prepass.hdr)   # another grid than the prepass's own
     ratios = cell_bounce_ratios(spec, coarse, direct, unlit, floor)
     assert (np.abs(ratios - 1) < bounce_interpolation_bound(spec, 2 * step)).all(), ratios
 
@@ -375,8 +377,8 @@ def _with_quality(monkeypatch, quality="default", **changes):
     monkeypatch.setitem(QUALITY_PRESETS, quality, dataclasses.replace(QUALITY_PRESETS[quality], **changes))
 
 
-def _without_sphere_plate(monkeypatch, quality="default"):
-    _with_quality(monkeypatch, quality, sphere_plate=False)
+def _without_sphere_prepass(monkeypatch, quality="default"):
+    _with_quality(monkeypatch, quality, sphere_prepass=False)
 
 
 @pytest.mark.parametrize("extra", [
@@ -389,31 +391,31 @@ def _without_sphere_plate(monkeypatch, quality="default"):
     dict(textures="procedural", metallic=(0.0, 0.8)),                # the map's metallic times the cell's
     dict(textures="hammered", x_axis="metallic", y_axis="roughness", clearcoat=(0.5, 0.5)),
 ])
-def test_sphere_plate_is_the_per_pixel_sphere(session, monkeypatch, extra):
+def test_sphere_prepass_is_the_per_pixel_sphere(session, monkeypatch, extra):
     """The sphere shaded once per slot as a dielectric and as a metal and mixed by each cell's
     metallic equals the sphere shaded in every cell: the shading is linear in metallic (glTF's
     mix; a map's metallic scales the cell's, so its slot's metal end is shaded at the map's),
-    the plate's texel holds the same rays' points (n x n of them on small spheres, as the
-    chart takes them), so within float rounding; every sphere pixel lies in the plate's drawn
+    the prepass's texel holds the same rays' points (n x n of them on small spheres, as the
+    chart takes them), so within float rounding; every sphere pixel lies in the prepass's drawn
     box (a pixel outside it would read 0). The bounce cache is held off: what a sphere gets
-    back from it is each cell's own, added outside the plate once a pixel (the next test)."""
+    back from it is each cell's own, added outside the prepass once a pixel (the next test)."""
     from sdfpbr.shading.plan import render_plan
     spec = make_spec(**{"size": "240x200", "rows": 4, "cols": 3, "labels": False, **extra})
     _with_quality(monkeypatch, spec.quality, bounce_iterations=0)
-    assert render_plan(spec).options["SPHERE_PLATE"]
-    plate = session.render(spec)
-    _without_sphere_plate(monkeypatch, spec.quality)
-    assert not render_plan(spec).options["SPHERE_PLATE"]
+    assert render_plan(spec).options["SPHERE_PREPASS"]
+    prepass = session.render(spec)
+    _without_sphere_prepass(monkeypatch, spec.quality)
+    assert not render_plan(spec).options["SPHERE_PREPASS"]
     direct = session.render(spec)
-    sphere = plate.aov["coverage"] > 0
+    sphere = prepass.aov["coverage"] > 0
     assert sphere.sum() > 0.1 * sphere.size
-    np.testing.assert_allclose(plate.hdr, direct.hdr, rtol=1e-5, atol=1e-7)
-    np.testing.assert_array_equal(plate.alpha, direct.alpha)
+    np.testing.assert_allclose(prepass.hdr, direct.hdr, rtol=1e-5, atol=1e-7)
+    np.testing.assert_array_equal(prepass.alpha, direct.alpha)
 
 
 @pytest.mark.parametrize("metallic", [0.0, 1.0])
-def test_the_gather_plate_is_the_per_pixel_gather(session, monkeypatch, metallic):
-    """What a sphere gets back from its bounce cache, read from the gather plate (texels R / 16
+def test_the_gather_prepass_is_the_per_pixel_gather(session, monkeypatch, metallic):
+    """What a sphere gets back from its bounce cache, read from the gather prepass (texels R / 16
     apart, interpolated) or gathered at each pixel: the same light. Bilinear between texels
     h = R / 16 apart errs by about (h / R)^2 = 0.4 % of the gather's variation over a radius
     (at most the gather itself, under half the light of a pixel facing the floor): asked, 1 %
@@ -421,39 +423,39 @@ def test_the_gather_plate_is_the_per_pixel_gather(session, monkeypatch, metallic
     from sdfpbr.shading.plan import render_plan
     spec = make_spec(size="480x240", rows=1, cols=2, labels=False, roughness=(0.0, 0.5), metallic=(metallic,) * 2,
                      base_color=(0.9, 0.9, 0.9), ground_color=(0.8, 0.8, 0.8))
-    assert render_plan(spec).options["GATHER_PLATE"]
-    plated = session.render(spec)
+    assert render_plan(spec).options["GATHER_PREPASS"]
+    from_prepass = session.render(spec)
     _with_quality(monkeypatch, "default", bounce_texels=0)
-    assert not render_plan(spec).options["GATHER_PLATE"]
+    assert not render_plan(spec).options["GATHER_PREPASS"]
     direct = session.render(spec)
-    lower = (plated.aov["coverage"] == 1) & (plated.aov["normal"][..., 1] < 0)
+    lower = (from_prepass.aov["coverage"] == 1) & (from_prepass.aov["normal"][..., 1] < 0)
     for col in (0, 1):
-        cell = lower & (plated.aov["col"] == col)
+        cell = lower & (from_prepass.aov["col"] == col)
         want = luminance(direct.hdr[..., :3])[cell].mean()
-        assert abs(luminance(plated.hdr[..., :3])[cell].mean() / want - 1) < 0.01, col
+        assert abs(luminance(from_prepass.hdr[..., :3])[cell].mean() / want - 1) < 0.01, col
 
 
-def test_sphere_plate_only_where_it_saves_shading():
-    """Slots are the cells' materials with metallic set aside; the plate is used where two
+def test_sphere_prepass_only_where_it_saves_shading():
+    """Slots are the cells' materials with metallic set aside; the prepass is used where two
     shadings per slot are fewer than one per cell, and for opaque spheres (textured too, but
     not by a glTF asset's per-cell maps) on the cells stage's one-ray-per-pixel path."""
-    from sdfpbr.shading.cells import sphere_plate as plate_of
+    from sdfpbr.shading.cells import sphere_prepass as prepass_of
     from sdfpbr.shading.plan import render_plan
 
-    def sphere_plate(spec):
-        return plate_of(spec, chart_frame(spec).plate)
-    layout = sphere_plate(make_spec(rows=3, cols=4))
+    def sphere_prepass(spec):
+        return prepass_of(spec, chart_frame(spec).prepass)
+    layout = sphere_prepass(make_spec(rows=3, cols=4))
     assert layout.slots.tolist() == [[0, 1, 2, 3]] * 3 and layout.slot_cells == ((0, 0), (1, 0), (2, 0), (3, 0))
-    assert sphere_plate(make_spec(rows=4, cols=3, x_axis="metallic", y_axis="roughness")).slots.tolist() \
+    assert sphere_prepass(make_spec(rows=4, cols=3, x_axis="metallic", y_axis="roughness")).slots.tolist() \
         == [[0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]]
-    assert sphere_plate(make_spec(rows=2, cols=4)) is None                     # 8 shadings for 8 cells
-    assert sphere_plate(make_spec(rows=3, cols=3, y_axis="clearcoat")) is None  # nothing shared
-    assert sphere_plate(make_spec(size="8192x8192")) is None                   # over the plate's memory cap
+    assert sphere_prepass(make_spec(rows=2, cols=4)) is None                     # 8 shadings for 8 cells
+    assert sphere_prepass(make_spec(rows=3, cols=3, y_axis="clearcoat")) is None  # nothing shared
+    assert sphere_prepass(make_spec(size="8192x8192")) is None                   # over the prepass's memory cap
     for extra in (dict(spp=4), dict(stage="shared"), dict(quality="seed002"), dict(alpha=(0.5, 0.5))):
-        assert not render_plan(make_spec(**extra)).options["SPHERE_PLATE"], extra
-    assert render_plan(make_spec()).options["SPHERE_PLATE"]
-    assert render_plan(make_spec(textures="procedural")).options["SPHERE_PLATE"]
-    # The plan carries the layout it decided by (the render draws it), and none without a plate.
+        assert not render_plan(make_spec(**extra)).options["SPHERE_PREPASS"], extra
+    assert render_plan(make_spec()).options["SPHERE_PREPASS"]
+    assert render_plan(make_spec(textures="procedural")).options["SPHERE_PREPASS"]
+    # The plan carries the layout it decided by (the render draws it), and none without a prepass.
     planned = render_plan(make_spec(rows=3, cols=4)).sphere_layout
     assert planned.slots.tolist() == layout.slots.tolist() and planned.slot_cells == layout.slot_cells
     assert (planned.origin, planned.tile, planned.tiles_x, planned.size) == (layout.origin, layout.tile,
@@ -462,9 +464,9 @@ def test_sphere_plate_only_where_it_saves_shading():
 
 
 @pytest.mark.parametrize("bug", sorted(__import__("sdfpbr.spec.bugs", fromlist=["BUGS"]).BUGS))
-def test_sphere_plate_is_the_per_pixel_sphere_under_every_bug(session, monkeypatch, bug):
+def test_sphere_prepass_is_the_per_pixel_sphere_under_every_bug(session, monkeypatch, bug):
     """Every catalogued bug keeps the sphere's light linear in metallic, or the plan leaves the
-    plate out (the few-tap bug; the texture bugs' textured spheres). The bounce cache held off,
+    prepass out (the few-tap bug; the texture bugs' textured spheres). The bounce cache held off,
     as above."""
     from sdfpbr.shading.plan import render_plan
     from sdfpbr.spec.bugs import BUGS
@@ -472,18 +474,18 @@ def test_sphere_plate_is_the_per_pixel_sphere_under_every_bug(session, monkeypat
     if spec.y_axis != "metallic":   # a lobe down the rows: hold it at its strongest, metallic there
         lobe = spec.y_axis
         spec = make_spec(spec, **{lobe: (getattr(spec, lobe)[1],) * 2}, y_axis="metallic", metallic=(0.0, 1.0))
-    if not render_plan(spec).options["SPHERE_PLATE"]:
+    if not render_plan(spec).options["SPHERE_PREPASS"]:
         assert bug == "fewtap-ibl" or spec.uses_textures()
         return
     _with_quality(monkeypatch, spec.quality, bounce_iterations=0)
-    plate = session.render(spec)
-    _without_sphere_plate(monkeypatch, spec.quality)
+    prepass = session.render(spec)
+    _without_sphere_prepass(monkeypatch, spec.quality)
     direct = session.render(spec)
-    np.testing.assert_allclose(plate.hdr, direct.hdr, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(prepass.hdr, direct.hdr, rtol=1e-5, atol=1e-7)
 
 
-def test_sphere_plate_averages_a_small_sphere_over_the_pixel_box(session, monkeypatch):
-    """On 16-px spheres the plate averages 3 x 3 points of each inside pixel's box: nearer the
+def test_sphere_prepass_averages_a_small_sphere_over_the_pixel_box(session, monkeypatch):
+    """On 16-px spheres the prepass averages 3 x 3 points of each inside pixel's box: nearer the
     box's integral (64 stratified points a pixel, shaded in place) than the centre alone. The
     midpoint rule's error falls as 1/n^2 where the light is smooth (1/9 here); highlights
     smaller than the points' spacing keep some: asked, half the one-point error."""

@@ -316,7 +316,7 @@ def add_shader_command(sub) -> None:
     p = sub.add_parser("shader", help="print the composed source of a program a chart runs")
     p.add_argument("--program", default="chart", metavar="NAME",
                    help="chart (default) or another program a frame of the chart runs, e.g. display, "
-                        "chart-edges or a cells-stage plate (sphere-plate holds the sphere's shading when the "
+                        "chart-edges or a cells-stage prepass (sphere-prepass holds the sphere's shading when the "
                         "chart has one); a name the chart does not run is answered with those it does")
     p.add_argument("--display", action="store_true", help="the tone-mapping program (--program display)")
     add_chart_options(p)

@@ -19,7 +19,7 @@ from ..errors import SpecError
 from ..image.animation_writer import AnimationWriter
 from ..image.io import check_writable
 from ..image.sheet import assemble, sheet_text_size
-from ..gpu.plates import PLATE_KIND
+from ..gpu.prepasses import PREPASS_KIND
 from ..gpu.session import default_session
 from ..progress import Progress
 from ..spec.chart_spec import ChartSpec, make_spec
@@ -120,14 +120,14 @@ def _frames(specs: list, desc: str, enabled: bool | None, orbit: str):
     the key light (the first directional one) about the vertical: the cells stage's probe of
     each frame after the first is composed from the first's (Session.turning_light). Bakes made
     after the first frame are not written to the disk cache (2 MB a frame no later render reads),
-    nor any frame's plates (they save a still chart's start; an animation's compile is spread
+    nor any frame's prepasses (they save a still chart's start; an animation's compile is spread
     over its frames): an animation grows the cache by its first frame's bakes at most."""
     first = specs[0][0] if isinstance(specs[0], tuple) else specs[0]
     session = default_session(first.backend, first.device_index)
     with Progress(len(specs), desc, "frames", enabled=sys.stderr.isatty() if enabled is None else enabled) as bar, \
             session.turning_light(0) if orbit == "light" else nullcontext():
         for i, spec in enumerate(specs):
-            with session.cache.reading_only(None if i else (PLATE_KIND,)):
+            with session.cache.reading_only(None if i else (PREPASS_KIND,)):
                 yield spec
             bar.update(1)
 

@@ -195,7 +195,7 @@ class SceneBindings:
 
     def add_texture(self, name: str, texture, owned: bool = False, key: str | None = None) -> None:
         """Bind ``texture`` to sampler ``name``; ``key``: a content key of what it holds (what
-        is drawn from it may be cached under it: gpu/plates.py), None where it has none."""
+        is drawn from it may be cached under it: gpu/prepasses.py), None where it has none."""
         self.textures.append((name, texture))
         self.keys[name] = key
         if owned:

@@ -8,8 +8,8 @@ import numpy as np
 from ..errors import SpecError
 from .programs import set_uniforms
 
-# What loop_guard.glsl declares: read by the draw, not part of what it draws (plates.py leaves
-# them out of the names a cached plate's key must cover).
+# What loop_guard.glsl declares: read by the draw, not part of what it draws (prepasses.py leaves
+# them out of the names a cached prepass's key must cover).
 NAMES = ("u_guard_turns", "LoopGuard")
 BINDING = 0   # the counter's storage-buffer binding
 

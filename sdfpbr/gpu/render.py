@@ -22,7 +22,7 @@ from ..shading.sheen import sheen_centroid_uniform
 from ..spec.chart_spec import ChartSpec
 from .loop_guard import LoopGuard, cut_error
 from .frame import AOVBuffers, SceneBindings, display_pass, image_slices, read_rgba, scene_bindings, tiles
-from .plates import bind_frame
+from .prepasses import bind_frame
 from .programs import set_uniforms
 
 TILE = 2048   # largest tile edge; also bounds the float targets' memory

@@ -80,8 +80,8 @@ def cell_border_mask(grid: CellGrid, border: int, width: int, height: int, rows:
     return framed(x, grid.cell_width, grid.cols) | framed(y, grid.cell_height, grid.rows)
 
 
-def plate_frame(grid: CellGrid, width: int, height: int) -> tuple[tuple[int, int], tuple[int, int]]:
-    """Where the cells stage's plates lie in a cell's frame (GL pixels, y up): the origin and
+def prepass_frame(grid: CellGrid, width: int, height: int) -> tuple[tuple[int, int], tuple[int, int]]:
+    """Where the cells stage's prepasses lie in a cell's frame (GL pixels, y up): the origin and
     size of one cell of ``grid`` plus the margins of the ``width`` x ``height`` image beyond it
     (the outer cells' pixels there see the floor further out)."""
     bottom = height - grid.top - grid.rows * grid.cell_height
@@ -89,21 +89,21 @@ def plate_frame(grid: CellGrid, width: int, height: int) -> tuple[tuple[int, int
     return (-grid.left, -bottom), (grid.left + grid.cell_width + right, bottom + grid.cell_height + grid.top)
 
 
-# ---- the sphere plate ------------------------------------------------------------------------
+# ---- the sphere prepass ------------------------------------------------------------------------
 # Every cell shows the same sphere under the same camera, and a sphere's light is linear in its
 # metallic (glTF's mix(dielectric, metal, metallic), lobes and layers alike). Cells whose
 # materials differ only in metallic (a roughness x metallic chart's columns) share one "slot":
-# the plate shades each slot's sphere once per cell pixel as a dielectric and as a metal
+# the prepass shades each slot's sphere once per cell pixel as a dielectric and as a metal
 # (stage_sphere_main.glsl) and each cell mixes the two by its own metallic (chart_main.glsl).
-# Used where it saves shading (2 x slots < cells) and the plate is small enough.
-SPHERE_PLATE_MAX_BYTES = 128 << 20   # RGBA float texels
+# Used where it saves shading (2 x slots < cells) and the prepass is small enough.
+SPHERE_PREPASS_MAX_BYTES = 128 << 20   # RGBA float texels
 GL_MIN_MAX_TEXTURE_SIZE = 16384      # the largest texture side every GL 4.5 driver allows
 
 
 @dataclass(frozen=True)
-class SpherePlate:
-    """Which slot each cell reads and how the plate's tiles (one per slot and end, each over
-    plate_frame: a cell's pixels and the image's margins) are laid out: tile 2 k + e (e = 0
+class SpherePrepass:
+    """Which slot each cell reads and how the prepass's tiles (one per slot and end, each over
+    prepass_frame: a cell's pixels and the image's margins) are laid out: tile 2 k + e (e = 0
     dielectric, 1 metal) of slot k sits at (tile % tiles_x, tile // tiles_x)."""
     slots: np.ndarray                       # (rows, cols) int: each cell's slot
     slot_cells: tuple[tuple[int, int], ...]  # a (col, row) of each slot: whose material it shades
@@ -117,9 +117,9 @@ class SpherePlate:
         return self.tiles_x * self.tile[0], self.tiles_y * self.tile[1]
 
 
-def sphere_plate(spec: ChartSpec, plate: tuple[tuple[int, int], tuple[int, int]]) -> SpherePlate | None:
-    """The sphere plate's slots and layout for ``spec``'s cells, each tile over ``plate``
-    (plate_frame), or None where it would not save shading or would not fit (then every sphere
+def sphere_prepass(spec: ChartSpec, prepass: tuple[tuple[int, int], tuple[int, int]]) -> SpherePrepass | None:
+    """The sphere prepass's slots and layout for ``spec``'s cells, each tile over ``prepass``
+    (prepass_frame), or None where it would not save shading or would not fit (then every sphere
     pixel is shaded where it is drawn)."""
     from .material_table import material_table
     table = material_table(spec.cell_materials())          # (cells, texels, 4) as the GPU reads it
@@ -131,9 +131,9 @@ def sphere_plate(spec: ChartSpec, plate: tuple[tuple[int, int], tuple[int, int]]
     slots = np.array([order[row.tobytes()] for row in table]).reshape(spec.rows, spec.cols)
     if 2 * len(first) >= spec.rows * spec.cols:
         return None
-    origin, tile = plate
+    origin, tile = prepass
     tiles = 2 * len(first)
-    if tiles * tile[0] * tile[1] * 16 > SPHERE_PLATE_MAX_BYTES:
+    if tiles * tile[0] * tile[1] * 16 > SPHERE_PREPASS_MAX_BYTES:
         return None
     # Tiles in a near-square block (the longest side bounded by the texture limit).
     tiles_x = max(1, min(tiles, round(np.sqrt(tiles * tile[1] / tile[0]))))
@@ -141,4 +141,4 @@ def sphere_plate(spec: ChartSpec, plate: tuple[tuple[int, int], tuple[int, int]]
     if max(tiles_x * tile[0], tiles_y * tile[1]) > GL_MIN_MAX_TEXTURE_SIZE:
         return None
     slot_cells = tuple((index % spec.cols, index // spec.cols) for index in first.values())
-    return SpherePlate(slots, slot_cells, origin, tile, tiles_x, tiles_y)
+    return SpherePrepass(slots, slot_cells, origin, tile, tiles_x, tiles_y)

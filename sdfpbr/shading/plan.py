@@ -5,7 +5,7 @@ This is the one place that resolves a spec: the quality preset, the BRDF model i
 the bugs it implies, tone-map and model names as GLSL words, which features are composed in,
 which bake programs (environment cubemap, GGX prefilter, SH9 irradiance, DFG LUT, cache
 copies) exist, and the frame (ChartFrame): the cell grid and camera, the floor, the page, the
-cells stage's plates and the chart's passes' shapes. Rendering, the IBL bakes, the build cache
+cells stage's prepasses and the chart's passes' shapes. Rendering, the IBL bakes, the build cache
 key, the labels, the reference and ``sdfpbr shader`` all read a plan; none decides this again.
 """
 from __future__ import annotations
@@ -26,8 +26,8 @@ from ..spec.presets import (BRDF_MODELS, CAMERAS, INTERSECTIONS, NORMAL_METHODS,
 from .camera import (Camera, cell_sphere_box, frame_cell, frame_grid, ground_height, silhouettes_apart,
                      sphere_centers, sphere_discs)
 from .catcher import catcher_band_pixels
-from .cells import (CellGrid, SpherePlate, cell_border_mask, cell_border_px, cell_grid,
-                    cell_sphere_radius_px, plate_frame, sphere_plate)
+from .cells import (CellGrid, SpherePrepass, cell_border_mask, cell_border_px, cell_grid,
+                    cell_sphere_radius_px, prepass_frame, sphere_prepass)
 from .silhouette import SILHOUETTE_RING_PAD_PX, box_triangles, silhouette_ring
 from .compose import ComposedSource, OptionSchema, Value, compose
 from .maps import MAP_NAMES, MAP_OPTIONS, MAPS
@@ -62,8 +62,8 @@ SCHEMA = OptionSchema(
     },
     flags=("USE_IBL", "USE_AO", "USE_SHADOWS", "HAS_GROUND", "MULTISCATTER", "TRANSPARENT",
            "USE_TEXTURES", "HALF_RADIANCE", "IBL_TWO_LOBE", "IBL_TWO_TAP", "GROUND_IBL",
-           "ANALYTIC_AA", "FLOOR_PLATE", "BOUNCE_PLATE", "SPHERE_PLATE", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
-           "BOUNCE_CACHE", "GATHER_PLATE", "FLOOR_PARALLAX")
+           "ANALYTIC_AA", "FLOOR_PREPASS", "BOUNCE_PREPASS", "SPHERE_PREPASS", "STAGE_PROBE", "NEIGHBOUR_LIGHT",
+           "BOUNCE_CACHE", "GATHER_PREPASS", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
             "HIDDEN_SKY_SAMPLES",
@@ -73,7 +73,7 @@ SCHEMA = OptionSchema(
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
     + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
-       "SPHERE_PLATE_PASS", "SHEEN_LEAN", "SUPERSAMPLE", "CELL_BORDER"),
+       "SPHERE_PREPASS_PASS", "SHEEN_LEAN", "SUPERSAMPLE", "CELL_BORDER"),
 )
 
 # Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
@@ -129,7 +129,7 @@ class ChartFrame:
     """A chart's scene as its image frames it, resolved once from its spec (chart_frame): the
     quality preset and BRDF model, the stage, the cells on the image and the camera, the floor,
     the spheres' discs, the page (alpha, cell borders, the shadow catcher's fade) and the cells
-    stage's plates. The options, the renderer, the plates, the labels and the reference read
+    stage's prepasses. The options, the renderer, the prepasses, the labels and the reference read
     it; none derives these from the spec again."""
     spec: ChartSpec               # the scene's own values: lights, colours, sizes
     quality: Quality              # its quality preset
@@ -146,7 +146,8 @@ class ChartFrame:
     shadow_catcher: bool          # and a floor: it keeps only the light its spheres take away
     cell_border: int              # px of page colour round each cell (0: none)
     exposure_axis: str | None     # 'x' or 'y' where exposure is an axis
-    plate: tuple[tuple[int, int], tuple[int, int]] | None = None   # cells stage: the plates' origin, size (plate_frame)
+    # cells stage: the prepasses' origin and size (prepass_frame)
+    prepass: tuple[tuple[int, int], tuple[int, int]] | None = None
     sphere_box: tuple[int, int, int, int] | None = None            # cells stage: a cell's pixels near its sphere
     catcher_band: tuple[float, float, float, float] | None = None  # cells stage with a catcher: its fade bands, px
 
@@ -181,14 +182,14 @@ def chart_frame(spec: ChartSpec) -> ChartFrame:
     radii = np.full((spec.rows, spec.cols), spec.sphere_radius * scale)
     return ChartFrame(**common, camera=cam, sphere_discs=(centers, radii),
                       sphere_radius_px=cell_sphere_radius_px(grid, spec.camera_distance_scale),
-                      silhouettes_apart=True, plate=plate_frame(grid, spec.width, spec.height),
+                      silhouettes_apart=True, prepass=prepass_frame(grid, spec.width, spec.height),
                       sphere_box=cell_sphere_box(cam, spec.sphere_radius),
                       catcher_band=catcher_band_pixels(spec, grid) if catcher else None)
 
 
 def bounce_step(frame: ChartFrame) -> int:
-    """Cell pixels between the bounce plate's texels (stage_bounce_main.glsl): the preset's
-    bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no plate), where the
+    """Cell pixels between the bounce prepass's texels (stage_bounce_main.glsl): the preset's
+    bounce_texels per sphere radius. 1: the bounce is shaded per pixel (no prepass), where the
     sphere is too small for a coarser grid to save anything."""
     q = frame.quality
     if q.bounce_texels <= 0:
@@ -198,7 +199,7 @@ def bounce_step(frame: ChartFrame) -> int:
 
 def sphere_samples(frame: ChartFrame) -> int:
     """Points per pixel edge a chart averages inside a sphere's silhouette (the cells stage's
-    sphere plate, or the chart where it shades the sphere): more where the spheres are small,
+    sphere prepass, or the chart where it shades the sphere): more where the spheres are small,
     as the preset's sphere_samples_radius says."""
     q = frame.quality
     if q.sphere_samples_radius <= 0:
@@ -233,8 +234,9 @@ def chart_options(spec: ChartSpec, passes: bool | None = None) -> dict:
     return _chart_options(chart_frame(spec), passes)[0]
 
 
-def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict, SpherePlate | None, tuple[bool, bool]]:
-    """chart_options of ``frame``'s spec, the sphere plate's layout where the options use one
+def _chart_options(frame: ChartFrame,
+                   passes: bool | None = None) -> tuple[dict, SpherePrepass | None, tuple[bool, bool]]:
+    """chart_options of ``frame``'s spec, the sphere prepass's layout where the options use one
     (worked out once: the render needs it too), and whether the chart has an edge pass and a
     sphere pass."""
     spec, q = frame.spec, frame.quality
@@ -274,7 +276,7 @@ def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict,
         present = texture_maps(spec)
         opts.update({m.option: present[m.name] for m in MAPS})
     # The cells stage's floor shaded once per cell pixel (stage_floor_main.glsl).
-    opts["FLOOR_PLATE"] = opts["STAGE"] == "cells" and spec.ground and q.floor_plate
+    opts["FLOOR_PREPASS"] = opts["STAGE"] == "cells" and spec.ground and q.floor_prepass
     # One ray per pixel with the silhouette's exact coverage (edge_coverage.glsl): one sphere
     # near each pixel (the cells stage's own, the shared stage's nearest), intersected in
     # closed form.
@@ -284,11 +286,11 @@ def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict,
                            and frame.silhouettes_apart)
     # Rays beyond the pixel's centre (chart_main.glsl), composed in only where there are some.
     opts["SUPERSAMPLE"] = spec.spp > 1
-    opts["BOUNCE_PLATE"] = False
+    opts["BOUNCE_PREPASS"] = False
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
-        # The sphere's bounce on a coarser grid beside the floor plate (stage_bounce_main.glsl).
-        opts["BOUNCE_PLATE"] = opts["FLOOR_PLATE"] and bounce_step(frame) > 1
+        # The sphere's bounce on a coarser grid beside the floor prepass (stage_bounce_main.glsl).
+        opts["BOUNCE_PREPASS"] = opts["FLOOR_PREPASS"] and bounce_step(frame) > 1
     if opts["USE_AO"]:
         opts["AO_METHOD"] = q.ao_method
         if opts["STAGE"] == "cells":   # read by ao.glsl: the sky a sphere hides from its floor
@@ -309,9 +311,9 @@ def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict,
                             and not opts.get("BUG_FEWTAP_IBL", False))
     if opts["BOUNCE_CACHE"]:
         opts["BOUNCE_GATHER_SAMPLES"] = max(q.bounce_gather_samples, 1)
-    # ... which the chart's sphere points read from a plate on the bounce plate's grid
+    # ... which the chart's sphere points read from a prepass on the bounce prepass's grid
     # (stage_gather_main.glsl), where there is one.
-    opts["GATHER_PLATE"] = opts["BOUNCE_CACHE"] and opts["BOUNCE_PLATE"]
+    opts["GATHER_PREPASS"] = opts["BOUNCE_CACHE"] and opts["BOUNCE_PREPASS"]
     # The floor seen from each sphere point, not from the centre the probe sees it from
     # (floor_parallax.glsl): a table over the normal, baked from the probe.
     opts["FLOOR_PARALLAX"] = q.floor_parallax and opts["STAGE"] == "cells" and opts["STAGE_PROBE"]
@@ -326,26 +328,26 @@ def _chart_options(frame: ChartFrame, passes: bool | None = None) -> tuple[dict,
     # is shaded at m_map and at 0 and mixed by m_factor alike; not a glTF asset's, whose maps
     # are each cell's own (the material table does not tell them apart). The few-tap bug's
     # shading is not linear in metallic (its f0 clamp, (1 - F)(1 - metallic)).
-    layout = (sphere_plate(spec, frame.plate) if one_ray and opts["STAGE"] == "cells" and q.sphere_plate
+    layout = (sphere_prepass(spec, frame.prepass) if one_ray and opts["STAGE"] == "cells" and q.sphere_prepass
               and not opts["SEE_THROUGH"] and not (opts["USE_TEXTURES"] and spec.gltf)
               and not opts.get("BUG_FEWTAP_IBL", False) else None)
-    opts["SPHERE_PLATE"] = layout is not None
+    opts["SPHERE_PREPASS"] = layout is not None
     # Passes of the chart's own, each over only the pixels it concerns, since a software
     # rasterizer runs both sides of a branch (the compute variant, a GPU's, draws inline):
     # the silhouettes' pixels over a ring round each one (RenderPlan.edge_pass), and without
-    # the plate the cells stage's spheres' pixels over each sphere's box (sphere_pass), so
+    # the prepass the cells stage's spheres' pixels over each sphere's box (sphere_pass), so
     # that the floor's pixels do not shade a sphere. Where a pixel takes more than one ray (no
     # analytic edge) the chart draws them inline. No sphere pass on the shared stage: there it
     # measured slower (512²: the pass 124-150 ms, against 100-130 for the spheres' shading over
     # the whole image inline), its shading's loops ending early where no sphere is.
     pixels = spec.width * spec.height
     edge_pass = opts["ANALYTIC_AA"] and (pixels >= EDGE_PASS_MIN_PIXELS if passes is None else passes)
-    sphere_pass = (opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and not opts["SPHERE_PLATE"]
+    sphere_pass = (opts["ANALYTIC_AA"] and opts["STAGE"] == "cells" and not opts["SPHERE_PREPASS"]
                    and (pixels >= SPHERE_PASS_MIN_PIXELS if passes is None else passes))
     if opts["ANALYTIC_AA"]:   # the chart pass leaves the edge's pixels to whichever pass draws them
         opts["EDGE_PIXELS"] = "skipped" if edge_pass or sphere_pass else "inline"
     opts["SPHERE_PIXELS"] = "skipped" if sphere_pass else "inline"
-    # Small spheres average points of the pixel box (the plate's, or the chart's own where it
+    # Small spheres average points of the pixel box (the prepass's, or the chart's own where it
     # shades the sphere); a textured sphere keeps one: its maps are filtered by the footprint.
     if opts["ANALYTIC_AA"]:
         opts["SPHERE_SAMPLES"] = 1 if opts["USE_TEXTURES"] else sphere_samples(frame)
@@ -416,7 +418,7 @@ class IBLPlan:
 
 
 # The programs of a frame, in the order they draw (RenderPlan.frame_programs).
-FRAME_PROGRAMS = ("floor-plate", "bounce-cache", "bounce-plate", "gather-plate", "sphere-plate", "chart",
+FRAME_PROGRAMS = ("floor-prepass", "bounce-cache", "bounce-prepass", "gather-prepass", "sphere-prepass", "chart",
                   "chart-spheres", "chart-edges", "display")
 
 
@@ -467,15 +469,15 @@ class RenderPlan:
     dfg_size: int
     dfg_samples: int
     ibl: IBLPlan | None           # None: no prefiltered environment (no IBL, or the few-tap bug)
-    floor_plate: ComposedSource | None = None   # FLOOR_PLATE: the cells stage's floor, once per cell pixel
+    floor_prepass: ComposedSource | None = None   # FLOOR_PREPASS: the cells stage's floor, once per cell pixel
     bounce_cache: ComposedSource | None = None  # BOUNCE_CACHE: one round trip sphere -> floor, a draw
     bounce_iterations: int = 0                  # its draws
     bounce_cache_tile: int = 0                  # its texels a side per cell
-    bounce_plate: ComposedSource | None = None  # BOUNCE_PLATE: each sphere's bounce on its floor, coarser
-    gather_plate: ComposedSource | None = None  # GATHER_PLATE: each sphere's light back from the cache, as coarse
-    sphere_plate: ComposedSource | None = None  # SPHERE_PLATE: each slot's sphere, once per cell pixel
-    sphere_layout: SpherePlate | None = None    # and its slots and tiles (cells.py)
-    bounce_step: int = 1                        # cell pixels between the bounce plate's texels
+    bounce_prepass: ComposedSource | None = None  # BOUNCE_PREPASS: each sphere's bounce on its floor, coarser
+    gather_prepass: ComposedSource | None = None  # GATHER_PREPASS: each sphere's light back from the cache, as coarse
+    sphere_prepass: ComposedSource | None = None  # SPHERE_PREPASS: each slot's sphere, once per cell pixel
+    sphere_layout: SpherePrepass | None = None    # and its slots and tiles (cells.py)
+    bounce_step: int = 1                        # cell pixels between the bounce prepass's texels
     edge_pass: ComposedSource | None = None     # EDGE_PIXELS: the chart's silhouette pixels, drawn
                                                 # over rings round them
     sphere_pass: ComposedSource | None = None   # SPHERE_PIXELS: its spheres' pixels, over their boxes
@@ -517,18 +519,18 @@ class RenderPlan:
 
     def frame_programs(self) -> dict[str, ComposedSource]:
         """The programs each frame runs, by the names `sdfpbr shader --program` takes
-        (FRAME_PROGRAMS, in their order): the cells stage's plates where the plan has them, the
+        (FRAME_PROGRAMS, in their order): the cells stage's prepasses where the plan has them, the
         chart, its sphere and edge passes where it has them, the display."""
-        programs = dict(zip(FRAME_PROGRAMS, (self.floor_plate, self.bounce_cache, self.bounce_plate,
-                                             self.gather_plate, self.sphere_plate, self.chart,
+        programs = dict(zip(FRAME_PROGRAMS, (self.floor_prepass, self.bounce_cache, self.bounce_prepass,
+                                             self.gather_prepass, self.sphere_prepass, self.chart,
                                              self.sphere_pass, self.edge_pass, self.display)))
         return {name: source for name, source in programs.items() if source is not None}
 
     def sources(self) -> list[ComposedSource]:
         """Every composed program, for cache keys."""
         out = [self.vertex, self.chart, self.display, self.dfg]
-        out += [s for s in (self.chart_compute, self.floor_plate, self.bounce_cache, self.bounce_plate,
-                            self.gather_plate, self.sphere_plate,
+        out += [s for s in (self.chart_compute, self.floor_prepass, self.bounce_cache, self.bounce_prepass,
+                            self.gather_prepass, self.sphere_prepass,
                             self.sphere_pass, self.edge_pass, self.instances_vertex) if s]
         return out + (self.ibl.sources() if self.ibl else [])
 
@@ -576,42 +578,42 @@ def _stage_probe(chart: dict) -> ComposedSource | None:
                                                      "BOUNCE_CACHE": False})
 
 
-def _floor_plate(chart: dict) -> ComposedSource | None:
+def _floor_prepass(chart: dict) -> ComposedSource | None:
     """The cells stage's floor shaded once per cell pixel: the chart's shading, without the
     spheres' textures (the floor has none)."""
-    if not chart["FLOOR_PLATE"]:
+    if not chart["FLOOR_PREPASS"]:
         return None
     return compose_program("stage_floor_main.glsl", {**chart, "USE_TEXTURES": False, "BOUNCE_CACHE": False})
 
 
-def _bounce_plate(chart: dict) -> ComposedSource | None:
+def _bounce_prepass(chart: dict) -> ComposedSource | None:
     """Each cell's sphere's light on its floor, on a grid coarser than the pixels: the chart's
     shading, the spheres' textures included (a textured sphere bounces its texture's colour)."""
-    if not chart.get("BOUNCE_PLATE"):
+    if not chart.get("BOUNCE_PREPASS"):
         return None
     return compose_program("stage_bounce_main.glsl", {**chart, "SHADOW_CATCHER": False})
 
 
 def _bounce_cache(chart: dict) -> ComposedSource | None:
-    """One draw of each cell's bounce cache: the bounce plate's shading at the cache's floor
+    """One draw of each cell's bounce cache: the bounce prepass's shading at the cache's floor
     points, the floor's diffuse only (what it sends back up to the sphere)."""
     if not chart.get("BOUNCE_CACHE"):
         return None
     return compose_program("bounce_cache_main.glsl", {**chart, "SHADOW_CATCHER": False})
 
 
-def _gather_plate(chart: dict) -> ComposedSource | None:
-    """What each cell's sphere gets back from its bounce cache, on the bounce plate's grid."""
-    if not chart.get("GATHER_PLATE"):
+def _gather_prepass(chart: dict) -> ComposedSource | None:
+    """What each cell's sphere gets back from its bounce cache, on the bounce prepass's grid."""
+    if not chart.get("GATHER_PREPASS"):
         return None
     return compose_program("stage_gather_main.glsl", {**chart, "SHADOW_CATCHER": False})
 
 
-def _sphere_plate(chart: dict) -> ComposedSource | None:
+def _sphere_prepass(chart: dict) -> ComposedSource | None:
     """Each slot's sphere at metallic 0 and 1, once per cell pixel: the chart's shading of it."""
-    if not chart.get("SPHERE_PLATE"):
+    if not chart.get("SPHERE_PREPASS"):
         return None
-    return compose_program("stage_sphere_main.glsl", {**chart, "SPHERE_PLATE": False, "SPHERE_PLATE_PASS": True})
+    return compose_program("stage_sphere_main.glsl", {**chart, "SPHERE_PREPASS": False, "SPHERE_PREPASS_PASS": True})
 
 
 def _edge_pass(chart: dict, edge_pass: bool) -> ComposedSource | None:
@@ -657,7 +659,7 @@ def dfg_source(brdf: str, direct_k_bug: bool = False, sheen: bool = False) -> Co
 
 
 def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
-    """``passes``: whether the chart draws its silhouettes' and (without the sphere plate) its
+    """``passes``: whether the chart draws its silhouettes' and (without the sphere prepass) its
     spheres' pixels in passes of their own, where it can (None: where the image is large
     enough to earn their programs back, EDGE_PASS_MIN_PIXELS and SPHERE_PASS_MIN_PIXELS)."""
     frame = chart_frame(spec)
@@ -666,7 +668,7 @@ def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
     chart_source = compose_program("chart_main.glsl", chart)
     edge_pass, sphere_pass = _edge_pass(chart, edges), _sphere_pass(chart, edges, spheres)
     prefiltered = spec.ibl and not chart.get("BUG_FEWTAP_IBL", False)
-    bounce_plate = _bounce_plate(chart)
+    bounce_prepass = _bounce_prepass(chart)
     return RenderPlan(
         frame=frame,
         vertex=compose_program("fullscreen_vert.glsl"),
@@ -675,11 +677,11 @@ def render_plan(spec: ChartSpec, passes: bool | None = None) -> RenderPlan:
         dfg=dfg_source(frame.brdf_model, bool(chart.get("BUG_IBL_DIRECT_K", False)), bool(chart.get("SHEEN"))),
         dfg_size=q.dfg_size, dfg_samples=q.dfg_samples,
         ibl=_ibl_plan(spec, q, chart) if prefiltered else None,
-        floor_plate=_floor_plate(chart), bounce_plate=bounce_plate, gather_plate=_gather_plate(chart),
-        sphere_plate=_sphere_plate(chart),
+        floor_prepass=_floor_prepass(chart), bounce_prepass=bounce_prepass, gather_prepass=_gather_prepass(chart),
+        sphere_prepass=_sphere_prepass(chart),
         bounce_cache=_bounce_cache(chart), bounce_iterations=q.bounce_iterations if chart.get("BOUNCE_CACHE") else 0,
         bounce_cache_tile=q.bounce_cache_texels,
-        sphere_layout=layout, bounce_step=bounce_step(frame) if bounce_plate else 1,
+        sphere_layout=layout, bounce_step=bounce_step(frame) if bounce_prepass else 1,
         edge_pass=edge_pass, sphere_pass=sphere_pass,
         instances_vertex=compose_program("grid_instances_vert.glsl") if edge_pass or sphere_pass else None)
 

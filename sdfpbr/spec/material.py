@@ -252,7 +252,7 @@ def cell_materials(spec) -> list[list[Material]]:
 @functools.lru_cache(maxsize=64)
 def _swept_materials(spec) -> tuple[tuple[Material, ...], ...]:
     """cell_materials of a spec without glTF, which its fields alone decide (a spec is frozen):
-    a render asks for them a dozen times (plan, plates, tables, labels), 0.2 ms each."""
+    a render asks for them a dozen times (plan, prepasses, tables, labels), 0.2 ms each."""
     rows, cols = spec.rows, spec.cols
     if spec.row_materials:
         bases = _per_cell([MATERIAL_PRESETS[m] for m in spec.row_materials], rows, cols, "materials")

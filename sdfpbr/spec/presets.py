@@ -170,7 +170,7 @@ class Quality:
     # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
     # on an edge.
     ground_ibl_samples: int = 1024
-    floor_plate: bool = True         # cells stage: the floor's static light shaded once per cell pixel
+    floor_prepass: bool = True         # cells stage: the floor's static light shaded once per cell pixel
     # cells stage: the light between a sphere and its floor, one round trip more per draw of
     # the bounce cache (bounce_cache.glsl; 0: the sphere gets none of its own light back), on
     # a tile of bounce_cache_texels a side per cell, read by each sphere point from
@@ -183,7 +183,7 @@ class Quality:
     floor_parallax: bool = True
     floor_parallax_size: int = 16
     floor_parallax_samples: int = 512
-    sphere_plate: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
+    sphere_prepass: bool = True        # cells stage: cells sharing all but metallic shade their sphere once per slot
     # the sheen's environment light read along its lobe's mean direction (shading.sheen)
     sheen_lean: bool = True
     neighbour_light: bool = True     # shared stage: the nearest spheres' light in each sphere's (2x the draw)
@@ -229,7 +229,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
     "seed002": Quality(march_steps=100, hit_scale=0.0, hit_epsilon=1e-3, normal_method="central",
                        shadow_steps=32, ao_method="sdf", ao_taps=5, scene_sdf="all_spheres",
-                       intersect="march", brdf="schlick-ggx", ground_ibl_samples=0, floor_plate=False,
+                       intersect="march", brdf="schlick-ggx", ground_ibl_samples=0, floor_prepass=False,
                        implied_bugs=("fewtap-ibl", "ibl-direct-k", "double-tonemap")),
 }
 

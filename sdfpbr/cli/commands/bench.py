@@ -7,14 +7,14 @@ import importlib
 
 EPILOG = """\
 columns:
-  render ms   a frame's draws at full size (the stage's plates and the chart program), median
+  render ms   a frame's draws at full size (the stage's prepasses and the chart program), median
               of --repeats after a warm-up; each frame
               between ctx.finish() calls on the wall clock (a GL timer query where it measures
               execution; llvmpipe's does not). '±' is the median absolute deviation.
   compile ms  link of a never-seen program plus its first draw (llvmpipe JIT-compiles there)
   src kB      composed chart source (features a spec leaves out are not in it)
   cold s      fresh `python -m sdfpbr chart` process, Mesa shader cache off, empty sdfpbr cache
-  cold* s     the same with the sdfpbr disk cache filled (IBL bakes, LUTs, plates): a second run
+  cold* s     the same with the sdfpbr disk cache filled (IBL bakes, LUTs, prepasses): a second run
   start s     the same with Mesa's shader cache warm too: a user's every later run (median of 3)
   FLIP        mean LDR FLIP of the display image vs the reference, whole frame; FLIPsph over
               sphere pixels

@@ -14,7 +14,7 @@ For every scene of a fixed suite and every quality preset it measures
 * ``cold_s``: wall time of a fresh ``python -m sdfpbr chart`` process with Mesa's shader cache
   disabled and an empty sdfpbr disk cache (IBL bakes and LUTs recomputed); ``cold_warm_cache_s``:
   the same right after, with the sdfpbr disk cache filled (bakes, LUTs and the cells stage's
-  plates: the user's second run); ``start_s``:
+  prepasses: the user's second run); ``start_s``:
   the median of three more with Mesa's shader cache warm too (every later run).
 * error against the reference renderer (``sdfpbr.features.reference``): mean LDR FLIP of the display
   images over the whole frame (``flip_mean``) and over sphere pixels (``flip_sphere_mean``),

@@ -1,12 +1,12 @@
 """`sdfpbr bench --end-to-end`: what a chart costs around its draw, each figure beside the
 target it is held to. Measured in one run, reported, never asserted.
 
-- api: a warm `sdfpbr.chart()` at the bench size against the chart's draws alone (plates and
+- api: a warm `sdfpbr.chart()` at the bench size against the chart's draws alone (prepasses and
   chart program, `timing.time_chart`), interleaved in one process. A chart drawn before reads
-  its plates from the disk cache, so the call can cost less than its draws.
+  its prepasses from the disk cache, so the call can cost less than its draws.
 - start: fresh `sdfpbr chart` processes of the default chart (`cold.cold_times`).
 - gallery: `sdfpbr build CHARTS` into an empty folder with an empty sdfpbr cache (everything
-  baked and rendered), again with only the bakes kept (its images, plates, labels and FLIP
+  baked and rendered), again with only the bakes kept (its images, prepasses, labels and FLIP
   maps cleared), then once more with nothing changed. Mesa's shader cache as it is.
 - animation: the peak memory of `sdfpbr chart --frames N --orbit light -o a.webp` against one
   chart's, and how far it grew sdfpbr's cache against one environment bake (the chart's).
@@ -43,7 +43,7 @@ BIG_CHART_PEAK_GB = 1.5
 API_ROUNDS = 7                      # calls either side of as many timed frames
 
 # What a gallery build keeps per image (cleared for "the bakes kept"), as cache kinds.
-IMAGE_KINDS = ("build", "plates", "labels", "flip")
+IMAGE_KINDS = ("build", "prepasses", "labels", "flip")
 
 
 @dataclass
@@ -126,7 +126,7 @@ def api_figure(session, cfg: BenchConfig, log) -> Figure:
             out.append(time.perf_counter() - start)
         return out
 
-    calls(2)   # programs, bakes and plates in place: the warm call
+    calls(2)   # programs, bakes and prepasses in place: the warm call
     before = calls(API_ROUNDS)
     draws = time_chart(session, spec, API_ROUNDS, 1, compile_time=False).draw.median_ms
     api_ms = 1000 * statistics.median(before + calls(API_ROUNDS))

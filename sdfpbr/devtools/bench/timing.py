@@ -145,10 +145,10 @@ class ChartTiming:
 
 def time_chart(session, spec: ChartSpec, repeats: int, warmup: int, compile_time: bool = True) -> ChartTiming:
     """Render once (programs, IBL bakes), then time a frame's draws alone into the same float
-    targets the renderer uses: its per-frame passes (the cells stage's floor plate) and the
+    targets the renderer uses: its per-frame passes (the cells stage's floor prepass) and the
     chart program's tiles."""
     from ...shading.plan import render_plan
-    from ...gpu.plates import bind_frame
+    from ...gpu.prepasses import bind_frame
     from ...gpu.render import ChartDraw, chart_scene
     result = session.render(spec)
     ctx = session.ctx
