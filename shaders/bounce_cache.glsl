@@ -10,8 +10,8 @@
 //
 // A tile of u_bounce_cache_tile texels a side per cell (tile origin cell * tile, as the bounce
 // prepass's). Floor point (x, z) (from the sphere's axis) sits at a = x / (R + |x|) in (-1, 1)
-// on each axis: texels R / 16 apart at the contact for 32 a side, wider as the bounce fades
-// (as (R / d)^3), and the whole plane on the tile.
+// on each axis: texels 2 R / tile apart at the contact (R / 8 at default's 16, R / 16 at
+// high's 32), wider as the bounce fades (as (R / d)^3), and the whole plane on the tile.
 uniform sampler2D u_bounce_cache;
 uniform int u_bounce_cache_tile;
 uniform bool u_bounce_cache_drawn;   // false before the first draw: nothing to read yet
