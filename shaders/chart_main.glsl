@@ -99,14 +99,13 @@ uniform float u_gather_step;
 // What the sphere point p gets back from its floor's bounce cache where shade_point leaves it
 // out: read from the gather prepass at the pixel's position, or gathered here where the sphere
 // prepass stands for several cells.
-vec3 sphere_gather(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell) {
+vec3 sphere_gather(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size) {
 #if GATHER_PREPASS
     vec2 at = clamp((position - u_prepass_origin - 0.5) / u_gather_step, vec2(0.0), vec2(u_gather_tile - 1));
     return texture(u_gather_prepass, (vec2(cell * u_gather_tile) + at + 0.5) / vec2(textureSize(u_gather_prepass, 0))).rgb;
 #elif BOUNCE_CACHE && SPHERE_PREPASS
-    Material m = cell_material(cell, n_geo);
-    vec3 dfg = dfg_lookup(max(dot(n_geo, v), MIN_N_DOT_V), m.perceptual_roughness);
-    return bounce_gather(m, p, n_geo, v, dfg, cell, BOUNCE_GATHER_SAMPLES);
+    Surface s = surface_at(p, n_geo, v, cell, pixel_size, false);   // the cell's maps applied
+    return bounce_gather(s.m, s.p, s.n, s.v, s.dfg, cell, BOUNCE_GATHER_SAMPLES);
 #else
     return vec3(0.0);
 #endif
@@ -127,9 +126,9 @@ vec3 sphere_radiance(vec2 position, vec3 p, vec3 n_geo, vec3 v, ivec2 cell, floa
     vec3 dielectric = sphere_prepass_tile(2 * slot), metal = sphere_prepass_tile(2 * slot + 1);
     // The ends exactly (a NaN at one end stays out of the other).
     vec3 radiance = metallic <= 0.0 ? dielectric : metallic >= 1.0 ? metal : mix(dielectric, metal, metallic);
-    return radiance + sphere_gather(position, p, n_geo, v, cell);
+    return radiance + sphere_gather(position, p, n_geo, v, cell, pixel_size);
 #else
-    return shade_sphere(p, n_geo, v, cell, pixel_size) + sphere_gather(position, p, n_geo, v, cell);
+    return shade_sphere(p, n_geo, v, cell, pixel_size) + sphere_gather(position, p, n_geo, v, cell, pixel_size);
 #endif
 }
 

@@ -74,7 +74,9 @@ struct Surface {
     float n_dot_v;
     vec3 dfg;
     float e_single;
-    float occlusion;     // the ORM map's (1 without maps)
+#if USE_TEXTURES
+    float occlusion;     // the ORM map's (1 on the ground)
+#endif
 };
 
 Surface surface_at(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool ground) {
@@ -92,8 +94,8 @@ Surface surface_at(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, boo
     if (!ground) s.m.metallic = g_prepass_metallic;
 #endif
     s.n = n_geo;
-    s.occlusion = 1.0;
 #if USE_TEXTURES
+    s.occlusion = 1.0;
     if (!ground) {   // glTF: texture values scale the cell's factors
         SurfaceTexels tx = sample_surface(n_geo, pixel_size, cell);
         apply_texels(s.m, cell, tx);
@@ -195,7 +197,7 @@ vec3 neighbours_environment(Surface s, vec3 ibl, vec3 sky_specular, float ao, bo
 
 // The indirect light leaving the point: the environment as the stage lets it reach the point,
 // its neighbours' and (cells stage) its own floor's light. See shade_point for the flags.
-vec3 indirect_light(Surface s, float ao, bool ground, float light_specular, bool blocked, bool bounce_ray) {
+vec3 indirect_light(Surface s, float sky_visibility, bool ground, float light_specular, bool blocked, bool bounce_ray) {
     vec3 ibl = environment_ibl(s, ground);
 #if !BUG_FEWTAP_IBL
     vec3 diffuse_ibl = ibl_diffuse(s.m, s.dfg, s.n);   // the sphere's diffuse share of ibl (the rest is its specular)
@@ -208,10 +210,10 @@ vec3 indirect_light(Surface s, float ao, bool ground, float light_specular, bool
     if (!ground) ibl = layer_ibl(s.m, s.n, s.v, s.n_dot_v, ibl, diffuse_ibl, bounce_ray);
 #endif
 #if USE_AO
-    ibl = occluded_environment(s, ibl, ao, ground, blocked);
+    ibl = occluded_environment(s, ibl, sky_visibility, ground, blocked);
 #endif
 #if NEIGHBOUR_LIGHT
-    ibl = neighbours_environment(s, ibl, sky_specular, ao, ground, blocked);
+    ibl = neighbours_environment(s, ibl, sky_specular, sky_visibility, ground, blocked);
 #endif
 #if BOUNCE_CACHE && !SPHERE_PREPASS_PASS && !GATHER_PREPASS
     // The sphere's own light back from its floor (the sphere prepass leaves it to the chart,
@@ -299,13 +301,14 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
                  float light_specular, bool blocked, bool bounce_ray) {
     Surface s = surface_at(p, n_geo, v, cell, pixel_size, ground);
     vec3 color = vec3(0.0);
+    // The share of the point's sky the stage leaves it (ambient occlusion; 1 without it).
 #if USE_AO
-    float ao = ground && !blocked ? 1.0 : ambient_occlusion(p, n_geo, cell);
+    float sky_visibility = ground && !blocked ? 1.0 : ambient_occlusion(p, n_geo, cell);
 #else
-    float ao = 1.0;
+    float sky_visibility = 1.0;
 #endif
 #if USE_IBL
-    vec3 ibl = indirect_light(s, ao, ground, light_specular, blocked, bounce_ray);
+    vec3 ibl = indirect_light(s, sky_visibility, ground, light_specular, blocked, bounce_ray);
     color += ibl;
 #endif
 #if NUM_DIR_LIGHTS > 0
@@ -315,7 +318,7 @@ vec3 shade_point(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, bool 
     add_point_lights(s, ground, light_spread, light_specular, blocked, bounce_ray, color);
 #endif
 #if BUG_AO_ON_DIRECT && USE_AO
-    color = (color - ibl) * ao + ibl;   // occlusion now also darkens the lights
+    color = (color - ibl) * sky_visibility + ibl;   // occlusion now also darkens the lights
 #endif
 #if EMISSION
     if (!ground) color += surface_emission(s.m, v);

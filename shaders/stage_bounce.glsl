@@ -66,6 +66,11 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
     float ring_sin = sqrt(max(1.0 - ring_cos * ring_cos, 0.0));
     float spacing = acos(ring_cos);   // the rays' spacing, which the lights' highlights are spread over
     Material sphere_material = cell_material(cell, axis);
+#if USE_TEXTURES
+    // The closed-form mirror images take one material for the sphere: its maps' at the point
+    // nearest q (a textured metal's roughness and colour are its maps', not its factors').
+    apply_texels(sphere_material, cell, sample_surface(axis, pixel_size, cell));
+#endif
     float resolved = bounce_resolves(sphere_material.alpha);
     Material floor_material = ground_material();
     float n_dot_v = max(v.y, MIN_N_DOT_V);   // the floor's normal is +y

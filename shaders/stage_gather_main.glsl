@@ -27,10 +27,10 @@ void gather_prepass_texel() {
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
     vec3 n = normalize(t > 0.0 ? ro + rd * t : ro + rd * max(dot(-ro, rd), 0.0));
-    vec3 v = -rd;
-    Material m = cell_material(g_cell, n);
-    vec3 dfg = dfg_lookup(max(dot(n, v), MIN_N_DOT_V), m.perceptual_roughness);
-    out_gather = vec4(bounce_gather(m, n * u_radius, n, v, dfg, g_cell, BOUNCE_GATHER_SAMPLES), 1.0);
+    vec2 footprint = pixel_footprint();
+    // The point as shade_point sees it: the cell's maps applied (material, normal).
+    Surface s = surface_at(n * u_radius, n, -rd, g_cell, footprint.x + footprint.y * max(t, 0.0), false);
+    out_gather = vec4(bounce_gather(s.m, s.p, s.n, s.v, s.dfg, g_cell, BOUNCE_GATHER_SAMPLES), 1.0);
 }
 
 void main() {

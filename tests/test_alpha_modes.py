@@ -55,7 +55,15 @@ def test_mask_cuts_out_below_the_cutoff_and_keeps_the_rest_opaque(session):
     np.testing.assert_allclose(hdr(session, alpha=(0.2, 0.2), alpha_mode="opaque"), opaque, rtol=RTOL, atol=ATOL)
 
 
-def test_alpha_on_an_axis_blends_each_cell_by_its_own_value(session):
+def test_alpha_on_an_axis_blends_each_cell_by_its_own_value(session, monkeypatch):
+    """The opaque cell (alpha 1) of an alpha axis is the opaque chart's cell. The bounce cache
+    is held off: the see-through chart shades its spheres per point (2 x 2 a pixel here) and
+    reads the gather prepass at each, the opaque chart's sphere prepass once a pixel (0.2 %
+    apart); tests/test_stage.py checks the gather prepass itself."""
+    import dataclasses
+    from sdfpbr.spec.presets import QUALITY_PRESETS
+    monkeypatch.setitem(QUALITY_PRESETS, "default",
+                        dataclasses.replace(QUALITY_PRESETS["default"], bounce_iterations=0))
     spec = make_spec(rows=1, cols=3, size="192x64", labels=False, x_axis="alpha", y_axis="roughness",
                      roughness=(0.3, 0.3))
     assert [m.alpha_mode for m in spec.cell_materials()[0]] == ["blend", "blend", "opaque"]

@@ -219,14 +219,19 @@ def test_animation_commands(tmp_path):
     assert "clamp-tonemap orbit light: 2/2 frames" in r.stderr
 
 
-def test_frames_after_the_first_leave_no_bakes_in_the_disk_cache():
+def test_frames_after_the_first_leave_no_bakes_in_the_disk_cache(monkeypatch, tmp_path):
     """A light orbit re-bakes the cells stage's probe every frame; only frame 0's bakes (those a
-    still chart of the same spec reads) reach the disk cache."""
+    still chart of the same spec reads) reach the disk cache. The process's session reads and
+    writes a cache of this test's own here: the xdist workers share the run's, and another
+    test's entries would land in it meanwhile."""
+    from sdfpbr.cache import ArrayCache
     from sdfpbr.gpu.session import default_session
+    monkeypatch.setattr(default_session(), "cache", ArrayCache(tmp_path / "cache"))
     spec = make_spec(**SMALL, lights=(Light("directional", direction=(0.3, 0.7, 0.2)),))
     chart(spec)                                                   # frame 0's bakes, as a still chart
     root = default_session().cache.root
     before = sorted(p.name for p in root.rglob("*.npz"))
+    assert before                                                 # the still chart's bakes are there
     anim = animate(spec, 4, "light", progress=False)
     assert anim.count == 4
     assert sorted(p.name for p in root.rglob("*.npz")) == before

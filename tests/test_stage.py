@@ -212,10 +212,13 @@ def test_labels_sit_on_the_spheres(session):
 def test_floor_prepass_is_the_per_pixel_floor(session, monkeypatch, size):
     """The floor shaded once per cell pixel and read back by every cell gives, at every pixel
     whose centre ray meets the floor, what shading that pixel's floor point gives: the prepass's
-    texel is the same point (float32 texture, read at its centre), so within float rounding."""
+    texel is the same point (float32 texture, read at its centre), so within float rounding.
+    The sphere's bounce is shaded per pixel in both (without the floor prepass there is no
+    bounce prepass either)."""
     import dataclasses
     from sdfpbr.spec.presets import QUALITY_PRESETS
     spec = make_spec(width=size[0], height=size[1], rows=2, cols=4)
+    _with_quality(monkeypatch, "default", bounce_texels=0)
     prepass = session.render(spec)
     monkeypatch.setitem(QUALITY_PRESETS, "default",
                         dataclasses.replace(QUALITY_PRESETS["default"], floor_prepass=False))

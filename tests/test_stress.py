@@ -239,7 +239,7 @@ def test_cli_sweep_finds_a_planted_nan_and_writes_its_spec(tmp_path):
     text = shade.read_text()
     assert text.count("    return color;\n") == 1
     shade.write_text(text.replace("    return color;\n",
-                                  "    if (n.x > 0.6 && n.y > 0.6) color *= sqrt(-u_radius);   // planted NaN\n"
+                                  "    if (s.n.x > 0.6 && s.n.y > 0.6) color *= sqrt(-u_radius);   // planted NaN\n"
                                   "    return color;\n"))
     env = {**os.environ, "SDFPBR_SHADER_DIR": str(shaders)}
     r = subprocess.run([sys.executable, "-m", "sdfpbr", "stress", "--quick", "--count", "12", "--seed", "4",
