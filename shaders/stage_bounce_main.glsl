@@ -18,9 +18,8 @@ uniform ivec2 u_bounce_tile;
 uniform float u_bounce_step;
 
 void bounce_prepass_texel() {
-    ivec2 texel = ivec2(gl_FragCoord.xy);
-    g_cell = texel / u_bounce_tile;   // (col, row from the top), as grid_cell gives the chart
-    vec2 position = u_prepass_origin + 0.5 + vec2(texel - g_cell * u_bounce_tile) * u_bounce_step;
+    vec2 position = prepass_grid_position(ivec2(gl_FragCoord.xy), u_bounce_tile, u_bounce_step, u_prepass_origin,
+                                          g_cell);
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     float t = rd.y < 0.0 ? (u_ground_y - ro.y) / rd.y : -1.0;

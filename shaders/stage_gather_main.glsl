@@ -20,9 +20,8 @@ uniform ivec2 u_gather_tile;
 uniform float u_gather_step;
 
 void gather_prepass_texel() {
-    ivec2 texel = ivec2(gl_FragCoord.xy);
-    g_cell = texel / u_gather_tile;
-    vec2 position = u_prepass_origin + 0.5 + vec2(texel - g_cell * u_gather_tile) * u_gather_step;
+    vec2 position = prepass_grid_position(ivec2(gl_FragCoord.xy), u_gather_tile, u_gather_step, u_prepass_origin,
+                                          g_cell);
     vec3 rd;
     vec3 ro = camera_ray(2.0 * position / u_resolution - 1.0, rd);
     float t = ray_sphere(ro, rd, vec3(0.0), u_radius);
