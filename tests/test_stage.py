@@ -462,7 +462,7 @@ def test_sphere_prepass_only_where_it_saves_shading():
     planned = render_plan(make_spec(rows=3, cols=4)).sphere_layout
     assert planned.slots.tolist() == layout.slots.tolist() and planned.slot_cells == layout.slot_cells
     assert (planned.origin, planned.tile, planned.tiles_x, planned.size) == (layout.origin, layout.tile,
-                                                                              layout.tiles_x, layout.size)
+                                                                             layout.tiles_x, layout.size)
     assert render_plan(make_spec(rows=2, cols=4)).sphere_layout is None
 
 

@@ -5,7 +5,7 @@ every cell.
 A prepass is a pure function of its program and what it is drawn with (the scene's uniforms, the
 contents of its textures, the GL implementation), so it is kept in the disk cache under a key of
 all of them: a chart drawn again (a docs build, a second `sdfpbr chart`) reads its prepasses
-instead of compiling and drawing their three programs, which on llvmpipe with Mesa's shader
+instead of compiling and drawing their programs, which on llvmpipe with Mesa's shader
 cache cold is most of a start (BENCHMARKS.md). A prepass drawn with a texture whose content has no
 key (a user's surface maps) is drawn every time; so is one whose program reads a uniform the
 scene does not set (its value would not be in the key)."""
@@ -37,9 +37,10 @@ PREPASS_CACHE_MAX_BYTES = 16 << 20
 # What the prepass passes bind onto the scene, each frame anew: a frame's prepasses are keyed by the
 # scene without the last frame's.
 PREPASS_TEXTURES = ("u_floor_prepass", "u_bounce_cache", "u_bounce_prepass", "u_gather_prepass", "u_slot_cells",
-                  "u_sphere_slots", "u_sphere_prepass")
-PREPASS_UNIFORMS = ("u_prepass_origin", "u_bounce_cache_tile", "u_bounce_cache_drawn", "u_bounce_tile", "u_bounce_step",
-                  "u_gather_tile", "u_gather_step", "u_sphere_origin", "u_sphere_tile", "u_sphere_tiles_x")
+                    "u_sphere_slots", "u_sphere_prepass")
+PREPASS_UNIFORMS = ("u_prepass_origin", "u_bounce_cache_tile", "u_bounce_cache_drawn", "u_bounce_tile",
+                    "u_bounce_step", "u_gather_tile", "u_gather_step", "u_sphere_origin", "u_sphere_tile",
+                    "u_sphere_tiles_x")
 
 
 def bind_frame(session, plan: RenderPlan, scene: SceneBindings, programs, cached: bool = True) -> None:
@@ -75,7 +76,7 @@ def code_digest() -> str:
 
 
 def prepass_key(session, plan: RenderPlan, source: ComposedSource, scene: SceneBindings, size: tuple[int, int],
-              boxes: list | None) -> str | None:
+                boxes: list | None) -> str | None:
     """What a prepass drawn by ``source`` with ``scene`` now is made of: the program's text (and
     its vertex stage's), the prepass's size and drawn boxes, every uniform and every bound
     texture's content key, the code that makes them (code_digest) and the GL implementation
@@ -108,7 +109,7 @@ def _reads_only_the_scene(program, scene: SceneBindings) -> bool:
 
 
 def _prepass(session, plan: RenderPlan, source: ComposedSource, scene, size: tuple[int, int],
-                boxes: list | None = None, cached: bool = True) -> tuple[moderngl.Texture, str | None]:
+             boxes: list | None = None, cached: bool = True) -> tuple[moderngl.Texture, str | None]:
     """A float texture of ``size`` drawn by ``source`` with the scene's bindings (or read from
     the disk cache), filtered bilinearly between texel centres and clamped at its edges, and its
     key (None: not kept). ``boxes``: only these (x, y, width, height) texel boxes are drawn, the
@@ -132,7 +133,7 @@ def _prepass(session, plan: RenderPlan, source: ComposedSource, scene, size: tup
 
 
 def _draw_prepass(session, source: ComposedSource, scene, size: tuple[int, int], boxes: list | None,
-                read: bool) -> tuple[moderngl.Texture, np.ndarray | None]:
+                  read: bool) -> tuple[moderngl.Texture, np.ndarray | None]:
     """The prepass drawn, and with ``read`` its texels as the cache keeps them (_unpack)."""
     ctx = session.ctx
     program = session.programs.fragment(source)
@@ -213,7 +214,7 @@ def _bounce_cache(session, plan: RenderPlan, scene, cached: bool) -> None:
     scene.replace_texture("u_bounce_cache", session.ctx.texture((1, 1), 4, zero, dtype="f4"), key=array_key(zero))
     for _ in range(plan.bounce_iterations):
         scene.replace_texture("u_bounce_cache", *_prepass(session, plan, plan.bounce_cache, scene, size,
-                                                             cached=cached))
+                                                          cached=cached))
         scene.uniforms["u_bounce_cache_drawn"] = True
 
 
@@ -260,7 +261,7 @@ def _gather_prepass(session, plan: RenderPlan, scene, cached: bool) -> None:
     boxes = [(c * tile[0] + bx, r * tile[1] + by, bw, bh) for r in range(grid.rows) for c in range(grid.cols)]
     size = (grid.cols * tile[0], grid.rows * tile[1])
     scene.replace_texture("u_gather_prepass", *_prepass(session, plan, plan.gather_prepass, scene, size, boxes,
-                                                         cached))
+                                                        cached))
 
 
 def _sphere_prepass(session, plan: RenderPlan, scene, cached: bool) -> None:
