@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpecError
-from ..inputs import check_input, read_input
+from ..inputs import check_input, printable, read_input
 
 
 MAX_ENV_TEXELS = 1 << 28       # 16384 x 16384: beyond this an environment file is refused
@@ -23,8 +23,12 @@ def load_env_file(path: str | Path) -> np.ndarray:
     path = check_input(path, "environment", "environment")   # a regular file, not a FIFO or device
     suffix = path.suffix.lower()
     if suffix == ".hdr":   # RGBE, decoded here (image.rgbe): its header is checked before its pixels
-        from .rgbe import read_rgbe
-        data = read_rgbe(read_input(path, "environment", "environment"), path, MAX_ENV_TEXELS)
+        from .rgbe import RGBEError, read_rgbe
+        try:
+            data = read_rgbe(read_input(path, "environment", "environment"), MAX_ENV_TEXELS)
+        except RGBEError as exc:
+            raise SpecError(printable(f"cannot read environment {path} as a Radiance .hdr (RGBE) "
+                                      f"image: {exc}")) from None
     elif suffix == ".npy":
         try:
             data = np.load(path, mmap_mode="r")   # allow_pickle stays off: a pickle is refused, not run

@@ -36,16 +36,19 @@ import re
 
 import numpy as np
 
-from ..errors import SpecError
-from ..inputs import printable
 
 HEADER_LIMIT = 1 << 20          # the header's text (real ones are a few hundred bytes)
 _RESOLUTION = re.compile(rb"([-+])([XY]) +(\d{1,18}) +([-+])([XY]) +(\d{1,18})")
 _MIN_RLE, _MAX_RLE = 8, 0x7FFF  # the scanline lengths run-length encoding is used for
 
 
+class RGBEError(ValueError):
+    """What is wrong with a .hdr file's bytes, one line; the caller names the file."""
+
+
 def _text(raw: bytes, most: int = 60) -> str:
-    words = printable(raw.decode("latin-1"))
+    """Header bytes as text to quote with !r (repr escapes control characters)."""
+    words = raw.decode("latin-1")
     return words if len(words) <= most else words[:most] + "..."
 
 
@@ -59,14 +62,11 @@ def _positive(text: str, what: str, fail) -> float:
     return value
 
 
-def read_rgbe(data: bytes, name, max_texels: int) -> np.ndarray:
-    """The Radiance .hdr file ``data`` (its bytes; ``name`` for messages) as float32 radiance
-    (H, W, 3), row 0 at the top. An image of more than ``max_texels`` pixels is refused before
-    its pixels are read; a malformed or truncated file is one line (SpecError)."""
-    where = printable(name)
-
-    def fail(reason: str) -> SpecError:
-        return SpecError(f"cannot read environment {where} as a Radiance .hdr (RGBE) image: {reason}")
+def read_rgbe(data: bytes, max_texels: int) -> np.ndarray:
+    """The Radiance .hdr file ``data`` (its bytes) as float32 radiance (H, W, 3), row 0 at the
+    top. An image of more than ``max_texels`` pixels is refused before its pixels are read; a
+    malformed or truncated file raises RGBEError, one line saying what is wrong."""
+    fail = RGBEError
 
     if not data.startswith(b"#?"):
         raise fail("it does not begin with '#?RADIANCE' (or another '#?' line)")
@@ -108,8 +108,7 @@ def read_rgbe(data: bytes, name, max_texels: int) -> np.ndarray:
     if height < 1 or width < 1:
         raise fail(f"it declares an empty {width}x{height} image")
     if width * height > max_texels:   # before anything is allocated: a small file may declare much
-        raise SpecError(f"environment {where} is {width}x{height}; at most {max_texels} texels "
-                        f"(16384 x 16384) are read: scale it down")
+        raise fail(f"it is {width}x{height}; at most {max_texels} texels are read: scale it down")
     pixels = np.empty((n_scan, length, 4), np.uint8)
     pos = line_end + 1
     for i in range(n_scan):
