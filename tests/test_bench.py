@@ -65,10 +65,18 @@ def shadertoy_document(tmp_path_factory) -> Path:
 
 # --- the quick run, end to end -------------------------------------------------------------------
 
+# The quick run at half its size and one repeat: what these tests check (every row, every
+# column finite, the plot, the heat maps, the baseline) does not depend on either, and the
+# cold-start columns, two fresh processes a repeat, are most of its time.
+QUICK_OVERRIDES = dict(width=128, height=128, repeats=1)
+
+
 @pytest.fixture(scope="module")
 def quick_report(tmp_path_factory, cache_dir, shadertoy_document):
     out = tmp_path_factory.mktemp("bench") / "out.json"
     cmd = [sys.executable, "-m", "sdfpbr", "bench", "--quick", "--json", str(out), "-q",
+           "--size", f"{QUICK_OVERRIDES['width']}x{QUICK_OVERRIDES['height']}",
+           "--repeats", str(QUICK_OVERRIDES["repeats"]),
            "--heatmaps", str(out.parent / "heat"), "--baseline", str(shadertoy_document)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
@@ -78,7 +86,7 @@ def quick_report(tmp_path_factory, cache_dir, shadertoy_document):
 @pytest.mark.requires_extra("matplotlib")   # the quick run plots and computes FLIP
 def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report):
     path, report, stdout = quick_report
-    cfg = suite.BenchConfig.quick()
+    cfg = suite.BenchConfig.quick(**QUICK_OVERRIDES)
     rows = {(r["scene"], r["preset"]): r for r in report["rows"] if r["preset"] != "baseline"}
     assert set(rows) == {(s, p) for s in cfg.scenes for p in cfg.presets}
     for (scene, preset), row in rows.items():
@@ -119,7 +127,7 @@ def test_quick_baseline_row(quick_report):
     _, report, _ = quick_report
     (row,) = [r for r in report["rows"] if r["preset"] == "baseline"]
     assert row["render_ms"] > 0 and row["compile_ms"] > 0
-    assert row["flip_mean"] is None and row["width"] == 256
+    assert row["flip_mean"] is None and row["width"] == QUICK_OVERRIDES["width"]
     assert row["entry_point"] == "main"
 
 

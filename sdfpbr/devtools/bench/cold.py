@@ -30,7 +30,7 @@ def cli_flags(overrides: dict, preset: str, width: int, height: int, backend: st
 
 
 # Fresh processes timed with both caches warm; their median is reported (a shared host's start-up
-# swings by a quarter from one minute to the next).
+# swings by a quarter from one minute to the next). Fewer when the run asks for fewer repeats.
 START_RUNS = 3
 
 
@@ -52,13 +52,14 @@ def cold_chart_seconds(flags: list[str], cache_dir: str, workdir: str, mesa_cach
 
 def cold_times(overrides: dict, preset: str, cfg: BenchConfig) -> tuple[float, float, float]:
     """(empty sdfpbr cache, filled sdfpbr cache) seconds, both with Mesa's cache off; then the
-    median of START_RUNS starts with both caches warm (Mesa's in a directory of its own, filled
-    by an untimed run first)."""
+    median of START_RUNS starts (at most cfg.repeats) with both caches warm (Mesa's in a
+    directory of its own, filled by an untimed run first)."""
     with tempfile.TemporaryDirectory(prefix="sdfpbr-bench-") as tmp:
         flags = cli_flags(overrides, preset, cfg.width, cfg.height, cfg.backend, tmp)
         cache, mesa = os.path.join(tmp, "cache"), os.path.join(tmp, "mesa")
         cold = cold_chart_seconds(flags, cache, tmp)
         warm = cold_chart_seconds(flags, cache, tmp)
         cold_chart_seconds(flags, cache, tmp, mesa)
-        start = statistics.median(cold_chart_seconds(flags, cache, tmp, mesa) for _ in range(START_RUNS))
+        runs = min(START_RUNS, cfg.repeats)
+        start = statistics.median(cold_chart_seconds(flags, cache, tmp, mesa) for _ in range(runs))
     return cold, warm, start
