@@ -10,26 +10,15 @@
 #include "ground_ibl.glsl"
 
 // The ground's IBL table (read by ground_ibl.glsl): per view direction, the environment's
-// light reflected by the ground material. Both integrals use IBL_PIXEL_SAMPLES filtered samples
-// of the prefiltered map (ibl_sampled.glsl's estimator, which tends to the exact integral as
-// the count grows): the specular lobe with GGX visible normals, the irradiance with cosine
-// samples (SH9's band limit put it 2 % low under a sharp lobe). The split sum it replaces put the
-// far floor up to 8 % low (one V = N lobe read along R, at grazing angles).
+// light reflected by the ground material. The specular lobe from IBL_PIXEL_SAMPLES filtered
+// samples of the prefiltered map with GGX visible normals (ibl_sampled.glsl's estimator, which
+// tends to the exact integral as the count grows); the irradiance is one number for the whole
+// floor, summed exactly over the environment's texels with its SH9 (sh_main.glsl). The split
+// sum this replaces put the far floor up to 8 % low (one V = N lobe read along R, at grazing
+// angles).
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform writeonly image2D u_target;
 uniform int u_size;
-
-// E(up) / pi: the mean of L over cosine-distributed directions (pdf cos / pi).
-vec3 irradiance_over_pi_up() {
-    uint count = uint(IBL_PIXEL_SAMPLES);
-    vec3 sum = vec3(0.0);
-    for (uint i = 0u; i < count; ++i) {
-        vec3 l = sample_cosine_hemisphere(hammersley(i, count)).xzy;   // local z -> world y
-        float pdf = l.y * INV_PI;
-        sum += textureLod(u_prefiltered, l, filtered_lod(1.0 / (float(count) * max(pdf, 1e-6)))).rgb;
-    }
-    return sum / float(count);
-}
 
 void main() {
     ivec2 id = ivec2(gl_GlobalInvocationID.xy);
@@ -40,5 +29,5 @@ void main() {
     float n_dot_v = max(v.y, MIN_N_DOT_V);
     vec3 dfg = dfg_lookup(n_dot_v, m.perceptual_roughness);
     SampledSpecular s = sampled_specular(n, v, n_dot_v, m.alpha);
-    imageStore(u_target, id, vec4(ibl_mix(m, dfg, s.mean_a, s.mean_b, irradiance_over_pi_up()), 1.0));
+    imageStore(u_target, id, vec4(ibl_mix(m, dfg, s.mean_a, s.mean_b, u_floor_irradiance_over_pi), 1.0));
 }

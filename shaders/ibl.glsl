@@ -4,6 +4,7 @@
 uniform samplerCube u_prefiltered;
 uniform float u_prefiltered_lods;   // number of mip levels - 1
 uniform vec3 u_sh[9];               // irradiance SH9, cosine lobe already applied
+uniform vec3 u_floor_irradiance_over_pi;   // E / pi of an upward normal, summed exactly (sh_main.glsl)
 
 // Between levels 0 (a mirror) and 1 (r = 1 / lods) the read blends the two by the lobe's second
 // moment, alpha^2 ~ x^4, not linearly in x: the linear blend put 20 % of the r = 0.2 lobe into

@@ -1,10 +1,13 @@
 #include "common.glsl"
 #include "cubemap.glsl"
 
-// SH9 projection of the environment, convolved with the clamped cosine (irradiance).
-// One invocation per coefficient; it sums the source cubemap texels weighted by solid angle.
-layout(local_size_x = 9) in;
-layout(std430, binding = 0) buffer Coefficients { vec4 u_coefficients[9]; };
+// SH9 projection of the environment, convolved with the clamped cosine (irradiance), and the
+// irradiance / pi of an upward normal, the floor's, summed exactly rather than through SH9's
+// band limit (a sun in the sky puts that several % off; so did the floor's 1024 cosine samples,
+// a sun 2 degrees wide falling between them: the far floor 8 % bright under one 450x the sky).
+// One invocation per output; it sums the source cubemap texels weighted by solid angle.
+layout(local_size_x = 10) in;
+layout(std430, binding = 0) buffer Coefficients { vec4 u_coefficients[10]; };
 uniform samplerCube u_source;
 uniform int u_source_lod;
 uniform int u_size;                // size of the level read
@@ -30,8 +33,13 @@ void main() {
                 vec2 c = vec2(x, y) + 0.5;
                 vec3 d = cube_direction(face, c, float(u_size));
                 vec3 radiance = textureLod(u_source, d, float(u_source_lod)).rgb;
-                sum += radiance * sh_basis(k, d) * texel_solid_angle(c, float(u_size));
+                float weight = k < 9 ? sh_basis(k, d) : max(d.y, 0.0) * INV_PI;
+                sum += radiance * weight * texel_solid_angle(c, float(u_size));
             }
+    if (k == 9) {   // the floor's irradiance / pi
+        u_coefficients[9] = vec4(sum, 0.0);
+        return;
+    }
     // Cosine-lobe convolution A_l (pi, 2pi/3, pi/4) times the basis constants, so the
     // shader evaluates E(n) with the polynomial in ibl.glsl directly.
     const float band[9] = float[9](0.282095 * PI,

@@ -159,14 +159,14 @@ vec3 occluded_environment(Surface s, vec3 ibl, float ao, bool ground, bool block
     if (ground) {
         // The ground: its sphere hides a cosine-weighted share of the diffuse light and the
         // part of the specular lobe it covers (stage_bounce.glsl gives both back as the
-        // sphere's own light). The diffuse from the SH9 irradiance (within 2 %), the specular
+        // sphere's own light). The diffuse from the floor's exact irradiance, the specular
         // from the ground's table; what is hidden of each is the sky behind the sphere
         // (ao.glsl sky_behind_sphere). A sky brighter on one side darkens the floor on the
         // other: the cosine-weighted average over the whole sky left the studio's floor up to
         // 17 % bright beside the sphere, and the lobe's share of the table's specular (as if
         // the sphere hid the lobe's mean sky) left its reflection 15 % off in front of it.
         if (blocked) {
-            vec3 diffuse = s.m.base_color_linear * s.dfg.z * sh_irradiance(s.n) * INV_PI;
+            vec3 diffuse = s.m.base_color_linear * s.dfg.z * u_floor_irradiance_over_pi;
             HiddenSky hidden = sky_behind_sphere(s.p, s.v, s.m.alpha);
             vec3 specular = ibl - diffuse;
             ibl = max(diffuse - s.m.base_color_linear * s.dfg.z * (1.0 - ao) * hidden.diffuse, vec3(0.0))

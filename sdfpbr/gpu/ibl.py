@@ -89,6 +89,7 @@ class EnvironmentLighting:
     cube: moderngl.TextureCube | None
     lods: int
     sh: np.ndarray    # (9, 3) irradiance coefficients, cosine lobe applied
+    floor_irradiance_over_pi: np.ndarray   # (3,) E / pi of an upward normal, summed exactly
     key: str = ""     # the content key it was baked or loaded under
     load: Callable[[], moderngl.TextureCube] | None = None   # makes the cube when it is None
     # A stage probe's floor parallax table (IBLBaker.floor_parallax), made on first use; a light
@@ -112,7 +113,8 @@ class EnvironmentLighting:
                 texture.release()
 
     def uniforms(self) -> dict:
-        return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh]}
+        return {"u_prefiltered_lods": float(self.lods), "u_sh": [tuple(map(float, c)) for c in self.sh],
+                "u_floor_irradiance_over_pi": tuple(map(float, self.floor_irradiance_over_pi))}
 
 
 @dataclass
@@ -378,7 +380,8 @@ class IBLBaker:
             program.run(_groups(s), _groups(s), 6)
         self.ctx.memory_barrier()
         sh = rest.sh + turned_sh(full.sh - rest.sh, turn)
-        return EnvironmentLighting(orbit.frame, full.lods, sh.astype(np.float32),
+        # A turn about the vertical leaves an upward normal's irradiance as it was.
+        return EnvironmentLighting(orbit.frame, full.lods, sh.astype(np.float32), full.floor_irradiance_over_pi,
                                    content_key(plan.turn_probe.text, full.key, rest.key, turn.tolist()),
                                    orbit=(orbit, turn))
 
@@ -456,7 +459,7 @@ class IBLBaker:
         cached = self._stored("ibl", key)
         if cached is not None:
             arrays = [cached[f"level{k}"] for k in range(levels)]
-            result = EnvironmentLighting(None, levels - 1, cached["sh"], key,
+            result = EnvironmentLighting(None, levels - 1, cached["sh"], cached["floor_irradiance_over_pi"], key,
                                          load=lambda: self._cube_from_levels(plan.copy_to_cube, arrays))
         else:
             result = self._bake(plan, levels, program, uniforms, textures())
@@ -464,6 +467,7 @@ class IBLBaker:
             arrays = {f"level{k}": self._read_cube_level(plan.copy_from_cube, result.prefiltered, k, size >> k)
                       for k in range(levels)}
             arrays["sh"] = result.sh
+            arrays["floor_irradiance_over_pi"] = result.floor_irradiance_over_pi
             self._store("ibl", key, arrays)
         _remember(self._lighting, key, result, EnvironmentLighting.release)
         return result
@@ -515,15 +519,15 @@ class IBLBaker:
 
         sh_prog = self.programs.compute(plan.irradiance)
         sh_size = min(plan.sh_size, n)
-        buffer = ctx.buffer(reserve=9 * 16)
+        buffer = ctx.buffer(reserve=10 * 16)
         buffer.bind_to_storage_buffer(0)
         set_uniforms(sh_prog, {"u_source": 0, "u_source_lod": int(math.log2(n // sh_size)), "u_size": sh_size})
         sh_prog.run(1, 1, 1)
         ctx.memory_barrier()
-        sh = np.frombuffer(buffer.read(), dtype=np.float32).reshape(9, 4)[:, :3].copy()
+        rows = np.frombuffer(buffer.read(), dtype=np.float32).reshape(10, 4)[:, :3].copy()
         buffer.release()
         source.release()
-        return EnvironmentLighting(target, levels - 1, sh)
+        return EnvironmentLighting(target, levels - 1, rows[:9], rows[9])
 
     def _read_cube_level(self, copy: ComposedSource, cube: moderngl.TextureCube, level: int, size: int) -> np.ndarray:
         array = self.ctx.texture_array((size, size, 6), 4, dtype="f4")
