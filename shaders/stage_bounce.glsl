@@ -85,10 +85,16 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
     // light there, its reflections too (the rays leave a smooth sphere's to the closed form,
     // which lights the floor's diffuse only: a polished metal's image in a glossy floor was
     // missing). f cos / pdf = F Vis N.L 2 lambda (D cancels), as ibl_sampled.glsl.
+    // A few fixed samples meet the sphere or miss it all at once as q moves, which drew rings
+    // round it: each sample stands for a cone as wide as the samples' spacing in the lobe (its
+    // reflected directions ~2 alpha across), and counts by how much of that cone the sphere's
+    // disc covers, read at the nearest point inside the silhouette.
     int lobe_samples = with_specular ? BOUNCE_SPECULAR_SAMPLES : 0;
     vec3 v_local = vec3(v.x, v.z, n_dot_v);   // the floor's frame: normal +y as local z
     float a2 = sq(floor_material.alpha);
     float lambda_denominator = n_dot_v + sqrt(a2 + (1.0 - a2) * n_dot_v * n_dot_v);
+    float disc = asin(min(u_radius / dist, 1.0));   // the sphere's angular radius from q
+    float cone = 2.0 * floor_material.alpha * inversesqrt(float(max(lobe_samples, 1))) + 1e-3;
 #else
     int lobe_samples = 0;
 #endif
@@ -108,6 +114,13 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
             share = l_local.z <= 0.0 ? 0.0
                   : visibility_ibl(l_local.z, n_dot_v, floor_material.alpha) * l_local.z * 2.0 * lambda_denominator
                     * fresnel_schlick(vec3(DIELECTRIC_F0), saturate(dot(v_local, h_local))).x;
+            float off = acos(clamp(dot(w, axis), -1.0, 1.0));   // from the disc's centre
+            share *= 1.0 - smoothstep(disc - cone, disc + cone, off);
+            if (off > 0.999 * disc && share > 0.0) {
+                vec3 side = w - axis * dot(w, axis);
+                float len = length(side);
+                if (len > 1e-6) w = axis * cos(0.999 * disc) + side * (sin(0.999 * disc) / len);
+            }
 #endif
         }
         float cos_q = w.y;                       // the floor's normal is +y
@@ -115,6 +128,10 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
         float th = ray_sphere(q, w, vec3(0.0), u_radius);
         if (th <= 0.0) continue;
         vec3 s = q + w * th;
+#if BOUNCE_SPECULAR_SAMPLES > 0
+        // A lobe sample sees the sphere's reflections blurred over its cone (alpha ~ half of it).
+        g_min_perceptual_roughness = lobe ? sqrt(0.5 * cone) : 0.0;
+#endif
         vec3 radiance = shade_sphere_for_bounce(s, s / u_radius, -w, cell, pixel_size,
                                                 lobe ? floor_material.alpha : spacing, lobe ? 1.0 : resolved);
         if (lobe) {

@@ -287,6 +287,7 @@ def _chart_options(frame: ChartFrame,
     # Rays beyond the pixel's centre (chart_main.glsl), composed in only where there are some.
     opts["SUPERSAMPLE"] = spec.spp > 1
     opts["BOUNCE_PREPASS"] = False
+    opts["BOUNCE_SPECULAR_SAMPLES"] = 0
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
         opts["BOUNCE_SPECULAR_SAMPLES"] = max(q.bounce_specular_samples, 1)
