@@ -2,8 +2,7 @@
 #include "ray_sphere.glsl"
 #include "sphere_mirror.glsl"
 #include "bounce_split.glsl"
-#include "hammersley.glsl"
-#include "sampling.glsl"
+#include "floor_lobe.glsl"
 
 // Cells stage: the light a cell's sphere sends onto its own floor point q (seen along v). The
 // sphere hides a form factor FF of the floor's sky (the AO removed that part of the
@@ -80,21 +79,11 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
     float weight = 0.0;
     int rays = ff < BOUNCE_FEW_FF ? 1 : BOUNCE_RAYS;
 #if AO_METHOD == analytic && !BUG_FEWTAP_IBL
-    // The floor's specular reflection of the sphere: its GGX lobe sampled by visible normals
-    // (BOUNCE_SPECULAR_SAMPLES), each sample that meets the sphere reading the sphere's whole
-    // light there, its reflections too (the rays leave a smooth sphere's to the closed form,
-    // which lights the floor's diffuse only: a polished metal's image in a glossy floor was
-    // missing). f cos / pdf = F Vis N.L 2 lambda (D cancels), as ibl_sampled.glsl.
-    // A few fixed samples meet the sphere or miss it all at once as q moves, which drew rings
-    // round it: each sample stands for a cone as wide as the samples' spacing in the lobe (its
-    // reflected directions ~2 alpha across), and counts by how much of that cone the sphere's
-    // disc covers, read at the nearest point inside the silhouette.
+    // The floor's specular reflection of the sphere: samples of its lobe (floor_lobe.glsl),
+    // each that meets the sphere reading the sphere's whole light there, its reflections too
+    // (the rays leave a smooth sphere's to the closed form, which lights the floor's diffuse
+    // only: a polished metal's image in a glossy floor was missing).
     int lobe_samples = with_specular ? BOUNCE_SPECULAR_SAMPLES : 0;
-    vec3 v_local = vec3(v.x, v.z, n_dot_v);   // the floor's frame: normal +y as local z
-    float a2 = sq(floor_material.alpha);
-    float lambda_denominator = n_dot_v + sqrt(a2 + (1.0 - a2) * n_dot_v * n_dot_v);
-    float disc = asin(min(u_radius / dist, 1.0));   // the sphere's angular radius from q
-    float cone = 2.0 * floor_material.alpha * inversesqrt(float(max(lobe_samples, 1))) + 1e-3;
 #else
     int lobe_samples = 0;
 #endif
@@ -108,19 +97,9 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
             share = i == 0 ? (rays == 1 ? 1.0 : 1.0 - BOUNCE_RING_WEIGHT) : BOUNCE_RING_WEIGHT / float(rays - 1);
         } else {
 #if AO_METHOD == analytic && !BUG_FEWTAP_IBL
-            vec3 h_local = sample_ggx_vndf(v_local, floor_material.alpha, hammersley(uint(i - rays), uint(lobe_samples)));
-            vec3 l_local = 2.0 * dot(v_local, h_local) * h_local - v_local;
-            w = vec3(l_local.x, l_local.z, l_local.y);
-            share = l_local.z <= 0.0 ? 0.0
-                  : visibility_ibl(l_local.z, n_dot_v, floor_material.alpha) * l_local.z * 2.0 * lambda_denominator
-                    * fresnel_schlick(vec3(DIELECTRIC_F0), saturate(dot(v_local, h_local))).x;
-            float off = acos(clamp(dot(w, axis), -1.0, 1.0));   // from the disc's centre
-            share *= 1.0 - smoothstep(disc - cone, disc + cone, off);
-            if (off > 0.999 * disc && share > 0.0) {
-                vec3 side = w - axis * dot(w, axis);
-                float len = length(side);
-                if (len > 1e-6) w = axis * cos(0.999 * disc) + side * (sin(0.999 * disc) / len);
-            }
+            FloorLobeSample sample_k = floor_lobe_sample(i - rays, q, v, floor_material.alpha);
+            w = sample_k.on_sphere;
+            share = sample_k.weight;
 #endif
         }
         float cos_q = w.y;                       // the floor's normal is +y
@@ -130,7 +109,7 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
         vec3 s = q + w * th;
 #if BOUNCE_SPECULAR_SAMPLES > 0
         // A lobe sample sees the sphere's reflections blurred over its cone (alpha ~ half of it).
-        g_min_perceptual_roughness = lobe ? sqrt(0.5 * cone) : 0.0;
+        g_min_perceptual_roughness = lobe ? sqrt(0.5 * floor_lobe_cone(floor_material.alpha)) : 0.0;
 #endif
         vec3 radiance = shade_sphere_for_bounce(s, s / u_radius, -w, cell, pixel_size,
                                                 lobe ? floor_material.alpha : spacing, lobe ? 1.0 : resolved);
