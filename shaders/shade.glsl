@@ -60,12 +60,6 @@ vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float li
 #if SPHERE_PREPASS_PASS
 float g_prepass_metallic = 0.0;   // the sphere prepass shades each slot's sphere at metallic 0 and 1
 #endif
-#if BOUNCE_SPECULAR_SAMPLES > 0
-// The sphere as a few samples of its floor's glossy lobe see it (stage_bounce.glsl): its
-// reflections no sharper than the samples' spacing, so a sharp line it mirrors (the horizon)
-// is spread as the floor's lobe spreads it, not drawn once per sample.
-float g_min_perceptual_roughness = 0.0;
-#endif
 
 // A point as shade_point shades it: its material (the maps applied on a sphere), its normals,
 // the view, and the DFG LUT's entry there.
@@ -98,12 +92,6 @@ Surface surface_at(vec3 p, vec3 n_geo, vec3 v, ivec2 cell, float pixel_size, boo
     s.m = ground ? ground_material() : cell_material(cell, n_geo);
 #if SPHERE_PREPASS_PASS
     if (!ground) s.m.metallic = g_prepass_metallic;
-#endif
-#if BOUNCE_SPECULAR_SAMPLES > 0
-    if (!ground && g_min_perceptual_roughness > s.m.perceptual_roughness) {
-        s.m.perceptual_roughness = g_min_perceptual_roughness;
-        s.m.alpha = sq(g_min_perceptual_roughness);
-    }
 #endif
     s.n = n_geo;
 #if USE_TEXTURES
