@@ -67,7 +67,8 @@ def shadertoy_document(tmp_path_factory) -> Path:
 
 # The quick run at half its size and one repeat: what these tests check (every row, every
 # column finite, the plot, the heat maps, the baseline) does not depend on either, and the
-# cold-start columns, two fresh processes a repeat, are most of its time.
+# cold-start columns are most of its time (fresh processes a row: two cold, one to fill
+# Mesa's cache, then one start a repeat, at most three).
 QUICK_OVERRIDES = dict(width=128, height=128, repeats=1)
 
 
