@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.errors import SpecError
-from sdfpbr.image.env_file import MAX_ENV_TEXELS, load_env_file
+from sdfpbr.inputs.environment import MAX_ENV_TEXELS, load_env_file
 from sdfpbr.spec.chart_spec import load_spec, make_spec
 
 

@@ -344,7 +344,7 @@ def test_fitting_an_environment_keeps_its_mean_and_order():
     """The area average of a ramp: each output texel the mean of the input it covers (closed
     form), for a length the limit divides and one it does not."""
     import numpy as np
-    from sdfpbr.image.env_file import fit_texture
+    from sdfpbr.inputs.environment import fit_texture
     ramp = np.arange(12, dtype=np.float32).reshape(1, 12, 1)
     np.testing.assert_allclose(fit_texture(ramp, 4).ravel(), [1, 4, 7, 10])
     # 12 texels into 5: texel i covers [2.4 i, 2.4 (i + 1)); the ramp's texel k is k there.
@@ -359,7 +359,7 @@ def test_an_environment_wider_than_gl_allows_is_scaled_to_fit(session, tmp_path,
     area-averaged down to fit, so a uniform one lights the chart as a uniform one that fits.
     Only the long side shrinks: 2 x 100000 was halved to 0 rows, all black again."""
     import numpy as np
-    from sdfpbr.image.env_file import fit_texture
+    from sdfpbr.inputs.environment import fit_texture
     limit = int(session.ctx.info["GL_MAX_TEXTURE_SIZE"])
     assert fit_texture(np.ones((rows, limit + extra, 3), np.float32), limit).shape == (rows, limit, 3)
     wide, narrow = tmp_path / "wide.npy", tmp_path / "narrow.npy"

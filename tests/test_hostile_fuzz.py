@@ -76,7 +76,7 @@ def special_files(tmp: Path) -> dict[str, Path]:
 
 def readers():
     """(name, suffix, read(path)) for each reader of a file an input names."""
-    from sdfpbr.image.env_file import load_env_file
+    from sdfpbr.inputs.environment import load_env_file
     from sdfpbr.inputs import read_json
     from sdfpbr.spec.chart_spec import load_spec, make_spec
     from sdfpbr.devtools.baseline import load_shadertoy
@@ -169,7 +169,7 @@ def test_deep_nesting_is_refused_in_one_line(tmp_path):
 # ---- sizes: an environment of any aspect keeps at least a row and a column ------------------------
 
 def test_environments_of_any_aspect_fit_with_their_mean():
-    from sdfpbr.image.env_file import fit_texture
+    from sdfpbr.inputs.environment import fit_texture
     r = rng("sizes")
     for _ in range(12 * SCALE):
         limit = r.choice([16, 64, 16384])

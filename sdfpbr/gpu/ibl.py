@@ -12,7 +12,7 @@ import numpy as np
 
 from ..cache import ArrayCache, content_key
 from ..errors import SpecError
-from ..image.env_file import MAX_ENV_RADIANCE, fit_texture, load_env_file
+from ..inputs.environment import MAX_ENV_RADIANCE, fit_texture, load_env_file
 from ..shading.compose import ComposedSource
 from ..shading.plan import ChartFrame, IBLPlan, RenderPlan
 from ..spec.chart_spec import ChartSpec

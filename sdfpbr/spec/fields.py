@@ -172,7 +172,7 @@ def _lights(v) -> tuple:
     return tuple(light_from_mapping(m) for m in given)
 
 
-ENV_FILE_SUFFIXES = (".exr", ".hdr", ".npy")   # what image.env_file.load_env_file reads
+ENV_FILE_SUFFIXES = (".exr", ".hdr", ".npy")   # what inputs.environment.load_env_file reads
 
 
 def _env(v) -> str:

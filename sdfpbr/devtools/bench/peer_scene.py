@@ -182,7 +182,7 @@ def environment_map(spec: ChartSpec, env: str) -> np.ndarray | None:
     if env == "black" or spec.env_intensity == 0.0:
         return None
     if env == "file":
-        from ...image.env_file import load_env_file
+        from ...inputs.environment import load_env_file
         data = file_envmap(load_env_file(spec.env))
     else:
         from ...gpu.ibl import sun_direction

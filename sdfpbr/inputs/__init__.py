@@ -7,18 +7,22 @@ larger than its kind's limit (INPUT_LIMITS); structured text (JSON, TOML) is als
 how deeply it nests. A path that an asset or an entry names relative to its own folder is
 confined to that folder (``confined``): after percent-decoding and with symlinks resolved it
 must stay inside, and the refusal reads the same whether the outside file exists or not.
-Every refusal is a SpecError: one line, exit status 2."""
+Every refusal is a SpecError: one line, exit status 2.
+
+The package also decodes what it reads where a format needs it: ``environment`` reads an
+environment file (.npy, .exr, Radiance .hdr through ``rgbe``) into float32 radiance, so the
+render path takes pixels from here and never comes back to a reader."""
 from __future__ import annotations
 
 import os
 import stat
 from pathlib import Path
 
-from .errors import SpecError
+from ..errors import SpecError
 
 MIB = 1 << 20
 # The largest file of each kind sdfpbr reads, in bytes. An environment may be 16384 x 16384
-# float32 RGBA (image.env_file.MAX_ENV_TEXELS), plus its header; an image of 2^26 texels is at most
+# float32 RGBA (inputs.environment.MAX_ENV_TEXELS), plus its header; an image of 2^26 texels is at most
 # 256 MiB as RGBA8 before compression (gpu.textures); a glTF asset's JSON, a GLB or a buffer
 # carries its images.
 INPUT_LIMITS = {

@@ -1,6 +1,6 @@
 """Environment files: an equirectangular map (.npy, .exr or Radiance .hdr) read as float32
-radiance, checked, and fitted to the GL's largest texture. Reading files is the image layer's
-work; gpu.ibl uploads and bakes what this returns."""
+radiance, checked, and fitted to the GL's largest texture. gpu.ibl uploads and bakes what
+this returns."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SpecError
-from ..inputs import check_input, printable, read_input
+from . import check_input, printable, read_input
 
 
 MAX_ENV_TEXELS = 1 << 28       # 16384 x 16384: beyond this an environment file is refused
@@ -22,10 +22,11 @@ def load_env_file(path: str | Path) -> np.ndarray:
     anything is allocated."""
     path = check_input(path, "environment", "environment")   # a regular file, not a FIFO or device
     suffix = path.suffix.lower()
-    if suffix == ".hdr":   # RGBE, decoded here (image.rgbe): its header is checked before its pixels
+    if suffix == ".hdr":   # RGBE, decoded here (inputs.rgbe): its header is checked before its pixels
         from .rgbe import RGBEError, read_rgbe
         try:
-            data = read_rgbe(read_input(path, "environment", "environment"), MAX_ENV_TEXELS)
+            raw = read_input(path, "environment", "environment")
+            data = read_rgbe(raw, MAX_ENV_TEXELS)
         except RGBEError as exc:
             raise SpecError(printable(f"cannot read environment {path} as a Radiance .hdr (RGBE) "
                                       f"image: {exc}")) from None
