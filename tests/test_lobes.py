@@ -17,7 +17,7 @@ from sdfpbr.oracle import dfg_bake, display, lobes, shading_model
 from sdfpbr.shading.compose import shader_dir
 from sdfpbr.shading.plan import compose_program, render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
-from sdfpbr.spec.material import Material
+from sdfpbr.spec.material import LOBES, Material
 from sdfpbr.devtools.energy import furnace_spec
 from sdfpbr.features.reference import compensation_table, render_reference
 
@@ -33,7 +33,7 @@ LOBE_MATERIALS = {
                  dict(base_color=(0.2, 0.5, 0.2), roughness=0.4, ior=2.2, specular=0.7,
                       specular_color=(1.0, 0.6, 0.3))),
 }
-LOBE_OPTIONS = {"clearcoat": "CLEARCOAT", "sheen": "SHEEN", "specular": "KHR_SPECULAR"}
+LOBE_OPTIONS = {lobe.name: lobe.option for lobe in LOBES}
 
 KERNEL = """
 #include "common.glsl"
@@ -441,12 +441,39 @@ def test_the_lobes_scene_renders_finite_under_its_environment(session, preset):
 
 def test_a_scene_compiles_only_the_lobes_it_uses():
     default = render_plan(make_spec()).chart
-    assert not {"CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION"} & set(dict(default.options))
+    assert not {lobe.option for lobe in LOBES} & set(dict(default.options))
     assert "d_charlie" not in default.text and "clearcoat_layer" not in default.text
     coat = render_plan(make_spec(clearcoat=0.5)).chart
     assert dict(coat.options).get("CLEARCOAT") and "clearcoat_layer" in coat.text and "d_charlie" not in coat.text
     # Values that change nothing switch nothing on: ior 1.5 with specular 1 is the core f0.
     assert not dict(render_plan(make_spec(ior=1.5, specular=1.0, clearcoat=0.0)).chart.options).get("KHR_SPECULAR")
+
+
+def test_every_lobe_row_names_what_exists():
+    """The lobe table (spec.material LOBES) is read by the plan, the glTF reader, the maps and
+    the bake: a row naming a Material field, a map or an option that does not exist would be
+    ignored by some of them, not refused."""
+    from sdfpbr.shading.maps import MAPS_BY_NAME
+    from sdfpbr.shading.plan import SCHEMA
+    from sdfpbr.spec.material import COLOR_PARAMS, LOBE_NAMES, PARAMS
+    fields = {f.name: f.default for f in dataclasses.fields(Material)}
+    for lobe in LOBES:
+        assert lobe.option in SCHEMA.switches
+        assert not lobe.used(Material())   # the default material needs no lobe
+        for extension in lobe.gltf:
+            assert extension.name.startswith("KHR_materials_")
+            for f in extension.factors:
+                assert f.field in fields
+                assert np.shape(f.default) == np.shape(fields[f.field])
+            for t in extension.textures:
+                assert t.map in MAPS_BY_NAME and t.kind in ("channel", "colour", "normal")
+                assert MAPS_BY_NAME[t.map].srgb == (t.kind == "colour")
+    # Every parameter of a lobe belongs to a row, and every row has a parameter.
+    owners = {p.lobe for p in PARAMS if p.lobe} | {lobe for _, lobe, _ in COLOR_PARAMS.values()}
+    assert owners == set(LOBE_NAMES)
+    # No two textures share a channel of a shared map.
+    targets = [(t.map, t.channel[1]) for lobe in LOBES for e in lobe.gltf for t in e.textures if t.kind == "channel"]
+    assert len(targets) == len(set(targets))
 
 
 def sheen_centroid(n_dot_v, sheen_roughness, n=160):

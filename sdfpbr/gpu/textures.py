@@ -15,10 +15,10 @@ import numpy as np
 
 from ..errors import SpecError
 from ..image.colour import srgb_eotf, srgb_oetf
-from ..shading.maps import MAPS
+from ..shading.maps import MAPS, MAPS_BY_NAME
+from ..spec.material import LOBE_TEXTURES
 from .gl import upload_levels
 
-MAPS_BY_NAME = {m.name: m for m in MAPS}
 
 PROCEDURAL_SIZE = (1024, 512)   # (width, height): u spans 2 pi, v spans pi, so texels stay square
 GL_SRGB8_ALPHA8, GL_RGBA8 = 0x8C43, 0x8058
@@ -326,19 +326,19 @@ def _layer(kind: str, tex, size: tuple[int, int]) -> np.ndarray:
                                    * (_on_sphere(tex.occlusion, size, False)[..., 0] / 255.0 - 1.0))
         if tex.metallic_roughness:   # roughness in G, metalness in B
             out[..., 1:3] = _on_sphere(tex.metallic_roughness, size, False)[..., 1:3]
-    elif kind == "khr":   # glTF's channels: clearcoat R, its roughness G, specular A, sheen roughness A
-        channel(tex.clearcoat, 0, 0)
-        channel(tex.clearcoat_roughness, 1, 1)
-        channel(tex.specular, 3, 2)
-        channel(tex.sheen_roughness, 3, 3)
-    elif kind in ("normal", "coat_normal"):
-        ref = tex.normal if kind == "normal" else tex.clearcoat_normal
-        if ref:
-            out[..., :3] = _normal_layer(ref, size)
-    else:   # colour maps: RGB as the texture holds it (the map's name is the texture's)
+    elif kind in ("normal", "emissive"):
         ref = getattr(tex, kind)
         if ref:
-            out[..., :3] = _on_sphere(ref, size, MAPS_BY_NAME[kind].srgb)[..., :3]
+            out[..., :3] = _normal_layer(ref, size) if kind == "normal" else _on_sphere(ref, size, True)[..., :3]
+    else:   # a lobe's map (spec.material LOBES): its textures' channels, or one colour or normal
+        for texture in LOBE_TEXTURES:
+            ref = tex.lobe(texture.name) if texture.map == kind else None
+            if texture.kind == "channel":
+                channel(ref, *texture.channel)
+            elif ref and texture.kind == "normal":
+                out[..., :3] = _normal_layer(ref, size)
+            elif ref:
+                out[..., :3] = _on_sphere(ref, size, MAPS_BY_NAME[kind].srgb)[..., :3]
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 

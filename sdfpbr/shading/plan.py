@@ -20,7 +20,7 @@ import numpy as np
 
 from ..spec.bugs import BUGS, get_bug
 from ..spec.chart_spec import ENV_PRESETS, QUALITY_PRESETS, ChartSpec, Quality
-from ..spec.material import exposure_axis, spec_lobes, spec_see_through
+from ..spec.material import LOBES, exposure_axis, spec_lobes, spec_see_through
 from ..spec.presets import (BRDF_MODELS, CAMERAS, INTERSECTIONS, NORMAL_METHODS, PROCEDURAL_MAPS, STAGES, TONE_MAPPERS,
                             glsl_word)
 from .camera import (Camera, cell_sphere_box, frame_cell, frame_grid, ground_height, silhouettes_apart,
@@ -72,12 +72,10 @@ SCHEMA = OptionSchema(
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
     # them) and the catalog's bugs.
     switches=tuple(sorted({b.option for b in BUGS.values() if b.option.startswith("BUG_")}))
-    + ("CLEARCOAT", "SHEEN", "KHR_SPECULAR", "EMISSION", "LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
+    + tuple(lobe.option for lobe in LOBES) + ("LAYERED_IBL", "SHADOW_CATCHER", "BACKDROP", "SEE_THROUGH",
        "SPHERE_PREPASS_PASS", "SHEEN_LEAN", "SUPERSAMPLE", "CELL_BORDER"),
 )
 
-# Each lobe of a cell's Material (sdfpbr.spec.material.LOBES) -> the option that composes it in.
-LOBE_OPTIONS = {"clearcoat": "CLEARCOAT", "sheen": "SHEEN", "specular": "KHR_SPECULAR", "emission": "EMISSION"}
 
 
 def compose_program(main: str, options: Mapping[str, Value] | None = None, *,
@@ -268,8 +266,10 @@ def _chart_options(frame: ChartFrame,
         "STAGE": frame.stage,
         "CHART_SHADER": "fragment",   # RenderPlan.chart_compute is the compute variant
     }
-    for lobe in sorted(spec_lobes(spec)):   # only the lobes some cell uses
-        opts[LOBE_OPTIONS[lobe]] = True
+    used = spec_lobes(spec)
+    for lobe in sorted(LOBES, key=lambda lobe: lobe.name):   # only the lobes some cell uses
+        if lobe.name in used:
+            opts[lobe.option] = True
     if opts["INTERSECT"] == "march":
         opts["NORMAL_METHOD"] = q.normal_method
     if opts["USE_TEXTURES"]:   # read by textures.glsl

@@ -20,7 +20,7 @@ from ..inputs import check_input
 from .bugs import BUGS, get_bug
 from .checks import (bool_text, boolean, choice, is_number, number, number_text, parse_color, parse_names, parse_range,
                      parse_size, quote, sequence, text, vec3)
-from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, LOBES, PARAMS
+from .material import ALPHA_MODES, AXIS_PARAMS, COLOR_PARAMS, DEFAULT_BASE_COLOR, LOBE_NAMES, PARAMS
 from .presets import (BACKENDS, BRDF_MODELS, CAMERAS, DEFAULT_LIGHTS, ENV_PRESETS, HDR_PRECISIONS, INTERSECT_METHODS,
                       LIGHT_SETTINGS, MATERIAL_PRESETS, MAX_GRID, MAX_LIGHTS, MAX_SIZE, MAX_TITLE, QUALITY_PRESETS,
                       STAGES, TEXTURE_MODES, TONE_MAPPERS, TONEMAPPERS, light_from_mapping)
@@ -371,7 +371,7 @@ FIELDS: tuple[Field, ...] = (
 
 # The KHR lobes' fields, lobe by lobe (spec/material.py): a new lobe's fields join the help's
 # materials group without a change here.
-LOBE_FIELDS = tuple(name for lobe in LOBES
+LOBE_FIELDS = tuple(name for lobe in LOBE_NAMES
                     for name in (*(p.name for p in PARAMS if p.lobe == lobe),
                                  *(c for c, (_, of, _) in COLOR_PARAMS.items() if of == lobe)))
 

@@ -39,12 +39,14 @@ from pathlib import Path
 from ..errors import SpecError, did_you_mean
 from ..inputs import check_input, confined, parse_json, read_input
 from .checks import quote
+from .material import LOBE_TEXTURES, LOBES, PARAMS
 from .presets import MAX_GRID
 
 GLTF_SUFFIXES = (".gltf", ".glb")
 TEXTURE_EXTENSIONS = ("KHR_texture_transform",)   # read on every texture reference
-CHARTED_EXTENSIONS = ("KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular", "KHR_materials_ior",
-                      "KHR_materials_emissive_strength")
+CHARTED_EXTENSIONS = tuple(e.name for lobe in LOBES for e in lobe.gltf)   # the KHR lobes' (spec.material)
+# Factors glTF does not bound by 1 (the lobes' parameters with a larger range, and the cutoff).
+UNBOUNDED_FACTORS = frozenset({p.name for p in PARAMS if p.hi > 1.0} | {"alpha_cutoff"})
 # Extensions of meshes alone: they compress or quantize vertex data, or instance a mesh on
 # nodes. sdfpbr charts each material on its own sphere and reads no mesh, so an asset that
 # requires one of these charts the same as without it.
@@ -93,15 +95,12 @@ class MaterialTextures:
     normal: TextureRef | None = None
     occlusion: TextureRef | None = None
     emissive: TextureRef | None = None
-    # The KHR extensions' maps: clearcoat (R), its roughness (G) and normal; sheen colour (RGB)
-    # and roughness (A); specular (A) and specular colour (RGB).
-    clearcoat: TextureRef | None = None
-    clearcoat_roughness: TextureRef | None = None
-    clearcoat_normal: TextureRef | None = None
-    sheen_color: TextureRef | None = None
-    sheen_roughness: TextureRef | None = None
-    specular: TextureRef | None = None
-    specular_color: TextureRef | None = None
+    # The KHR lobes' textures this material has: (GltfTexture.name, its TextureRef).
+    lobes: tuple[tuple[str, TextureRef], ...] = ()
+
+    def lobe(self, name: str) -> TextureRef | None:
+        """The lobe texture ``name`` (spec.material LOBE_TEXTURES), or None."""
+        return dict(self.lobes).get(name)
 
 
 @dataclass(frozen=True)
@@ -114,16 +113,16 @@ class GltfMaterials:
     @property
     def has_textures(self) -> dict[str, bool]:
         """Which maps (sdfpbr.shading.maps) the chart composes in: those any material has a
-        texture for (the ORM map: metallic-roughness or occlusion; the KHR map: clearcoat, its
-        roughness, sheen roughness or specular)."""
+        texture for (the ORM map: metallic-roughness or occlusion; a lobe's map: any texture
+        of the lobes that goes into it)."""
         t = self.textures
         def any_of(*names):
             return any(getattr(m, n) for m in t for n in names)
-        return {"base": any_of("base_color"), "orm": any_of("metallic_roughness", "occlusion"),
-                "normal": any_of("normal"), "emissive": any_of("emissive"),
-                "khr": any_of("clearcoat", "clearcoat_roughness", "sheen_roughness", "specular"),
-                "coat_normal": any_of("clearcoat_normal"), "sheen_color": any_of("sheen_color"),
-                "specular_color": any_of("specular_color")}
+        out = {"base": any_of("base_color"), "orm": any_of("metallic_roughness", "occlusion"),
+               "normal": any_of("normal"), "emissive": any_of("emissive")}
+        for texture in LOBE_TEXTURES:
+            out[texture.map] = out.get(texture.map, False) or any(m.lobe(texture.name) for m in t)
+        return out
 
 
 class _Asset:
@@ -292,24 +291,14 @@ def _material(index: int, m: dict) -> dict:
                   metallic=factor(pbr.get("metallicFactor"), 1.0, "metallicFactor"),
                   roughness=factor(pbr.get("roughnessFactor"), 1.0, "roughnessFactor"))
     values["emissive"] = factor(m.get("emissiveFactor"), (0.0, 0.0, 0.0), "emissiveFactor", 3)
-    if "KHR_materials_emissive_strength" in ext:
-        values["emissive_strength"] = factor(extension("KHR_materials_emissive_strength").get("emissiveStrength"), 1.0,
-                                             "emissiveStrength")
-    if "KHR_materials_clearcoat" in ext:
-        e = extension("KHR_materials_clearcoat")
-        values["clearcoat"] = factor(e.get("clearcoatFactor"), 0.0, "clearcoatFactor")
-        values["clearcoat_roughness"] = factor(e.get("clearcoatRoughnessFactor"), 0.0, "clearcoatRoughnessFactor")
-    if "KHR_materials_sheen" in ext:
-        e = extension("KHR_materials_sheen")
-        values["sheen_color"] = factor(e.get("sheenColorFactor"), (0.0, 0.0, 0.0), "sheenColorFactor", 3)
-        values["sheen_roughness"] = factor(e.get("sheenRoughnessFactor"), 0.0, "sheenRoughnessFactor")
-    if "KHR_materials_specular" in ext:
-        e = extension("KHR_materials_specular")
-        values["specular"] = factor(e.get("specularFactor"), 1.0, "specularFactor")
-        values["specular_color"] = factor(e.get("specularColorFactor"), (1.0, 1.0, 1.0), "specularColorFactor", 3)
-    if "KHR_materials_ior" in ext:
-        ior = factor(extension("KHR_materials_ior").get("ior"), 1.5, "ior")
-        values["ior"] = 1e9 if ior == 0.0 else ior   # glTF: 0 means infinite (f0 = 1)
+    for lobe in LOBES:
+        for e in lobe.gltf:
+            if e.name in ext:
+                body = extension(e.name)
+                for f in e.factors:
+                    size = len(f.default) if isinstance(f.default, tuple) else None
+                    value = factor(body.get(f.key), f.default, f.key, size)
+                    values[f.field] = f.zero_means if value == 0.0 and f.zero_means is not None else value
     mode = m.get("alphaMode")
     mode = "OPAQUE" if mode is None else mode
     if mode not in ("OPAQUE", "MASK", "BLEND"):
@@ -325,7 +314,7 @@ def _check(who: str, values: dict) -> None:
         if key == "name":
             continue
         for v in value if isinstance(value, tuple) else (value,):
-            if not math.isfinite(v) or v < 0.0 or (key not in ("emissive_strength", "ior", "alpha_cutoff") and v > 1.0):
+            if not math.isfinite(v) or v < 0.0 or (key not in UNBOUNDED_FACTORS and v > 1.0):
                 raise SpecError(f"{who}: {key} {quote(value)} is outside glTF's range")
 
 
@@ -462,13 +451,8 @@ def _textures(asset: _Asset, index: int, m: dict) -> MaterialTextures:
         ref(m.get("normalTexture"), "normalTexture", "scale"),
         ref(m.get("occlusionTexture"), "occlusionTexture", "strength"),
         ref(m.get("emissiveTexture"), "emissiveTexture"),
-        ext_ref("KHR_materials_clearcoat", "clearcoatTexture"),
-        ext_ref("KHR_materials_clearcoat", "clearcoatRoughnessTexture"),
-        ext_ref("KHR_materials_clearcoat", "clearcoatNormalTexture", "scale"),
-        ext_ref("KHR_materials_sheen", "sheenColorTexture"),
-        ext_ref("KHR_materials_sheen", "sheenRoughnessTexture"),
-        ext_ref("KHR_materials_specular", "specularTexture"),
-        ext_ref("KHR_materials_specular", "specularColorTexture"))
+        tuple((t.name, r) for lobe in LOBES for e in lobe.gltf for t in e.textures
+              if (r := ext_ref(e.name, t.key, t.amount_key)) is not None))
 
 
 # The last asset read: (path, its stat, names) -> (GltfMaterials, the files beside it that it

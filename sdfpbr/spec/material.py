@@ -13,15 +13,13 @@ from __future__ import annotations
 import colorsys
 import functools
 from dataclasses import dataclass, fields
+from typing import Callable
 
 import numpy as np
 
 from ..errors import SpecError
 from .presets import MATERIAL_PRESETS
 
-# The lobes a material can switch on beyond the glTF 2.0 core, each a compile option of the
-# chart and the reference (composed in only when some cell uses it).
-LOBES = ("clearcoat", "sheen", "specular", "emission")
 # Every perceptual roughness is clamped to this before alpha = r^2 (Filament's fp32 guard: alpha^2 =
 # 0.045^4 stays a normal, well-conditioned float); common.glsl's define of the same name.
 MIN_PERCEPTUAL_ROUGHNESS = 0.045
@@ -136,16 +134,80 @@ class Material:
 
     def lobes(self) -> set[str]:
         """The lobes this material needs beyond the core (values that change nothing need none)."""
-        out = set()
-        if self.clearcoat > 0.0:
-            out.add("clearcoat")
-        if max(self.sheen_color) > 0.0:
-            out.add("sheen")
-        if self.ior != 1.5 or self.specular != 1.0 or self.specular_color != (1.0, 1.0, 1.0):
-            out.add("specular")
-        if max(self.emissive) > 0.0 and self.emissive_strength > 0.0:
-            out.add("emission")
-        return out
+        return {lobe.name for lobe in LOBES if lobe.used(self)}
+
+
+# The KHR lobes: one row each, read by everything that composes, reads or names a lobe (the
+# plan's compose options, the glTF reader's factors and textures, the texture bake, the
+# `--help` groups, the tests). docs/extending.md says what else a new lobe needs.
+
+@dataclass(frozen=True)
+class GltfFactor:
+    """A number or colour that a glTF material's extension gives one Material field."""
+    key: str                            # the extension's key ("clearcoatFactor")
+    field: str                          # the Material field it sets
+    default: float | tuple              # glTF's value where the key is absent (not always the chart's)
+    zero_means: float | None = None     # what a 0 stands for (KHR_materials_ior: 0 is an infinite ior)
+
+
+@dataclass(frozen=True)
+class GltfTexture:
+    """A texture that a glTF material's extension gives a lobe, and the chart's map it goes to
+    (sdfpbr.shading.maps makes the map, textures.glsl reads it): one channel into a shared map
+    of data, or a colour (sRGB) or tangent-space normal map of its own."""
+    key: str                            # the extension's key ("clearcoatTexture")
+    name: str                           # its name in a material's textures ("clearcoat")
+    map: str                            # the map it goes to ("khr", "coat_normal", ...)
+    kind: str = "colour"                # "channel", "colour" or "normal"
+    channel: tuple[int, int] = (0, 0)   # a "channel" texture's: (its channel, the map's)
+    amount_key: str | None = None       # the texture info's scale ("scale" of a normal map)
+
+
+@dataclass(frozen=True)
+class GltfExtension:
+    name: str                           # "KHR_materials_clearcoat"
+    factors: tuple[GltfFactor, ...] = ()
+    textures: tuple[GltfTexture, ...] = ()
+
+
+@dataclass(frozen=True)
+class Lobe:
+    name: str                           # its word in specs, docs and Material.lobes()
+    option: str                         # the compose option that puts it into the chart and the reference
+    used: Callable[[Material], bool]    # whether a material needs it (values that change nothing need none)
+    gltf: tuple[GltfExtension, ...] = ()   # the glTF extensions it charts
+
+
+LOBES: tuple[Lobe, ...] = (
+    Lobe("clearcoat", "CLEARCOAT", lambda m: m.clearcoat > 0.0, (
+        GltfExtension("KHR_materials_clearcoat", (
+            GltfFactor("clearcoatFactor", "clearcoat", 0.0),
+            GltfFactor("clearcoatRoughnessFactor", "clearcoat_roughness", 0.0)), (
+            GltfTexture("clearcoatTexture", "clearcoat", "khr", "channel", (0, 0)),
+            GltfTexture("clearcoatRoughnessTexture", "clearcoat_roughness", "khr", "channel", (1, 1)),
+            GltfTexture("clearcoatNormalTexture", "clearcoat_normal", "coat_normal", "normal",
+                        amount_key="scale"))),)),
+    Lobe("sheen", "SHEEN", lambda m: max(m.sheen_color) > 0.0, (
+        GltfExtension("KHR_materials_sheen", (
+            GltfFactor("sheenColorFactor", "sheen_color", (0.0, 0.0, 0.0)),
+            GltfFactor("sheenRoughnessFactor", "sheen_roughness", 0.0)), (
+            GltfTexture("sheenColorTexture", "sheen_color", "sheen_color"),
+            GltfTexture("sheenRoughnessTexture", "sheen_roughness", "khr", "channel", (3, 3)))),)),
+    Lobe("specular", "KHR_SPECULAR",
+         lambda m: m.ior != 1.5 or m.specular != 1.0 or m.specular_color != (1.0, 1.0, 1.0), (
+        GltfExtension("KHR_materials_specular", (
+            GltfFactor("specularFactor", "specular", 1.0),
+            GltfFactor("specularColorFactor", "specular_color", (1.0, 1.0, 1.0))), (
+            GltfTexture("specularTexture", "specular", "khr", "channel", (3, 2)),
+            GltfTexture("specularColorTexture", "specular_color", "specular_color"))),
+        GltfExtension("KHR_materials_ior", (GltfFactor("ior", "ior", 1.5, zero_means=1e9),)))),
+    # The emissive colour and its texture are glTF 2.0's core; the lobe adds the strength.
+    Lobe("emission", "EMISSION", lambda m: max(m.emissive) > 0.0 and m.emissive_strength > 0.0, (
+        GltfExtension("KHR_materials_emissive_strength", (
+            GltfFactor("emissiveStrength", "emissive_strength", 1.0),)),)),
+)
+LOBE_NAMES = tuple(lobe.name for lobe in LOBES)
+LOBE_TEXTURES = tuple(t for lobe in LOBES for e in lobe.gltf for t in e.textures)
 
 
 def dielectric_f0(ior, specular_color=(1.0, 1.0, 1.0)):
