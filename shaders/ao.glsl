@@ -25,6 +25,10 @@ float ambient_occlusion(vec3 p, vec3 n, ivec2 self_cell) {
 // that sky, the integral over the disc of f cos L (each share its solid angle times f cos L at
 // its centre), in place of the lobe's share of the whole sky's reflection.
 #if !BUG_FEWTAP_IBL
+#if BOUNCE_SPECULAR_SAMPLES > 0
+#include "floor_lobe.glsl"
+#endif
+
 struct HiddenSky { vec3 diffuse; vec3 specular; };
 
 // The shares keep one size, HIDDEN_SKY_SAMPLES of them where the disc fills the floor's sky (at
@@ -59,8 +63,22 @@ HiddenSky sky_behind_sphere(vec3 p, vec3 v, float alpha) {
         specular += f_cos * radiance;
         weight += c;
     }
-    return HiddenSky(diffuse / max(weight, 1e-6),
-                     specular * (2.0 * PI * cap / float(count)));
+    specular *= 2.0 * PI * cap / float(count);
+#if BOUNCE_SPECULAR_SAMPLES > 0
+    // A lobe narrower than a share is met or missed by the shares' centres by chance (a
+    // near-mirror floor, r 0.06: dots under the sphere, its mirror image in the floor missing,
+    // the floor under the bulge 13 % bright). There the floor's own lobe samples take it
+    // (floor_lobe.glsl), the sky read over each sample's cone: the samples stage_bounce.glsl
+    // gives the sphere's light back with, so the two cancel where the sphere looks like the sky.
+    float cone_lod = sqrt(0.549 * floor_lobe_cone(alpha)) * u_prefiltered_lods;
+    vec3 sampled = vec3(0.0);
+    for (int k = 0; k < BOUNCE_SPECULAR_SAMPLES; ++k) {
+        FloorLobeSample s = floor_lobe_sample(k, p, v, alpha);
+        if (s.weight > 0.0) sampled += s.weight * textureLod(u_prefiltered, s.w, cone_lod).rgb;
+    }
+    specular = mix(sampled / float(BOUNCE_SPECULAR_SAMPLES), specular, smoothstep(0.5 * share, share, 2.0 * alpha));
+#endif
+    return HiddenSky(diffuse / max(weight, 1e-6), specular);
 }
 #endif
 

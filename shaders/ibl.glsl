@@ -11,11 +11,23 @@ uniform vec3 u_floor_irradiance_over_pi;   // E / pi of an upward normal, summed
 // an r = 0.045 one, a halo around every sharp reflection (the default chart's polished metal
 // 0.071 -> 0.051 mean FLIP). Above level 1 the blend stays linear: the core scale and the lobe
 // fits below were made through it (the same remap there took r = 0.25 metals 0.075 -> 0.082).
+// A few samples of the floor's glossy lobe see the sphere (stage_bounce.glsl): there every
+// reflection the sphere shows is read no sharper than the samples' spacing, so a sharp line
+// it mirrors (the horizon) is spread as the floor's lobe spreads it, not drawn once per
+// sample. Only the reads blur: the material, its Fresnel and its layers stay as they are.
+float g_reflection_blur = 0.0;
+
+// Whether a floor's lobe sample is shading the sphere: it reads the sphere's whole light, its
+// coat's images too (the bounce rays leave those to stage_bounce.glsl's closed form).
+bool floor_lobe_reads() {
+    return g_reflection_blur > 0.0;
+}
+
 vec3 prefiltered_radiance(vec3 r_dir, float perceptual_roughness) {
 #if STAGE_PROBE
     r_dir = stage_parallax(r_dir);
 #endif
-    float x = perceptual_roughness * u_prefiltered_lods;
+    float x = max(perceptual_roughness, g_reflection_blur) * u_prefiltered_lods;
     if (x < 1.0) x = sq(sq(x));
     return textureLod(u_prefiltered, r_dir, x).rgb;
 }

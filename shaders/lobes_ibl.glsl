@@ -175,7 +175,8 @@ vec3 layer_ibl(Material m, vec3 n, vec3 v, float n_dot_v, vec3 base, vec3 base_d
 #if BOUNCE_MIRROR_DIRECTIONS > 0
     // The bounce rays: the coat's image of the sky is stage_bounce.glsl's closed form but for
     // the share the rays resolve; they keep its image of the floor (as the base's, shade.glsl).
-    if (bounce_ray) coat *= mix(1.0, bounce_resolves(m.clearcoat_alpha), mirrored_sky_share(reflect(-v, n_c).y));
+    if (bounce_ray && !floor_lobe_reads())
+        coat *= mix(1.0, bounce_resolves(m.clearcoat_alpha), mirrored_sky_share(reflect(-v, n_c).y));
 #endif
 #if BUG_CLEARCOAT_ADDS
     color += coat * clearcoat_weight(m, v);

@@ -41,7 +41,7 @@ vec3 base_lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, flo
 vec3 lights_brdf_cos(Material m, vec3 n, vec3 v, vec3 l, float n_dot_v, float light_angle, float e_single,
                      float specular, bool bounce_ray) {
 #if CLEARCOAT
-    if (bounce_ray && m.clearcoat > 0.0) {
+    if (bounce_ray && !floor_lobe_reads() && m.clearcoat > 0.0) {
         Material base = m;
         base.clearcoat = 0.0;
 #if BUG_CLEARCOAT_ADDS
@@ -139,7 +139,7 @@ vec3 sphere_environment(Surface s, vec3 ibl, vec3 diffuse_ibl, float light_specu
     ibl = diffuse_ibl + (ibl - diffuse_ibl) * (horizon * horizon);
 #endif
 #if BOUNCE_MIRROR_DIRECTIONS > 0
-    if (light_specular < 1.0)
+    if (light_specular < 1.0 && !floor_lobe_reads())
         ibl = diffuse_ibl + (ibl - diffuse_ibl) * mix(1.0, light_specular, mirrored_sky_share(reflect(-s.v, s.n).y));
 #endif
 #if FLOOR_PARALLAX

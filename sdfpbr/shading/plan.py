@@ -66,7 +66,7 @@ SCHEMA = OptionSchema(
            "BOUNCE_CACHE", "GATHER_PREPASS", "FLOOR_PARALLAX")
     + MAP_OPTIONS,
     counts=("NUM_DIR_LIGHTS", "NUM_POINT_LIGHTS", "IBL_PIXEL_SAMPLES", "BOUNCE_RAYS", "BOUNCE_MIRROR_DIRECTIONS",
-            "HIDDEN_SKY_SAMPLES",
+            "BOUNCE_SPECULAR_SAMPLES", "HIDDEN_SKY_SAMPLES",
             "SPHERE_SAMPLES", "EDGE_SAMPLES", "BOUNCE_GATHER_SAMPLES", "SHEEN_CENTROID_MU_STEPS",
             "SHEEN_CENTROID_R_STEPS"),
     # The KHR lobes (material.py LOBES), the shadow catcher and backdrop (off unless a plan sets
@@ -287,8 +287,10 @@ def _chart_options(frame: ChartFrame,
     # Rays beyond the pixel's centre (chart_main.glsl), composed in only where there are some.
     opts["SUPERSAMPLE"] = spec.spp > 1
     opts["BOUNCE_PREPASS"] = False
+    opts["BOUNCE_SPECULAR_SAMPLES"] = 0
     if opts["STAGE"] == "cells" and opts["HAS_GROUND"] and opts["USE_AO"]:   # read by stage_bounce.glsl
         opts["BOUNCE_RAYS"] = q.bounce_rays
+        opts["BOUNCE_SPECULAR_SAMPLES"] = max(q.bounce_specular_samples, 1)
         # The sphere's bounce on a coarser grid beside the floor prepass (stage_bounce_main.glsl).
         opts["BOUNCE_PREPASS"] = opts["FLOOR_PREPASS"] and bounce_step(frame) > 1
     if opts["USE_AO"]:

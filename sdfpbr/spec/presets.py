@@ -165,6 +165,7 @@ class Quality:
     bounce_rays: int = 5             # cells stage: rays averaging the sphere's light onto its floor
     bounce_mirror_directions: int = 16   # ... and directions of the stage a smooth sphere mirrors onto it
     bounce_texels: int = 8           # ... shaded on a grid of this many texels per sphere radius (0: every pixel)
+    bounce_specular_samples: int = 4   # ... and samples of the floor's glossy lobe, its reflection of the sphere
     hidden_sky_samples: int = 256    # cells stage: reads of the sky a sphere hides from its foot (ao.glsl)
     # The ground's IBL from a table over the view direction, baked once per environment with
     # this many filtered samples per texel (0: the split sum per pixel); ground_ibl_size texels
@@ -207,7 +208,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
     "draft": Quality(march_steps=64, shadow_steps=24, ao_taps=3, env_bake_size=128, ibl_size=64,
                      ibl_samples=32, dfg_size=32, dfg_samples=512, sh_size=16, sphere_samples_radius=0,
                      ibl_dominant_dir="none", ibl_two_lobe=False, bounce_rays=1, bounce_mirror_directions=8,
-                     hidden_sky_samples=32, bounce_iterations=1, bounce_gather_samples=4,
+                     hidden_sky_samples=32, bounce_iterations=1, bounce_gather_samples=4, bounce_specular_samples=2,
                      ground_ibl_size=64, neighbour_light=False),
     "default": Quality(),
     "high": Quality(march_steps=160, hit_scale=0.25, shadow_steps=96, ao_taps=6, env_bake_size=512,
@@ -223,7 +224,7 @@ QUALITY_PRESETS: dict[str, Quality] = {
                     # 0.0143 -> 0.0138 (the floor in front of the polished metals 0.92 -> 0.69 %
                     # dark; 256: 0.66 %); the 1024² frame 790 / 776 ms with 16 / 64 here
                     bounce_mirror_directions=64, bounce_iterations=4, bounce_gather_samples=32,
-                    bounce_cache_texels=32),
+                    bounce_cache_texels=32, bounce_specular_samples=16),
     # A Shadertoy-style raymarcher's approach on our scene (docs/model.md): every sphere in the SDF, 100 steps to a
     # fixed 1e-3 threshold, central-difference normals, five-tap environment blur, Schlick-GGX with the
     # direct-light k everywhere, Reinhard then ACES, SDF-tap AO, 32 shadow steps.
