@@ -1,6 +1,8 @@
 // Image-based lighting from the baked environment: GGX-prefiltered cubemap (roughness -> lod
 // linear, lod = r (levels - 1), the inverse of the bake), SH9 irradiance, DFG split sum
 // (IBL_METHOD split_sum), or the per-pixel sampled specular of ibl_sampled.glsl (sampled).
+#include "lobe_read.glsl"
+
 uniform samplerCube u_prefiltered;
 uniform float u_prefiltered_lods;   // number of mip levels - 1
 uniform vec3 u_sh[9];               // irradiance SH9, cosine lobe already applied
@@ -11,18 +13,6 @@ uniform vec3 u_floor_irradiance_over_pi;   // E / pi of an upward normal, summed
 // an r = 0.045 one, a halo around every sharp reflection (the default chart's polished metal
 // 0.071 -> 0.051 mean FLIP). Above level 1 the blend stays linear: the core scale and the lobe
 // fits below were made through it (the same remap there took r = 0.25 metals 0.075 -> 0.082).
-// A few samples of the floor's glossy lobe see the sphere (stage_bounce.glsl): there every
-// reflection the sphere shows is read no sharper than the samples' spacing, so a sharp line
-// it mirrors (the horizon) is spread as the floor's lobe spreads it, not drawn once per
-// sample. Only the reads blur: the material, its Fresnel and its layers stay as they are.
-float g_reflection_blur = 0.0;
-
-// Whether a floor's lobe sample is shading the sphere: it reads the sphere's whole light, its
-// coat's images too (the bounce rays leave those to stage_bounce.glsl's closed form).
-bool floor_lobe_reads() {
-    return g_reflection_blur > 0.0;
-}
-
 vec3 prefiltered_radiance(vec3 r_dir, float perceptual_roughness) {
 #if STAGE_PROBE
     r_dir = stage_parallax(r_dir);

@@ -13,6 +13,7 @@
 // clearcoat: the coat's split sum E_c(N_c.V) x the prefiltered radiance along the coat's
 // mirror direction at its roughness, mixed over the rest by clearcoat F(N_c.V).
 #include "bounce_split.glsl"
+#include "lobe_read.glsl"
 
 #if SHEEN
 #if SHEEN_LEAN

@@ -1,4 +1,5 @@
 #include "bounce_split.glsl"
+#include "lobe_read.glsl"
 
 #if USE_IBL
 // The ground's IBL: its view-direction table where the plan bakes one (GROUND_IBL: within 1 % of

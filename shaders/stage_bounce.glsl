@@ -2,6 +2,7 @@
 #include "ray_sphere.glsl"
 #include "sphere_mirror.glsl"
 #include "bounce_split.glsl"
+#include "lobe_read.glsl"
 #include "floor_lobe.glsl"
 
 // Cells stage: the light a cell's sphere sends onto its own floor point q (seen along v). The
