@@ -137,6 +137,8 @@ class ChartFrame:
     grid: CellGrid                # the image's rows x cols cells (either stage: borders, exposure axis)
     camera: Camera                # every cell's (cells stage) or the grid's
     ground_y: float               # the floor's height
+    sphere_centers: np.ndarray    # (rows, cols, 3) the spheres' world positions as the shared stage places them
+                                  # (on the cells stage each cell sees its own at the origin)
     sphere_discs: tuple[np.ndarray, np.ndarray]   # the spheres on the image: (rows, cols, 2) centres, radii, px
     sphere_radius_px: float       # about how many pixels the smallest sphere's radius spans
     silhouettes_apart: bool       # no two spheres within a pixel of each other: the analytic edge needs it
@@ -165,10 +167,10 @@ def chart_frame(spec: ChartSpec) -> ChartFrame:
     common = dict(spec=spec, quality=quality(spec), brdf_model=brdf_model(spec), env=env_option(spec),
                   stage=spec.stage, grid=grid, ground_y=ground_height(spec), has_alpha=alpha, shadow_catcher=catcher,
                   cell_border=cell_border_px(grid, cells and spec.cell_borders and not alpha),
-                  exposure_axis=exposure_axis(spec))
+                  exposure_axis=exposure_axis(spec), sphere_centers=sphere_centers(spec))
     if not cells:
         cam = frame_grid(spec)
-        centers, radii = sphere_discs(cam, sphere_centers(spec), spec.sphere_radius)
+        centers, radii = sphere_discs(cam, common["sphere_centers"], spec.sphere_radius)
         return ChartFrame(**common, camera=cam, sphere_discs=(centers, radii), sphere_radius_px=float(radii.min()),
                           silhouettes_apart=silhouettes_apart(centers, radii))
     # Every cell sees its sphere at its own origin alike: the one disc, shifted to each cell.
@@ -450,7 +452,7 @@ def edge_rings(frame: ChartFrame, pad: float = SILHOUETTE_RING_PAD_PX) -> GridSh
     spec = frame.spec
     if frame.stage == "cells":
         return _in_each_cell(frame, silhouette_ring(frame.camera, np.zeros((1, 3)), spec.sphere_radius, pad))
-    return GridShapes(silhouette_ring(frame.camera, sphere_centers(spec).reshape(-1, 3), spec.sphere_radius, pad), 1)
+    return GridShapes(silhouette_ring(frame.camera, frame.sphere_centers.reshape(-1, 3), spec.sphere_radius, pad), 1)
 
 
 def sphere_boxes(frame: ChartFrame, pad: float = SILHOUETTE_RING_PAD_PX) -> GridShapes:

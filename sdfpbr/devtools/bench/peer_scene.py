@@ -461,7 +461,6 @@ def build_scene(spec: ChartSpec, max_bounces: int, envmap_to_world=FLIP_U) -> Pe
     the map's turn (4x4 rows), FLIP_U but where a check shows what another would do."""
     import mitsuba as mi
 
-    from ...shading.camera import sphere_centers
     from ...shading.plan import reference_plan
     from .peer_bsdf import plugin_class
     frame = reference_plan(spec).frame
@@ -497,7 +496,7 @@ def build_scene(spec: ChartSpec, max_bounces: int, envmap_to_world=FLIP_U) -> Pe
     objects = {"type": "scene", "sensor": sensor,
                "integrator": {"type": "path", "max_depth": max_bounces + 1, "rr_depth": max_bounces + 2}}
     sphere_bsdfs = []
-    centers = np.zeros((1, 1, 3)) if cells else sphere_centers(spec)
+    centers = np.zeros((1, 1, 3)) if cells else frame.sphere_centers
     for index, centre in enumerate(centers.reshape(-1, 3)):
         bsdf = bsdf_class(_properties(mi, multiscatter))
         bsdf.set(materials[index])

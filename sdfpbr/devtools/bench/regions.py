@@ -57,13 +57,12 @@ def region_masks(spec: ChartSpec) -> dict[str, np.ndarray]:
     upper and lower half (normal up or down), silhouette pixels (some of SUBPIXELS^2 rays per
     pixel meet a sphere, some do not), the floor by its distance rho from the nearest sphere's
     axis (under the bulge rho < R, the ring FLOOR_RING, beyond it far) and the background."""
-    from ...shading.camera import sphere_centers
     from ...shading.plan import reference_plan
     frame = reference_plan(spec).frame
     spec = frame.spec
     cam = frame.camera
     lx, ly = _pixel_local(spec, frame)
-    centres = np.zeros((1, 3)) if frame.stage == "cells" else sphere_centers(spec).reshape(-1, 3)
+    centres = np.zeros((1, 3)) if frame.stage == "cells" else frame.sphere_centers.reshape(-1, 3)
     ground = float(frame.ground_y) if spec.ground else None
     r = spec.sphere_radius
 

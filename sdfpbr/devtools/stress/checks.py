@@ -8,7 +8,7 @@ import numpy as np
 
 from ...oracle import display, shading_model
 from ...oracle.furnace import FurnaceTable
-from ...image.layout import BACKGROUND
+from ...image.colour import BACKGROUND
 from ...shading.plan import chart_frame
 from ...spec.chart_spec import ChartSpec
 
@@ -196,11 +196,11 @@ def _reflects_lit_floor_unresolved(n, v, ids, dn, dv, alpha_px) -> np.ndarray:
 def _near_small_spheres(spec: ChartSpec, camera, H: int, W: int) -> np.ndarray:
     """Pixels within 2 pixels of a sphere whose image is under 2 pixels across: a pixel's
     other samples can hit it while its centre sample (the AOVs) sees the ground or sky."""
-    from ...shading.camera import sphere_centers
+    centers = chart_frame(spec).sphere_centers.reshape(-1, 3)
     near = np.zeros((H, W), bool)
-    px, scale = camera.project(sphere_centers(spec).reshape(-1, 3))
+    px, scale = camera.project(centers)
     radius = spec.sphere_radius * np.abs(scale)
-    depth = (sphere_centers(spec).reshape(-1, 3) - camera.position) @ camera.forward
+    depth = (centers - camera.position) @ camera.forward
     small = (radius < 2.0) & (depth > 0) & (px[:, 0] > -4) & (px[:, 0] < W + 4) & (px[:, 1] > -4) & (px[:, 1] < H + 4)
     for (x, y), r in zip(px[small], radius[small]):
         reach = r + 2.0
