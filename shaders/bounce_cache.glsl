@@ -1,8 +1,10 @@
 #include "hammersley.glsl"
 
 // The cells stage's bounce cache (BOUNCE_CACHE): the light a cell's sphere bounces onto its
-// own floor, as the floor sends it back up (its diffuse radiance: albedo / pi times the
-// irradiance from the sphere), kept per cell on a tile over the whole floor plane. The plan
+// own floor, as the floor sends it back up (its diffuse radiance, albedo / pi times the
+// irradiance from the sphere, and its glossy reflection of the sphere: the sphere's image in
+// the floor, which the stage probe's floor lacks), kept per cell on a tile over the whole
+// floor plane. The plan
 // draws it `bounce_iterations` times (bounce_cache_main.glsl), each time with the sphere lit
 // by the last one: sky -> floor -> sphere -> floor -> ... one round trip more per draw, so the
 // series converges as the preset's effort grows. The sphere reads it here (bounce_gather), the

@@ -6,12 +6,14 @@
 #include "surface_shading.glsl"
 #include "stage_bounce.glsl"
 
-// One draw of the cells stage's bounce cache (bounce_cache.glsl): per cell, the diffuse
-// radiance its floor sends up of the light its sphere bounces onto it, the sphere shaded with
-// the last draw's cache bound (all zero before the first). Texel (i, j) of a cell's tile is
-// the floor point bounce_cache_point gives; the floor there is seen from the sphere's centre
-// (its Fresnel weight on the diffuse), and its texel about a texel wide (the sphere's texture
-// level of detail).
+// One draw of the cells stage's bounce cache (bounce_cache.glsl): per cell, the radiance its
+// floor sends up of the light its sphere bounces onto it (diffuse, and its gloss's image of
+// the sphere), the sphere shaded with the last draw's cache bound (all zero before the first).
+// Texel (i, j) of a cell's tile is the floor point bounce_cache_point gives; the floor there is
+// seen from the sphere's point above it (scene.glsl floor_viewer, as the stage probe sees it),
+// and its texel about a texel wide (the sphere's texture level of detail). A polished white
+// metal on a dark glossy floor under a uniform sky: its lower half -14 % without the gloss's
+// image, -5 % with it (default, against the path tracer at 1024 spp).
 layout(location = 0) out vec4 out_bounce;
 
 void bounce_cache_texel() {
@@ -19,7 +21,7 @@ void bounce_cache_texel() {
     g_cell = texel / u_bounce_cache_tile;   // (col, row from the top), as the bounce prepass's
     vec3 q = bounce_cache_point(vec2(texel - g_cell * u_bounce_cache_tile));
     float spacing = 2.0 * u_radius / float(u_bounce_cache_tile);
-    out_bounce = vec4(sphere_bounce_toward(q, normalize(-q), g_cell, spacing, false), 1.0);
+    out_bounce = vec4(sphere_bounce_toward(q, normalize(floor_viewer(q) - q), g_cell, spacing, true), 1.0);
 }
 
 void main() {

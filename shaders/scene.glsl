@@ -33,6 +33,20 @@ ivec2 g_cell = ivec2(0);
 
 vec3 cell_center(ivec2 cell) { return vec3(0.0); }
 
+// Who looks at the floor point q from the sphere (the stage probe, the bounce cache): mostly
+// the sphere's lower half, whose normals turn the camera's level rays steeply down onto the
+// floor below them. So the floor's
+// light is taken towards the sphere's point above q (beyond its footprint the equator point on
+// q's side), not towards the centre, which sees q at a grazing angle: a glossy floor's gloss
+// depends on that angle (a dark r 0.34 floor under a uniform sky: the lower half of an r 0.18
+// metal 28 % too bright seen from the centre). The choice is symmetric about the vertical, as
+// the light orbit's turned probe needs (turn_probe_main.glsl).
+vec3 floor_viewer(vec3 q) {
+    float r2 = dot(q.xz, q.xz), radius2 = u_radius * u_radius;
+    if (r2 < radius2) return vec3(q.x, -sqrt(radius2 - r2), q.z);
+    return vec3(q.x, 0.0, q.z) * (u_radius * inversesqrt(r2));
+}
+
 ivec2 nearest_cell(vec3 p) { return g_cell; }
 
 #if SCENE_SDF == all_spheres
