@@ -15,6 +15,7 @@ uniform vec3 u_floor_irradiance_over_pi;   // E / pi of an upward normal, summed
 // fits below were made through it (the same remap there took r = 0.25 metals 0.075 -> 0.082).
 vec3 prefiltered_radiance(vec3 r_dir, float perceptual_roughness) {
 #if STAGE_PROBE
+    perceptual_roughness *= sqrt(stage_parallax_narrowing(r_dir, sq(perceptual_roughness)));
     r_dir = stage_parallax(r_dir);
 #endif
     float x = max(perceptual_roughness, g_reflection_blur) * u_prefiltered_lods;

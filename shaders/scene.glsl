@@ -24,6 +24,16 @@ vec3 stage_parallax_from(vec3 point, vec3 dir) {
 }
 
 vec3 stage_parallax(vec3 dir) { return stage_parallax_from(g_shading_point, dir); }
+
+// How much narrower a lobe about dir looks from the probe's origin than from the shading
+// point, where dir meets the floor: the floor patch it covers is nearer the point.
+float stage_parallax_narrowing(vec3 dir, float alpha) {
+    if (dir.y >= 0.0) return 1.0;
+    float t = (u_ground_y - g_shading_point.y) / dir.y;
+    vec3 q = g_shading_point + dir * t;
+    float narrowing = clamp(t / max(length(q), 1e-6), 0.0, 1.0);
+    return mix(1.0, narrowing, saturate(-dir.y / (2.0 * alpha + 1e-4)));
+}
 #endif
 
 #if STAGE == cells
