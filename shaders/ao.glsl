@@ -70,10 +70,10 @@ HiddenSky sky_behind_sphere(vec3 p, vec3 v, float alpha) {
     // the floor under the bulge 13 % bright). There the floor's own lobe samples take it
     // (floor_lobe.glsl), the sky read over each sample's cone: the samples stage_bounce.glsl
     // gives the sphere's light back with, so the two cancel where the sphere looks like the sky.
-    float cone_lod = sqrt(0.549 * floor_lobe_cone(alpha)) * u_prefiltered_lods;
+    float cone_lod = sqrt(0.549 * floor_lobe_cone(alpha, BOUNCE_SPECULAR_SAMPLES)) * u_prefiltered_lods;
     vec3 sampled = vec3(0.0);
     for (int k = 0; k < BOUNCE_SPECULAR_SAMPLES; ++k) {
-        FloorLobeSample s = floor_lobe_sample(k, p, v, alpha);
+        FloorLobeSample s = floor_lobe_sample(k, BOUNCE_SPECULAR_SAMPLES, p, v, alpha);
         if (s.weight > 0.0) sampled += s.weight * textureLod(u_prefiltered, s.w, cone_lod).rgb;
     }
     specular = mix(sampled / float(BOUNCE_SPECULAR_SAMPLES), specular, smoothstep(0.5 * share, share, 2.0 * alpha));

@@ -16,23 +16,24 @@ struct FloorLobeSample {
 };
 
 // The samples' cone: the sky or the sphere is read as seen over it.
-float floor_lobe_cone(float alpha) {
-    return 2.0 * alpha * inversesqrt(float(max(BOUNCE_SPECULAR_SAMPLES, 1))) + 1e-3;
+float floor_lobe_cone(float alpha, int count) {
+    return 2.0 * alpha * inversesqrt(float(max(count, 1))) + 1e-3;
 }
 
-// Sample k of the floor's lobe at floor point q (the sphere at the origin) seen along v.
-FloorLobeSample floor_lobe_sample(int k, vec3 q, vec3 v, float alpha) {
+// Sample k of `count` of the floor's lobe at floor point q (the sphere at the origin) seen
+// along v.
+FloorLobeSample floor_lobe_sample(int k, int count, vec3 q, vec3 v, float alpha) {
     FloorLobeSample s = FloorLobeSample(vec3(0.0, 1.0, 0.0), vec3(0.0, 1.0, 0.0), 0.0);
     float n_dot_v = max(v.y, MIN_N_DOT_V);
     vec3 v_local = vec3(v.x, v.z, n_dot_v);   // the floor's frame: normal +y as local z
-    vec3 h = sample_ggx_vndf(v_local, alpha, hammersley(uint(k), uint(max(BOUNCE_SPECULAR_SAMPLES, 1))));
+    vec3 h = sample_ggx_vndf(v_local, alpha, hammersley(uint(k), uint(max(count, 1))));
     vec3 l = 2.0 * dot(v_local, h) * h - v_local;
     if (l.z <= 0.0) return s;
     s.w = s.on_sphere = vec3(l.x, l.z, l.y);
     float dist = length(q);
     vec3 axis = -q / dist;
     float disc = asin(min(u_radius / dist, 1.0));   // the sphere's angular radius from q
-    float cone = floor_lobe_cone(alpha);
+    float cone = floor_lobe_cone(alpha, count);
     float off = acos(clamp(dot(s.w, axis), -1.0, 1.0));   // from the disc's centre
     float cover = 1.0 - smoothstep(disc - cone, disc + cone, off);
     if (cover <= 0.0) return s;

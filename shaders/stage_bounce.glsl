@@ -54,9 +54,10 @@ vec3 sphere_reflected_sky(vec3 q, Material m) {
 }
 #endif
 
-// with_specular (a literal at each call): the floor's specular reflection of the sphere towards
-// v too; without it, what the floor sends every way (its diffuse), the bounce cache's.
-vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool with_specular) {
+// specular_samples (a constant at each call): how many samples of the floor's lobe take its
+// specular reflection of the sphere towards v (0: only what the floor sends every way, its
+// diffuse).
+vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, int specular_samples) {
     float dist = length(q);
     float ff = sphere_occlusion(-q.y / dist, max(dist / u_radius, 1.0 + 1e-4));
     if (ff < BOUNCE_MIN_FF) return vec3(0.0);
@@ -84,7 +85,7 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
     // each that meets the sphere reading the sphere's whole light there, its reflections too
     // (the rays leave a smooth sphere's to the closed form, which lights the floor's diffuse
     // only: a polished metal's image in a glossy floor was missing).
-    int lobe_samples = with_specular ? BOUNCE_SPECULAR_SAMPLES : 0;
+    int lobe_samples = specular_samples;
 #else
     int lobe_samples = 0;
 #endif
@@ -98,7 +99,7 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
             share = i == 0 ? (rays == 1 ? 1.0 : 1.0 - BOUNCE_RING_WEIGHT) : BOUNCE_RING_WEIGHT / float(rays - 1);
         } else {
 #if AO_METHOD == analytic && !BUG_FEWTAP_IBL
-            FloorLobeSample sample_k = floor_lobe_sample(i - rays, q, v, floor_material.alpha);
+            FloorLobeSample sample_k = floor_lobe_sample(i - rays, lobe_samples, q, v, floor_material.alpha);
             w = sample_k.on_sphere;
             share = sample_k.weight;
 #endif
@@ -109,7 +110,7 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
         if (th <= 0.0) continue;
         vec3 s = q + w * th;
         // A lobe sample sees the sphere's reflections blurred over its cone (alpha ~ half of it).
-        g_reflection_blur = lobe ? sqrt(0.5 * floor_lobe_cone(floor_material.alpha)) : 0.0;
+        g_reflection_blur = lobe ? sqrt(0.5 * floor_lobe_cone(floor_material.alpha, lobe_samples)) : 0.0;
         // Its lights' highlights only in the share a few samples resolve (a polished sphere's
         // is a spike they meet or miss by chance: the floor beside a mirror under a sun read
         // 4 % bright, against 3.7 % allowed); its reflections of the sky and the floor in full.
@@ -152,11 +153,11 @@ vec3 sphere_bounce_toward(vec3 q, vec3 v, ivec2 cell, float pixel_size, bool wit
     // The specular the sphere hides (shade.glsl takes the sky's f cos L over its disc away,
     // ao.glsl sky_behind_sphere) comes back as the sphere's own, the same integral over its
     // radiance where the floor's lobe meets it.
-    specular *= energy_compensation(vec3(DIELECTRIC_F0), dfg.x + dfg.y) / float(max(BOUNCE_SPECULAR_SAMPLES, 1));
+    specular *= energy_compensation(vec3(DIELECTRIC_F0), dfg.x + dfg.y) / float(max(lobe_samples, 1));
 #endif
     return albedo * sum / weight + specular + reflected;
 }
 
 vec3 sphere_bounce(vec3 q, vec3 v, ivec2 cell, float pixel_size) {
-    return sphere_bounce_toward(q, v, cell, pixel_size, true);
+    return sphere_bounce_toward(q, v, cell, pixel_size, BOUNCE_SPECULAR_SAMPLES);
 }
