@@ -1,8 +1,9 @@
-// The cells stage's floor's glossy lobe where its sphere stands in it: BOUNCE_SPECULAR_SAMPLES
-// fixed samples by visible normals (Heitz 2018), f cos / pdf = F Vis N.L 2 lambda (D cancels,
-// as ibl_sampled.glsl). ao.glsl takes the sky the sphere hides from the lobe with them and
-// stage_bounce.glsl gives the sphere's light back with the same ones, so where the sphere
-// looks like the sky behind it the two cancel exactly. Fixed samples meet the sphere or miss
+// The cells stage's floor's glossy lobe where its sphere stands in it: a few fixed samples
+// (BOUNCE_SPECULAR_SAMPLES on the chart's floor, fewer in the bounce cache) by visible normals
+// (Heitz 2018), f cos / pdf = F Vis N.L 2 lambda (D cancels, as ibl_sampled.glsl). ao.glsl
+// takes the sky the sphere hides from the lobe with them and stage_bounce.glsl gives the
+// sphere's light back with the same ones, so where the sphere looks like the sky behind it
+// the two cancel exactly. Fixed samples meet the sphere or miss
 // it all at once as the floor point moves (rings round it, or dots under a mirror floor): each
 // stands for a cone as wide as the samples' spacing (its reflected directions ~2 alpha across)
 // and counts by how much of that cone the sphere's disc covers.
