@@ -24,6 +24,13 @@ from sdfpbr.extras import install_command
 from sdfpbr.gpu.gl import create_context
 from sdfpbr.gpu.session import Session
 
+# Mesa's llvmpipe runs LLVM's optimisation passes on every program it compiles; the tests' small
+# images do not pay them back. Without them (GALLIVM_PERF=nopt) the suite took 743 s instead of
+# 841 s from a cold shader cache on 2 cores, and the default chart's PNG was the same bytes.
+# Set before the first context loads the driver (importing sdfpbr creates none); subprocesses
+# inherit it; other drivers ignore it.
+os.environ.setdefault("GALLIVM_PERF", "nopt")
+
 # The optional extras of pyproject.toml, by the module a test imports (directly or through the
 # code or subprocess it runs), with what to install.
 EXTRAS = {
