@@ -41,7 +41,9 @@ def test_furnace_every_row_matches_split_sum_expectation(session):
 
 def test_direct_light_matches_mirror_per_pixel(session):
     """Black environment, one directional light of zero size: every sphere pixel equals
-    f(v, l) cos E from the float64 model, evaluated with the pixel's own normal."""
+    f(v, l) cos E from the float64 model, evaluated with the pixel's own normal, the light
+    shaded as the disc of reflected directions the pixel sweeps (shaded_light_angle; the
+    orthographic camera's pixel is one size everywhere)."""
     light = Light("directional", direction=(0.6, 0.5, 0.62), intensity=2.0)
     spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
                      multiscatter=False, camera="orthographic", width=192, height=192, rows=3, cols=4,
@@ -51,8 +53,10 @@ def test_direct_light_matches_mirror_per_pixel(session):
     n = res.aov["normal"][m].astype(float)
     v = np.broadcast_to(-res.camera.forward, n.shape)
     l = np.broadcast_to(np.array(light.direction), n.shape)
+    disc = shading_model.shaded_light_angle(0.0, res.camera.pixel_size(), spec.sphere_radius)
     want = shading_model.brdf(n, v, l, np.array(spec.base_color), res.aov["metallic"][m].astype(float),
-                       res.aov["roughness"][m].astype(float)) * np.clip((n * l).sum(1), 0, None)[:, None] * 2.0
+                              res.aov["roughness"][m].astype(float), disc_angular_radius=disc) \
+        * np.clip((n * l).sum(1), 0, None)[:, None] * 2.0
     np.testing.assert_allclose(res.hdr[m], want, rtol=5e-3, atol=2e-4)
 
 

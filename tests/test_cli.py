@@ -118,10 +118,10 @@ def test_features_left_out_are_absent_from_the_source():
     point = {"kind": "point", "position": [3.0, 2.0, 3.0], "intensity": 10.0}
     full = render_plan(make_spec(lights=[*DEFAULT_LIGHTS, point])).chart.text
     bare = render_plan(make_spec(ground=False, ao=False, lights="none")).chart.text
-    # (the lights' loops call lights_brdf_cos with the light's angle, max(...); the helpers
+    # (the lights' loops shade each light with shaded_light_angle(s, ground, ...); the helpers
     # themselves may stay, unused)
     for needle in ("soft_shadow", "ambient_occlusion", "sdf_ground", "u_dir_light", "u_point_light",
-                   "lights_brdf_cos(s.m, s.n, s.v, l, s.n_dot_v, max("):
+                   "shaded_light_angle(s, ground,"):
         assert needle in full and needle not in bare, needle
     # One ray a pixel, the edge not anti-aliased: no loop over further samples (llvmpipe would
     # run its body once although it runs no turn), nor the sphere's shading (the sphere prepass).

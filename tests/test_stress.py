@@ -147,7 +147,7 @@ def test_monotonic_cases_pass_and_a_swapped_column_fails(session):
     assert cases
     for case in cases[:3]:
         res = session.render(case.spec)
-        failures, rise, mirror_err = checks.monotonic_error(res.hdr, res.aov, case.spec, case.probe)
+        failures, rise, mirror_err = checks.monotonic_error(res.hdr, res.aov, case.spec, case.probe, res.camera)
         assert failures == [], failures
     # Swap the probe pixels of the smoothest and the roughest column: the peak now rises.
     case = cases[0]
@@ -157,7 +157,7 @@ def test_monotonic_cases_pass_and_a_swapped_column_fails(session):
     a, b = int(np.argmin(rough)), int(np.argmax(rough))
     hdr = res.hdr.copy()
     hdr[row, x0 + a * step], hdr[row, x0 + b * step] = res.hdr[row, x0 + b * step], res.hdr[row, x0 + a * step]
-    assert checks.monotonic_error(hdr, res.aov, case.spec, case.probe)[0]
+    assert checks.monotonic_error(hdr, res.aov, case.spec, case.probe, res.camera)[0]
 
 
 def test_tiles_check_sees_a_changed_pixel(session, sibling):

@@ -39,6 +39,8 @@ __all__ = [
     "brdf",
     "d_ggx_disc",
     "disc_half_radius",
+    "GLINT_SPREAD",
+    "shaded_light_angle",
     "furnace_expected",
     "sample_sphere_cosine",
     "reflect",
@@ -51,6 +53,11 @@ MIN_N_DOT_V = 1e-4
 _ALPHA_DELTA = 1e-4
 DIELECTRIC_F0 = 0.04
 _TINY = 1e-300
+# A sphere's light is shaded as a disc widened by the pixel (shade.glsl shaded_light_angle):
+# across a pixel of world size p the reflected direction sweeps a box 2 p / R wide, which a disc
+# of radius 2 / sqrt(3) p / R matches in variance (a box of width b: b^2 / 12 per axis; a disc
+# of radius w: w^2 / 4).
+GLINT_SPREAD = 2.0 / np.sqrt(3.0)
 # Largest finite half float, and Filament's fp16 roughness guard: 0.089^4 = 6.3e-5 keeps alpha^2
 # a normal half (>= 2^-14); with the half-safe D its peak 1/(pi alpha^2) = 5.1e3 stays finite.
 HALF_MAX = 65504.0
@@ -422,8 +429,8 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     f0 (0.04 dielectric, base_color metal), E from dfg_integrate unless e_spec is given.
     dtype float16 evaluates every step in half precision (E still integrated in float64);
     min_perceptual_roughness is the clamp (MIN_PERCEPTUAL_ROUGHNESS_FP16 is Filament's fp16 one).
-    disc_angular_radius > 0 makes l the centre of a disc light as the chart shades one: D
-    convolved with the disc (d_ggx_disc), the other factors at its centre.
+    disc_angular_radius > 0 (a scalar, or one per point) makes l the centre of a disc light as
+    the chart shades one: D convolved with the disc (d_ggx_disc), the other factors at its centre.
     """
     _check_model(model)
     n = np.asarray(n, dtype=dtype)
@@ -443,8 +450,12 @@ def brdf(n, v, l, base_color, metallic, perceptual_roughness, model="gltf",
     h = normalize(v + l, dtype)
     n_dot_h = np.clip(_dot(n, h), 0.0, 1.0)
     v_dot_h = np.abs(_dot(v, h))
-    d = d_ggx(n_dot_h, alpha, dtype) if disc_angular_radius <= 0 else \
-        d_ggx_disc(n_dot_h, alpha, disc_half_radius(disc_angular_radius, v_dot_h), dtype)
+    disc = np.asarray(disc_angular_radius, np.float64)
+    d = d_ggx(n_dot_h, alpha, dtype)
+    if np.any(disc > 0):   # per point where given per point (shaded_light_angle)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d_disc = d_ggx_disc(n_dot_h, alpha, disc_half_radius(disc, v_dot_h), dtype)
+        d = np.where(disc > 0, d_disc, d)
     f_spec = (d * visibility(model, n_dot_l, n_dot_v, r, alpha, False, dtype))[..., None]
     fc = fresnel_weight(v_dot_h)[..., None]
     fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * fc
@@ -522,3 +533,11 @@ def sample_sphere_cosine(rng, n):
     s = np.sqrt(u1)
     phi = 2.0 * np.pi * u2
     return np.stack([s * np.cos(phi), s * np.sin(phi), np.sqrt(np.maximum(1.0 - u1, 0.0))], axis=-1)
+
+
+def shaded_light_angle(angular_radius, pixel_size, sphere_radius):
+    """The angular radius a light of ``angular_radius`` is shaded with on a sphere point whose
+    pixel is ``pixel_size`` wide in world units (shade.glsl): the light's disc and the pixel's
+    sweep of reflected directions added in quadrature."""
+    glint = GLINT_SPREAD * np.asarray(pixel_size, np.float64) / sphere_radius
+    return np.hypot(np.asarray(angular_radius, np.float64), glint)

@@ -49,6 +49,12 @@ class Camera:
         ys, xs = np.mgrid[0:self.height, 0:self.width]
         return self.rays(2 * (xs + 0.5) / self.width - 1, 1 - 2 * (ys + 0.5) / self.height)
 
+    def pixel_size(self, distance=1.0):
+        """The world size of a pixel at ``distance`` along its ray (camera.glsl pixel_footprint)."""
+        pixel = 2.0 * self.half_height / self.height
+        distance = np.asarray(distance, float)
+        return np.full_like(distance, pixel) if self.orthographic else pixel * distance
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates (x right, y down, origin top-left) and the scale in px per world unit."""
         rel = np.asarray(points, float) - self.position

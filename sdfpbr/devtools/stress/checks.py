@@ -305,19 +305,21 @@ def furnace_error(hdr, aov, spec: ChartSpec, table: FurnaceTable) -> tuple[float
     return worst, bad, tested
 
 
-def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float, float]:
+def monotonic_error(hdr, aov, spec: ChartSpec, probe, camera) -> tuple[list[str], float, float]:
     """At the probe pixel of every column: the radiance must not rise with roughness (and must
     be equal where the clamp makes the lobes equal), and it must match the float64 BRDF.
-    Returns (failures, worst relative rise, worst relative mirror error)."""
+    ``camera``: the render's, for the probe pixels' size. Returns (failures, worst relative
+    rise, worst relative mirror error)."""
     row, px0, step, normal = probe
     light = spec.lights[0]
-    values, normals, failures = [], [], []
+    values, normals, depths, failures = [], [], [], []
     for c in range(spec.cols):
         x = px0 + c * step
         if aov["col"][row, x] != c or aov["row"][row, x] != 0:
             return [f"probe pixel ({row}, {x}) is not on sphere {c}"], 0.0, 0.0
         values.append(float(hdr[row, x].astype(np.float64).mean()))
         normals.append(aov["normal"][row, x].astype(np.float64))
+        depths.append(float(aov["depth"][row, x]))
     if max(np.abs(np.asarray(normals) - np.asarray(normal)).max(-1)) > 1e-4:
         failures.append("columns are not pixel-aligned: probe normals differ")
     rough = np.maximum(spec.material_array("roughness")[0], shading_model.MIN_PERCEPTUAL_ROUGHNESS)
@@ -341,7 +343,8 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
                 failures.append(f"peak rises with roughness {rough[a]:g} -> {rough[b]:g}: {va:.6g} -> {vb:.6g}")
         worst_rise = max(worst_rise, rise)
     # The float64 BRDF at the probe, the light's disc shaded as the chart shades it
-    # (shading_model.brdf's disc_angular_radius), E at the material's roughness.
+    # (shading_model.brdf's disc_angular_radius, widened by the pixel: shaded_light_angle), E
+    # at the material's roughness.
     # Renormalised in float64: a float32 unit vector is off by ~6e-8 in length, which at
     # the peak of an alpha = 0.002 lobe reads as a 3e-4 rad tilt and a 5 % lower D.
     n = shading_model.normalize(np.asarray(normals))
@@ -352,9 +355,11 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe) -> tuple[list[str], float,
         A, B, _ = shading_model.dfg_integrate(np.clip(n @ v, shading_model.MIN_N_DOT_V, 1), rough, model=spec.brdf)
         e = A + B
     scale = np.clip(n @ l, 0, None) * light.intensity
+    disc = shading_model.shaded_light_angle(math.radians(light.angular_radius_deg),
+                                            camera.pixel_size(np.asarray(depths)), spec.sphere_radius)
     lobes = [shading_model.brdf(n, v, l, np.asarray(spec.base_color), metal, rough, model=spec.brdf,
                          multiscatter=spec.multiscatter, e_spec=e,
-                         disc_angular_radius=math.radians(light.angular_radius_deg)).mean(-1) * scale
+                         disc_angular_radius=disc).mean(-1) * scale
              for metal in (spec.material_array("metallic")[0, 0], 0.0, 1.0)]
     want, got = lobes[0], np.asarray(values)
     if spec.hdr_precision == "float16":

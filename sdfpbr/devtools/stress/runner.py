@@ -40,7 +40,7 @@ def run_case(case: Case, sessions: dict, table: FurnaceTable) -> Outcome:
         if bad:
             failures.append(f"{bad} furnace pixels off the float64 expectation (worst relative {err:.3g})")
     if case.kind == "monotonic":
-        fails, rise, mirror_err = monotonic_error(result.hdr, result.aov, spec, case.probe)
+        fails, rise, mirror_err = monotonic_error(result.hdr, result.aov, spec, case.probe, result.camera)
         metrics["monotonic_rise"] = rise
         metrics["mirror_err"] = mirror_err
         failures += fails
