@@ -274,12 +274,14 @@ void chart_pixel(vec2 frag_coord) {
     if (!edge && sphere_share > 0.0) {
         vec4 sum = vec4(0.0);
         float count = 0.0;
+        g_glint_share = 1.0 / float(SPHERE_SAMPLES);
         for (int j = 0; j < SPHERE_SAMPLES; ++j)
             for (int i = 0; i < SPHERE_SAMPLES; ++i) {
                 vec4 c = trace_pixel(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, other, other_rd);
                 if (other.t >= 0.0 && other.cell.x >= 0) { sum += c; count += 1.0; }
             }
         if (count > 0.0) radiance = sum / count;
+        g_glint_share = 1.0;
     }
 #endif
 #if EDGE_PIXELS != skipped
@@ -308,6 +310,7 @@ void chart_pixel(vec2 frag_coord) {
     // the centre ray's hit, from the first draw (the others add nothing to them).
     vec4 radiance = vec4(0.0);
     float sphere_share = 0.0;
+    g_glint_share = inversesqrt(float(u_spp));
     for (int s = u_sample_range.x; s < u_sample_range.y; ++s) {
         radiance += trace_pixel(pixel + sample_offset(s), footprint, other, other_rd);
         sphere_share += other.t >= 0.0 && other.cell.x >= 0 ? 1.0 : 0.0;

@@ -93,6 +93,7 @@ void sphere_prepass_texel() {
     if (!edge) {
         vec3 sum = vec3(0.0);
         float count = 0.0;
+        g_glint_share = 1.0 / float(SPHERE_SAMPLES);
         for (int j = 0; j < SPHERE_SAMPLES; ++j)
             for (int i = 0; i < SPHERE_SAMPLES; ++i)
                 add_sphere_point(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, sum, count);

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from sdfpbr.oracle import shading_model
+from sdfpbr.shading.plan import chart_frame, render_plan
 from sdfpbr.spec.chart_spec import Light, make_spec
 
 from helpers import FurnaceBudget
@@ -58,6 +59,48 @@ def test_direct_light_matches_mirror_per_pixel(session):
                               res.aov["roughness"][m].astype(float), disc_angular_radius=disc) \
         * np.clip((n * l).sum(1), 0, None)[:, None] * 2.0
     np.testing.assert_allclose(res.hdr[m], want, rtol=5e-3, atol=2e-4)
+
+
+def test_a_small_spheres_pixels_average_points_each_spread_over_its_share(session):
+    """Spheres a few pixels wide, anti-aliased: each inside pixel is the mean of the n x n
+    points of its box (SPHERE_SAMPLES) whose rays meet the sphere, each shading the light as the
+    disc its own share of the pixel sweeps (pixel / n; shaded_light_angle). The float64 model
+    traces the same points to the sphere and shades them the same way."""
+    light = Light("directional", direction=(0.3, 0.45, 0.84), intensity=2.0)
+    spec = make_spec(env="black", lights=(light,), shadows=False, ao=False, ground=False, ibl=False,
+                     multiscatter=False, camera="orthographic", stage="shared", width=48, height=48,
+                     rows=2, cols=2, roughness=(0.0, 0.3), metallic=(1.0, 0.0), base_color=(0.8, 0.5, 0.2))
+    n = dict(render_plan(spec).chart.options).get("SPHERE_SAMPLES", 1)
+    assert n > 1   # the claim needs the averaged pixels
+    res = session.render(spec)
+    m = _interior(res, 0.05)
+    ys, xs = np.nonzero(m)
+    offsets = (np.arange(n) + 0.5) / n
+    grid = (len(xs), n, n)
+    sub_x = np.broadcast_to(xs[:, None, None] + offsets[None, None, :], grid).reshape(len(xs), -1)
+    sub_y = np.broadcast_to(ys[:, None, None] + offsets[None, :, None], grid).reshape(len(ys), -1)
+    cam = res.camera
+    ro, rd = cam.rays(2 * sub_x / cam.width - 1, 1 - 2 * sub_y / cam.height)
+    rows, cols = res.aov["row"][m].astype(int), res.aov["col"][m].astype(int)
+    centre = chart_frame(spec).sphere_centers[rows, cols][:, None, :]
+    oc = ro - centre
+    b = (oc * rd).sum(-1)
+    disc = b * b - ((oc * oc).sum(-1) - spec.sphere_radius ** 2)
+    hit = disc >= 0
+    normal = shading_model.normalize(oc - rd * (b + np.sqrt(np.maximum(disc, 0)))[..., None])
+    l = np.broadcast_to(np.array(light.direction), normal.shape)
+    rough = spec.material_array("roughness")[rows, cols][:, None]
+    metal = spec.material_array("metallic")[rows, cols][:, None]
+
+    def pixels(share):
+        angle = shading_model.shaded_light_angle(0.0, share * cam.pixel_size(), spec.sphere_radius)
+        f = shading_model.brdf(normal, -rd, l, np.array(spec.base_color), metal, rough, disc_angular_radius=angle)
+        radiance = f * np.clip((normal * l).sum(-1), 0, None)[..., None] * light.intensity * hit[..., None]
+        return radiance.sum(1) / hit.sum(1)[:, None]
+
+    np.testing.assert_allclose(res.hdr[m], pixels(1.0 / n), rtol=5e-3, atol=2e-4)
+    # Spread over the whole pixel instead, the polished sphere's highlight is another image.
+    assert np.abs(pixels(1.0) - pixels(1.0 / n)).max() > 0.1
 
 
 def test_metal_row_has_no_diffuse_under_back_light(session):
