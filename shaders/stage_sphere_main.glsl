@@ -97,6 +97,7 @@ void sphere_prepass_texel() {
         for (int j = 0; j < SPHERE_SAMPLES; ++j)
             for (int i = 0; i < SPHERE_SAMPLES; ++i)
                 add_sphere_point(pixel + (vec2(i, j) + 0.5) / float(SPHERE_SAMPLES), footprint, sum, count);
+        g_glint_share = 1.0;   // (no point met the sphere: the one ray below stands for the pixel)
         if (count > 0.0) {
             out_radiance = vec4(sum / count, 1.0);
             return;
