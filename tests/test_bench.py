@@ -66,10 +66,12 @@ def shadertoy_document(tmp_path_factory) -> Path:
 # --- the quick run, end to end -------------------------------------------------------------------
 
 # The quick run at half its size and one repeat: what these tests check (every row, every
-# column finite, the plot, the heat maps, the baseline) does not depend on either, and the
-# cold-start columns are most of its time (fresh processes a row: two cold, one to fill
-# Mesa's cache, then one start a repeat, at most three).
+# column finite, the plot, the heat maps, the baseline) does not depend on either. Without its
+# cold-start columns: they were most of its time (four fresh processes a row, two of them
+# compiling every shader with Mesa's cache off) and test_cold_columns_time_fresh_processes
+# checks them on one row.
 QUICK_OVERRIDES = dict(width=128, height=128, repeats=1)
+COLD_KEYS = ("cold_s", "cold_warm_cache_s", "start_s")
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +79,7 @@ def quick_report(tmp_path_factory, cache_dir, shadertoy_document):
     out = tmp_path_factory.mktemp("bench") / "out.json"
     cmd = [sys.executable, "-m", "sdfpbr", "bench", "--quick", "--json", str(out), "-q",
            "--size", f"{QUICK_OVERRIDES['width']}x{QUICK_OVERRIDES['height']}",
-           "--repeats", str(QUICK_OVERRIDES["repeats"]),
+           "--repeats", str(QUICK_OVERRIDES["repeats"]), "--no-cold",
            "--heatmaps", str(out.parent / "heat"), "--baseline", str(shadertoy_document)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
@@ -92,8 +94,11 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
     assert set(rows) == {(s, p) for s in cfg.scenes for p in cfg.presets}
     for (scene, preset), row in rows.items():
         for key in suite.REQUIRED_KEYS[2:]:
-            assert isinstance(row[key], (int, float)) and math.isfinite(row[key]), (scene, preset, key, row[key])
-        assert row["render_ms"] > 0 and row["compile_ms"] > 0 and row["cold_s"] > 0 and row["start_s"] > 0
+            if key in COLD_KEYS:
+                assert row[key] is None, (scene, preset, key, row[key])   # --no-cold
+            else:
+                assert isinstance(row[key], (int, float)) and math.isfinite(row[key]), (scene, preset, key, row[key])
+        assert row["render_ms"] > 0 and row["compile_ms"] > 0
         assert 0.0 < row["flip_mean"] < 1.0 and row["rel_rmse"] >= 0.0
         assert (row["width"], row["height"]) == (cfg.width, cfg.height)
         # Independently: the composed source the row measured.
@@ -121,6 +126,19 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
     assert path.with_suffix(".png").stat().st_size > 1000    # the time-vs-error plot
     heat = sorted(p.name for p in (path.parent / "heat").iterdir())
     assert heat == sorted(f"flip_{s}_{p}.png" for s, p in rows)
+
+
+def test_cold_columns_time_fresh_processes(tmp_path):
+    """Without --no-cold each row times fresh `sdfpbr chart` processes: with Mesa's shader cache
+    off and an empty sdfpbr cache, with it filled, and a warm start (cold.cold_times)."""
+    out = tmp_path / "cold.json"
+    cmd = [sys.executable, "-m", "sdfpbr", "bench", "--scenes", "bare", "--presets", "draft", "--size", "32x32",
+           "--repeats", "1", "--no-reference", "--no-plot", "--json", str(out), "-q"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    (row,) = json.loads(out.read_text())["rows"]
+    for key in COLD_KEYS:
+        assert isinstance(row[key], float) and 0.0 < row[key] < 600.0, (key, row[key])
 
 
 @pytest.mark.requires_extra("matplotlib")   # through quick_report
