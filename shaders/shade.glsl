@@ -236,7 +236,8 @@ vec3 indirect_light(Surface s, float sky_visibility, bool ground, float light_sp
 #endif
 
 // The share of its pixel's width one shading sample stands for: 1 / n where the pixel averages
-// n x n points (SPHERE_SAMPLES), 1 / sqrt(spp) under supersampling (chart_main.glsl).
+// n x n points (SPHERE_SAMPLES), 1 / sqrt(spp) under supersampling (chart_main.glsl). The
+// plan's RenderPlan.glint_share states the same rule for the float64 checks.
 float g_glint_share = 1.0;
 
 #if NUM_DIR_LIGHTS > 0 || NUM_POINT_LIGHTS > 0

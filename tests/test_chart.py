@@ -99,6 +99,7 @@ def test_a_small_spheres_pixels_average_points_each_spread_over_its_share(sessio
         return radiance.sum(1) / hit.sum(1)[:, None]
 
     np.testing.assert_allclose(res.hdr[m], pixels(1.0 / n), rtol=5e-3, atol=2e-4)
+    assert render_plan(spec).glint_share == 1.0 / n   # the plan says what the GLSL shades by
     # Spread over the whole pixel instead, the polished sphere's highlight is another image.
     assert np.abs(pixels(1.0) - pixels(1.0 / n)).max() > 0.1
 

@@ -500,6 +500,19 @@ class RenderPlan:
         return dict(self.chart.options)
 
     @property
+    def glint_share(self) -> float:
+        """The share of its pixel's width one shading point inside a sphere stands for: a
+        light's highlight spreads over it (shade.glsl's g_glint_share, which chart_main.glsl
+        and stage_sphere_main.glsl set where they average points). 1 / sqrt(spp) supersampled,
+        1 / n where a small sphere's pixel averages n x n points, else 1."""
+        options = self.options
+        if options.get("SUPERSAMPLE"):
+            return self.spec.spp ** -0.5
+        if options.get("ANALYTIC_AA"):
+            return 1.0 / options.get("SPHERE_SAMPLES", 1)
+        return 1.0
+
+    @property
     def chart_compute(self) -> ComposedSource:
         """The chart program as a compute shader (session.py picks which one draws), composed
         on first use: a software rasterizer never runs it (7 ms of a cold start saved). It

@@ -305,18 +305,6 @@ def furnace_error(hdr, aov, spec: ChartSpec, table: FurnaceTable) -> tuple[float
     return worst, bad, tested
 
 
-def glint_share(spec: ChartSpec) -> float:
-    """The share of its pixel's width one of the chart's shading samples stands for inside a
-    sphere (shade.glsl g_glint_share): 1 / sqrt(spp) supersampled, 1 / n where the pixel
-    averages n x n points (SPHERE_SAMPLES, with the analytic edge), else 1."""
-    options = dict(render_plan(spec).chart.options)
-    if options.get("SUPERSAMPLE"):
-        return spec.spp ** -0.5
-    if options.get("ANALYTIC_AA"):
-        return 1.0 / options.get("SPHERE_SAMPLES", 1)
-    return 1.0
-
-
 def monotonic_error(hdr, aov, spec: ChartSpec, probe, camera) -> tuple[list[str], float, float]:
     """At the probe pixel of every column: the radiance must not rise with roughness (and must
     be equal where the clamp makes the lobes equal), and it must match the float64 BRDF.
@@ -368,7 +356,7 @@ def monotonic_error(hdr, aov, spec: ChartSpec, probe, camera) -> tuple[list[str]
         e = A + B
     scale = np.clip(n @ l, 0, None) * light.intensity
     disc = shading_model.shaded_light_angle(math.radians(light.angular_radius_deg),
-                                            glint_share(spec) * camera.pixel_size(np.asarray(depths)),
+                                            render_plan(spec).glint_share * camera.pixel_size(np.asarray(depths)),
                                             spec.sphere_radius)
     lobes = [shading_model.brdf(n, v, l, np.asarray(spec.base_color), metal, rough, model=spec.brdf,
                          multiscatter=spec.multiscatter, e_spec=e,
