@@ -15,11 +15,9 @@ from ..errors import SpecError
 from ..inputs.environment import MAX_ENV_RADIANCE, fit_texture, load_env_file
 from ..shading.compose import ComposedSource
 from ..shading.plan import ChartFrame, IBLPlan, RenderPlan
-from ..spec.chart_spec import ChartSpec
 from .gl import allocate_cube_levels, upload_cube_levels
 from .programs import ProgramCache, set_uniforms
 
-DEFAULT_SUN = (0.55, 0.6, 0.58)
 LOCAL = 8   # compute work-group edge
 
 
@@ -43,13 +41,6 @@ def _groups(n: int) -> int:
     return (n + LOCAL - 1) // LOCAL
 
 
-def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:
-    for light in spec.lights:
-        if light.kind == "directional":
-            return light.direction
-    return tuple(np.array(DEFAULT_SUN) / np.linalg.norm(DEFAULT_SUN))
-
-
 @dataclass
 class Environment:
     """What the chart program samples: the env as a texture (for file envs) plus its uniforms."""
@@ -64,7 +55,7 @@ def make_environment(ctx: moderngl.Context, frame: ChartFrame) -> Environment:
     spec, option = frame.spec, frame.env
     uniforms = {"u_env_intensity": spec.env_intensity}
     if option == "sky":   # only the sky has a sun: other environments keep one bake as lights turn
-        uniforms["u_sun_direction"] = sun_direction(spec)
+        uniforms["u_sun_direction"] = frame.sun_direction
     texture = None
     content = content_key(option, uniforms)
     if option == "file":

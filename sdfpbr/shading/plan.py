@@ -133,6 +133,7 @@ class ChartFrame:
     quality: Quality              # its quality preset
     brdf_model: str               # spec value ('gltf', 'schlick-ggx') after the preset
     env: str                      # ENV option: a preset name or 'file'
+    sun_direction: tuple[float, float, float]   # the sky's sun: the first directional light's, else DEFAULT_SUN's
     stage: str                    # 'cells' or 'shared'
     grid: CellGrid                # the image's rows x cols cells (either stage: borders, exposure axis)
     camera: Camera                # every cell's (cells stage) or the grid's
@@ -156,6 +157,19 @@ class ChartFrame:
         return cell_border_mask(self.grid, self.cell_border, self.spec.width, self.spec.height, rows)
 
 
+# The sky environment's sun where the chart has no directional light (normalised below).
+DEFAULT_SUN = (0.55, 0.6, 0.58)
+
+
+def sun_direction(spec: ChartSpec) -> tuple[float, float, float]:
+    """The sky's sun follows the chart's first directional light, so its highlight and its
+    light agree; else DEFAULT_SUN."""
+    for light in spec.lights:
+        if light.kind == "directional":
+            return tuple(light.direction)
+    return tuple(float(c) for c in np.array(DEFAULT_SUN) / np.linalg.norm(DEFAULT_SUN))
+
+
 def chart_frame(spec: ChartSpec) -> ChartFrame:
     """``spec``'s frame. A render with alpha (a transparent image, or one the display pass lays
     onto a backdrop colour) renders coverage and a shadow catcher instead of a background and a
@@ -165,6 +179,7 @@ def chart_frame(spec: ChartSpec) -> ChartFrame:
     catcher = alpha and spec.ground
     cells = spec.stage == "cells"
     common = dict(spec=spec, quality=quality(spec), brdf_model=brdf_model(spec), env=env_option(spec),
+                  sun_direction=sun_direction(spec),
                   stage=spec.stage, grid=grid, ground_y=ground_height(spec), has_alpha=alpha, shadow_catcher=catcher,
                   cell_border=cell_border_px(grid, cells and spec.cell_borders and not alpha),
                   exposure_axis=exposure_axis(spec), sphere_centers=sphere_centers(spec))

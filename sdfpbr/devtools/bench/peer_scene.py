@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...image.colour import REC709_LUMINANCE
+from ...shading.plan import ChartFrame
 from ...spec.chart_spec import ChartSpec
 
 PROCEDURAL_MAP = (1024, 513)    # envmap knots (W, H) that steer a procedural environment's sampling
@@ -176,19 +177,19 @@ def file_envmap(data: np.ndarray) -> np.ndarray:
     return out
 
 
-def environment_map(spec: ChartSpec, env: str) -> np.ndarray | None:
-    """The envmap (H, W, 3) float32 of ``spec``'s environment (``env``: its preset or 'file'),
+def environment_map(frame: ChartFrame) -> np.ndarray | None:
+    """The envmap (H, W, 3) float32 of ``frame``'s environment (its preset or 'file'),
     env_intensity applied; None for a black one."""
+    spec, env = frame.spec, frame.env
     if env == "black" or spec.env_intensity == 0.0:
         return None
     if env == "file":
         from ...inputs.environment import load_env_file
         data = file_envmap(load_env_file(spec.env))
     else:
-        from ...gpu.ibl import sun_direction
         size = (2, 3) if env == "uniform" else PROCEDURAL_MAP
         d = lat_long_direction(*envmap_knots(*size))
-        data = np.stack(environment_radiance(env, d[..., 0], d[..., 1], d[..., 2], sun_direction(spec)), axis=-1)
+        data = np.stack(environment_radiance(env, d[..., 0], d[..., 1], d[..., 2], frame.sun_direction), axis=-1)
     return np.ascontiguousarray(data * np.float32(spec.env_intensity), np.float32)
 
 
@@ -511,7 +512,7 @@ def build_scene(spec: ChartSpec, max_bounces: int, envmap_to_world=FLIP_U) -> Pe
         for k, matrix in enumerate(floor_pieces(float(frame.ground_y), spec.sphere_radius)):
             objects[f"floor_{k}"] = {"type": "rectangle", "to_world": mi.ScalarTransform4f(matrix), "bsdf": floor_bsdf}
     discs, deltas = light_sources(spec)
-    data = environment_map(spec, frame.env)
+    data = environment_map(frame)
     if data is not None or discs:
         envmap = None
         if data is not None:
@@ -520,8 +521,7 @@ def build_scene(spec: ChartSpec, max_bounces: int, envmap_to_world=FLIP_U) -> Pe
         environment = mi.load_dict({"type": ENV_PLUGIN})
         procedural = None
         if data is not None and frame.env != "file":
-            from ...gpu.ibl import sun_direction
-            procedural = (frame.env, tuple(float(c) for c in sun_direction(spec)), float(spec.env_intensity))
+            procedural = (frame.env, tuple(float(c) for c in frame.sun_direction), float(spec.env_intensity))
         environment.setup(envmap, discs, environment_power(data), SHADOW_REACH * spec.sphere_radius, procedural)
         objects["environment"] = environment
     for k, light in enumerate(deltas):
