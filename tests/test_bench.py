@@ -138,7 +138,7 @@ def test_cold_columns_time_fresh_processes(tmp_path):
     assert proc.returncode == 0, proc.stderr
     (row,) = json.loads(out.read_text())["rows"]
     for key in COLD_KEYS:
-        assert isinstance(row[key], float) and 0.0 < row[key] < 600.0, (key, row[key])
+        assert isinstance(row[key], float) and math.isfinite(row[key]) and row[key] > 0.0, (key, row[key])
 
 
 @pytest.mark.requires_extra("matplotlib")   # through quick_report
