@@ -113,6 +113,8 @@ def cache_dir(tmp_path_factory):
 # chart's shaders: 5-25 MB a program here); one context for the whole run grew a worker to
 # 3.7 GB. So a test module starts on a fresh context once its worker holds more than this (what
 # the next modules use is compiled again, from Mesa's disk cache: well under a second each).
+# Every module checks, GL or not: checked only where a module asked for a session, a worker
+# carried a module's 2.4 GB through the modules after it that draw nothing.
 FRESH_CONTEXT_ABOVE = 1 << 30   # bytes resident
 
 
@@ -130,7 +132,7 @@ class SharedSessions:
     cache, other settings); made again on a fresh context past FRESH_CONTEXT_ABOVE."""
 
     def __init__(self):
-        self.sessions: dict[str, Session] = {}
+        self.sessions: dict[str, Session | None] = {}   # None: released, the next is a fresh context
         self.siblings: dict[tuple, Session] = {}
 
     def get(self, backend: str, cache_dir) -> Session:
@@ -138,15 +140,20 @@ class SharedSessions:
         if reason:
             pytest.skip(reason)
         current = self.sessions.get(backend)
-        if current is not None and resident_bytes() > FRESH_CONTEXT_ABOVE:
-            self.siblings = {k: v for k, v in self.siblings.items() if k[0] != backend}
-            current.release()   # the context and all its siblings' objects with it
-            _release_freed_heap()
-            current = None
         if current is None:
             ctx = backend_context(backend)[0] if backend not in self.sessions else create_context(backend)
             current = self.sessions[backend] = Session(ctx, ArrayCache(cache_dir))
         return current
+
+    def release(self) -> None:
+        """Every backend's session goes, its context and its siblings' objects with it; the
+        next get() makes a fresh context."""
+        for backend, current in self.sessions.items():
+            if current is not None:
+                current.release()
+                self.sessions[backend] = None
+        self.siblings = {}
+        _release_freed_heap()
 
     def sibling(self, backend: str, base: Session, settings: dict) -> Session:
         key = (backend, *sorted(settings.items()))
@@ -166,6 +173,14 @@ def _release_freed_heap() -> None:
 
 
 SHARED = SharedSessions()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def fresh_context_when_large():
+    """Before each module's first test (ahead of its sessions): a fresh context where the
+    worker holds more than FRESH_CONTEXT_ABOVE."""
+    if resident_bytes() > FRESH_CONTEXT_ABOVE:
+        SHARED.release()
 
 
 @pytest.fixture(scope="module")
