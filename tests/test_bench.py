@@ -71,7 +71,6 @@ def shadertoy_document(tmp_path_factory) -> Path:
 # compiling every shader with Mesa's cache off) and test_cold_columns_time_fresh_processes
 # checks them on one row.
 QUICK_OVERRIDES = dict(width=128, height=128, repeats=1)
-COLD_KEYS = ("cold_s", "cold_warm_cache_s", "start_s")
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +93,7 @@ def test_quick_json_has_every_scene_preset_row_with_finite_numbers(quick_report)
     assert set(rows) == {(s, p) for s in cfg.scenes for p in cfg.presets}
     for (scene, preset), row in rows.items():
         for key in suite.REQUIRED_KEYS[2:]:
-            if key in COLD_KEYS:
+            if key in cold.COLD_COLUMNS:
                 assert row[key] is None, (scene, preset, key, row[key])   # --no-cold
             else:
                 assert isinstance(row[key], (int, float)) and math.isfinite(row[key]), (scene, preset, key, row[key])
@@ -137,7 +136,7 @@ def test_cold_columns_time_fresh_processes(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     (row,) = json.loads(out.read_text())["rows"]
-    for key in COLD_KEYS:
+    for key in cold.COLD_COLUMNS:
         assert isinstance(row[key], float) and math.isfinite(row[key]) and row[key] > 0.0, (key, row[key])
 
 

@@ -29,6 +29,9 @@ def cli_flags(overrides: dict, preset: str, width: int, height: int, backend: st
         return ["--spec", path]
 
 
+# A result row's cold-start columns, in the order cold_times returns them (None: not run).
+COLD_COLUMNS = ("cold_s", "cold_warm_cache_s", "start_s")
+
 # Fresh processes timed with both caches warm; their median is reported (a shared host's start-up
 # swings by a quarter from one minute to the next). Fewer when the run asks for fewer repeats.
 START_RUNS = 3

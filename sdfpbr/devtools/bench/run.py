@@ -9,7 +9,7 @@ from pathlib import Path
 from ... import __version__
 from .ablation import ablation_rows
 from .accuracy import error_columns, get_reference, noise_floor, reference_available
-from .cold import cold_times
+from .cold import COLD_COLUMNS, cold_times
 from .report import format_row
 from .suite import BenchConfig, check_config, scene_overrides, scene_spec
 from .timing import time_chart, time_compile, time_draws, timing_row
@@ -44,8 +44,7 @@ def run_bench(cfg: BenchConfig) -> dict:
             log(f"  warm-up: {t.draw.warmup_draws} draws, "
                 + ("draw times settled" if t.draw.settled else "draw times did NOT settle (timings are noisy)"))
             if cfg.cold:
-                row["cold_s"], row["cold_warm_cache_s"], row["start_s"] = cold_times(
-                    scene_overrides(scene), preset, cfg)
+                row.update(zip(COLD_COLUMNS, cold_times(scene_overrides(scene), preset, cfg)))
             if ref is not None:
                 path = heat_dir / f"flip_{scene}_{preset}.png" if heat_dir else None
                 row.update(error_columns(t.result, ref, spec, path, f"{scene} / {preset}", noise, other))
@@ -98,7 +97,7 @@ def baseline_row(session, cfg: BenchConfig) -> dict:
         "render_samples_ms": timing.samples_ms, "timing": timing.method,
         "warmup_draws": timing.warmup_draws, "settled": timing.settled,
         "compile_ms": link + first, "link_ms": link, "first_draw_ms": first,
-        "source_bytes": len(src.code.encode()), "cold_s": None, "cold_warm_cache_s": None, "start_s": None,
+        "source_bytes": len(src.code.encode()), **dict.fromkeys(COLD_COLUMNS),
         "flip_mean": None, "rel_rmse": None,
         "note": "the shader's own scene, camera and lights at iTime=0: timing only, "
                 "an error against our reference would not be meaningful",

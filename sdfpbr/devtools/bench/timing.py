@@ -13,6 +13,7 @@ import numpy as np
 
 from ...gpu.frame import tiles
 from ...spec.chart_spec import ChartSpec
+from .cold import COLD_COLUMNS
 from .suite import BenchConfig
 
 
@@ -218,6 +219,6 @@ def timing_row(scene: str, preset: str, spec: ChartSpec, t: ChartTiming) -> dict
         "warmup_draws": t.draw.warmup_draws, "settled": t.draw.settled,
         "compile_ms": t.link_ms + t.first_draw_ms, "link_ms": t.link_ms, "first_draw_ms": t.first_draw_ms,
         "source_bytes": t.source_bytes, "draw_check": t.draw_check,
-        "cold_s": None, "cold_warm_cache_s": None, "start_s": None,
+        **dict.fromkeys(COLD_COLUMNS),
         "flip_mean": None, "flip_sphere_mean": None, "hdr_flip_mean": None, "rel_rmse": None,
     }
